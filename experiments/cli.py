@@ -7,47 +7,50 @@ Subcommands live in the packages that own them and are imported only when used, 
 from __future__ import annotations
 
 import importlib
+from typing import NamedTuple
 
 import click
 
-# subcommand name -> "module:attribute" of a click command
-SUBCOMMANDS: dict[str, str] = {
-    "listen": "murdoch.pubsub_cli:listen",
-    "announce": "murdoch.pubsub_cli:announce",
-    "allocate": "murdoch.consensus_cli:allocate",
-    "sweep": "murdoch.consensus_cli:sweep",
-    "run": "experiments.run_cli:run",
-    "report": "experiments.report_cli:report",
+
+class Subcommand(NamedTuple):
+    target: str  # "module:attribute" of a click command
+    summary: str
+
+
+SUBCOMMANDS: dict[str, Subcommand] = {
+    "listen": Subcommand("murdoch.pubsub_cli:listen", "Print live MURDOCH traffic."),
+    "announce": Subcommand("murdoch.pubsub_cli:announce", "Auction one task, print the outcome."),
+    "allocate": Subcommand("murdoch.consensus_cli:allocate", "Run CBBA or CBGA on a scenario."),
+    "sweep": Subcommand("murdoch.consensus_cli:sweep", "Reproduce the CBGA paper's experiments."),
+    "run": Subcommand("experiments.run_cli:run", "Run an experiment end to end."),
+    "report": Subcommand("experiments.report_cli:report", "Rebuild a run's summary and plots."),
 }
 
 
 class LazyGroup(click.Group):
     """A click group whose subcommands are imported on first use."""
 
-    def __init__(self, *args: object, lazy: dict[str, str], **kwargs: object) -> None:
-        super().__init__(*args, **kwargs)  # type: ignore[arg-type]
-        self._lazy = dict(lazy)
-
     def list_commands(self, ctx: click.Context) -> list[str]:
-        return sorted(set(super().list_commands(ctx)) | set(self._lazy))
+        return sorted(set(super().list_commands(ctx)) | set(SUBCOMMANDS))
 
     def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
-        if cmd_name in self._lazy:
-            module_name, attr = self._lazy[cmd_name].split(":")
-            try:
-                module = importlib.import_module(module_name)
-            except ModuleNotFoundError as exc:
-                raise click.UsageError(
-                    f"'{cmd_name}' is not available: {exc.name} is missing"
-                ) from exc
-            command = getattr(module, attr)
-            if not isinstance(command, click.Command):
-                raise TypeError(f"{self._lazy[cmd_name]} is not a click command")
-            return command
-        return super().get_command(ctx, cmd_name)
+        entry = SUBCOMMANDS.get(cmd_name)
+        if entry is None:
+            return super().get_command(ctx, cmd_name)
+        module_name, attr = entry.target.split(":")
+        module = importlib.import_module(module_name)
+        command = getattr(module, attr)
+        if not isinstance(command, click.Command):
+            raise TypeError(f"{entry.target} is not a click command")
+        return command
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        rows = [(name, SUBCOMMANDS[name].summary) for name in sorted(SUBCOMMANDS)]
+        with formatter.section("Commands"):
+            formatter.write_dl(rows)
 
 
-@click.group(cls=LazyGroup, lazy=SUBCOMMANDS)
+@click.group(cls=LazyGroup)
 @click.version_option(package_name="murdoch")
 def main() -> None:
     """MURDOCH: multi-robot task allocation on simulated Player robots."""
