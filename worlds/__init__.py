@@ -1,1 +1,80 @@
-"""worlds."""
+"""World descriptions: TOML world files and their validated, frozen spec dataclasses.
+
+``load_world(world_path("longterm"))`` returns a ``WorldSpec``; a malformed file raises
+``WorldError`` naming the file, the key, what was expected and what was found.
+"""
+
+from worlds.colours import NAMED_COLOURS, colour_rgb01, parse_colour
+from worlds.errors import WorldError
+from worlds.loader import WORLDS_DIR, load_world, parse_world, world_path
+from worlds.spec import (
+    DEVICE_NAMES,
+    FIDELITIES,
+    ArenaSpec,
+    BlobfinderSpec,
+    BodySpec,
+    BoxSpec,
+    BumperSegment,
+    BumperSpec,
+    CameraSpec,
+    ChargerSpec,
+    DeviceSet,
+    Fidelity,
+    FiducialSpec,
+    GripperSpec,
+    LaserSpec,
+    MarkerSpec,
+    Mount,
+    ObjectSpec,
+    ObstacleSpec,
+    OverheadCameraSpec,
+    Pose,
+    Position2dSpec,
+    PowerSpec,
+    PtzSpec,
+    RangerSpec,
+    RobotSpec,
+    SimSpec,
+    SonarSpec,
+    WorldSpec,
+)
+
+__all__ = [
+    "DEVICE_NAMES",
+    "FIDELITIES",
+    "NAMED_COLOURS",
+    "WORLDS_DIR",
+    "ArenaSpec",
+    "BlobfinderSpec",
+    "BodySpec",
+    "BoxSpec",
+    "BumperSegment",
+    "BumperSpec",
+    "CameraSpec",
+    "ChargerSpec",
+    "DeviceSet",
+    "Fidelity",
+    "FiducialSpec",
+    "GripperSpec",
+    "LaserSpec",
+    "MarkerSpec",
+    "Mount",
+    "ObjectSpec",
+    "ObstacleSpec",
+    "OverheadCameraSpec",
+    "Pose",
+    "Position2dSpec",
+    "PowerSpec",
+    "PtzSpec",
+    "RangerSpec",
+    "RobotSpec",
+    "SimSpec",
+    "SonarSpec",
+    "WorldError",
+    "WorldSpec",
+    "colour_rgb01",
+    "load_world",
+    "parse_colour",
+    "parse_world",
+    "world_path",
+]

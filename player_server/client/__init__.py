@@ -1,1 +1,50 @@
-"""player_server/client."""
+"""Pure-Python Player 3.x client: ``PlayerClient`` and one proxy per interface.
+
+Depends only on ``player_server.protocol`` (and the standard library).
+"""
+
+from player_server.client.connection import PlayerClient
+from player_server.client.errors import (
+    PlayerConnectionError,
+    PlayerError,
+    PlayerNack,
+    PlayerTimeout,
+)
+from player_server.client.proxies import (
+    PROXIES,
+    BlobfinderProxy,
+    BumperProxy,
+    CameraProxy,
+    FiducialProxy,
+    GripperProxy,
+    LaserProxy,
+    Position2dProxy,
+    PowerProxy,
+    PtzProxy,
+    RangerProxy,
+    SimulationProxy,
+    SonarProxy,
+)
+from player_server.client.proxy import Proxy
+
+__all__ = [
+    "PROXIES",
+    "BlobfinderProxy",
+    "BumperProxy",
+    "CameraProxy",
+    "FiducialProxy",
+    "GripperProxy",
+    "LaserProxy",
+    "PlayerClient",
+    "PlayerConnectionError",
+    "PlayerError",
+    "PlayerNack",
+    "PlayerTimeout",
+    "Position2dProxy",
+    "PowerProxy",
+    "Proxy",
+    "PtzProxy",
+    "RangerProxy",
+    "SimulationProxy",
+    "SonarProxy",
+]

@@ -1,1 +1,32 @@
-"""player_server/sim."""
+"""The simulated world: PyBullet physics, 2-D ray-cast and rendered sensors, batteries.
+
+The only package that imports pybullet; it knows nothing of Player. ``Simulation(spec)`` owns
+one PyBullet DIRECT client; readings are plain values and the frozen dataclasses below.
+"""
+
+from player_server.sim.readings import (
+    Blob,
+    BodyPose,
+    Fiducial,
+    GripperState,
+    Odometry,
+    PowerState,
+    PtzState,
+    SceneSnapshot,
+    TrackedObject,
+)
+from player_server.sim.simulation import Simulation, Timings
+
+__all__ = [
+    "Blob",
+    "BodyPose",
+    "Fiducial",
+    "GripperState",
+    "Odometry",
+    "PowerState",
+    "PtzState",
+    "SceneSnapshot",
+    "Simulation",
+    "Timings",
+    "TrackedObject",
+]

@@ -1,0 +1,134 @@
+"""`murdoch-robot`: one robot's client process.
+
+    murdoch-robot -p 6665 [-h 127.0.0.1] [--name r1] [--world longterm]
+                  [--task goto-goal --param x=1 --param y=2] [--events run/r1.jsonl]
+
+Connects to the robot's port, subscribes to every device listed there, derives the robot's
+resource subjects and runs until SIGINT/SIGTERM (or, with --exit-when-done, until its task
+ends). Events (JSON lines) go to --events ("-" = stdout).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import signal
+import sys
+import threading
+from pathlib import Path
+from types import FrameType
+from typing import IO
+
+from behaviors.battery import BatteryPolicy
+from behaviors.events import TASK_DONE, TASK_FAILED, TASK_STOPPED, Event, EventLog
+from behaviors.library import TASKS
+from behaviors.params import ParamError, parse_assignments
+from behaviors.robot import build_agent
+from player_server.client import PlayerClient, PlayerConnectionError, PlayerError
+
+log = logging.getLogger("murdoch-robot")
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="murdoch-robot", add_help=False,
+        description="Run one robot: connect to its Player port, run basis behaviours and tasks.",
+    )
+    p.add_argument("--help", action="help", help="show this help and exit")
+    p.add_argument("-p", "--port", type=int, required=True, help="the robot's Player port")
+    p.add_argument("-h", "--host", default="127.0.0.1", help="server host (default 127.0.0.1)")
+    p.add_argument("--name", default="", help="robot name (default robot-PORT)")
+    p.add_argument("--world", default="", help="world name or .toml path (chargers, camera)")
+    p.add_argument("--task", default="", choices=["", *sorted(TASKS)], help="task to run")
+    p.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
+                   help="task parameter (repeatable)")
+    p.add_argument("--task-id", default="cli", help="id reported with the task's events")
+    p.add_argument("--exit-when-done", action="store_true", help="exit when the task ends")
+    p.add_argument("--max-ticks", type=int, default=0, help="stop after N ticks (0 = never)")
+    p.add_argument("--events", default="", help="append events as JSON lines here ('-' = stdout)")
+    p.add_argument("--battery-low", type=float, default=25.0, help="charge below this %%")
+    p.add_argument("--battery-resume", type=float, default=95.0, help="charge up to this %%")
+    p.add_argument("--no-battery", action="store_true", help="never go charging")
+    p.add_argument("--seed", type=int, default=0, help="seed for wandering")
+    p.add_argument("--images", action="store_true", help="also subscribe raw camera images")
+    p.add_argument("--log-level", default="WARNING", help="logging level (default WARNING)")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    logging.basicConfig(level=args.log_level.upper(),
+                        format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    try:
+        params = parse_assignments(args.param)
+    except ParamError as exc:
+        print(f"murdoch-robot: {exc}", file=sys.stderr)
+        return 2
+    world = None
+    if args.world:
+        from worlds import WorldError, load_world, world_path
+
+        try:
+            path = Path(args.world) if args.world.endswith(".toml") else world_path(args.world)
+            world = load_world(path)
+        except (WorldError, OSError, KeyError, ValueError) as exc:
+            print(f"murdoch-robot: cannot load world {args.world!r}: {exc}", file=sys.stderr)
+            return 2
+    name = args.name or f"robot-{args.port}"
+    stream: IO[str] | None = None
+    if args.events == "-":
+        stream = sys.stdout
+    elif args.events:
+        stream = open(args.events, "a", encoding="utf-8")  # noqa: SIM115 (closed below)
+    events = EventLog(stream)
+    stop = threading.Event()
+    signals_seen = [0]
+
+    def on_signal(signum: int, frame: FrameType | None) -> None:
+        signals_seen[0] += 1
+        stop.set()
+        if signals_seen[0] > 1:
+            raise SystemExit(130)
+
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
+
+    if args.exit_when_done:
+        def on_event(event: Event) -> None:
+            if event.kind in (TASK_DONE, TASK_FAILED, TASK_STOPPED) and event.task in TASKS:
+                stop.set()
+
+        events.add_sink(on_event)
+
+    battery = None if args.no_battery else BatteryPolicy(args.battery_low, args.battery_resume)
+    client = PlayerClient(args.host, args.port)
+    code = 0
+    try:
+        client.connect()
+        agent = build_agent(client, name, world=world, events=events, battery=battery,
+                            seed=args.seed, subscribe_images=args.images)
+        status = {"robot": name, "port": args.port, "subjects": sorted(agent.subjects())}
+        print(json.dumps({"ready": status}), file=sys.stderr, flush=True)
+        if args.task:
+            agent.start_task(args.task, params, args.task_id)
+        agent.run(stop, max_ticks=args.max_ticks or None)
+    except ParamError as exc:
+        print(f"murdoch-robot: {exc}", file=sys.stderr)
+        code = 2
+    except PlayerConnectionError as exc:
+        if not stop.is_set():
+            print(f"murdoch-robot: {exc}", file=sys.stderr)
+            code = 1
+    except PlayerError as exc:
+        print(f"murdoch-robot: {exc}", file=sys.stderr)
+        code = 1
+    finally:
+        client.close()
+        if stream is not None and stream is not sys.stdout:
+            stream.close()
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(main())

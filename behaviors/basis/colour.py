@@ -1,0 +1,115 @@
+"""Camera (blobfinder) behaviours: visual servo to a colour, keep a distance to a colour."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from behaviors.proposal import INACTIVE, Proposal, clamp
+from behaviors.snapshot import Blob, BlobView, Snapshot
+
+
+def aim_px(blob: Blob, fraction: float, width_px: int = 0) -> float:
+    """Image column at `fraction` of a blob's width (0 = left edge, 0.5 = centre, 1 = right).
+
+    A blob cut by an image edge continues beyond it: aiming at the end on that side means
+    aiming at the image edge (turn towards it). A blob cut by both edges (the robot is up
+    against it) has no visible ends: aim straight ahead, at the image centre.
+    """
+    if width_px > 0:
+        cut_left = blob.left_px <= 0
+        cut_right = blob.right_px >= width_px - 1
+        if cut_left and cut_right:
+            return (width_px - 1) / 2.0
+        if cut_right and fraction > 0.5:
+            return float(width_px - 1)
+        if cut_left and fraction < 0.5:
+            return 0.0
+    return blob.left_px + fraction * (blob.right_px - blob.left_px)
+
+
+def end_px(blob: Blob, fraction: float, width_px: int) -> float | None:
+    """Image column of the blob's end nearer `fraction` (None if that end is out of view)."""
+    if fraction < 0.5:
+        return None if blob.left_px <= 0 else float(blob.left_px)
+    if fraction > 0.5:
+        return None if blob.right_px >= width_px - 1 else float(blob.right_px)
+    if blob.left_px <= 0 or blob.right_px >= width_px - 1:
+        return None
+    return (blob.left_px + blob.right_px) / 2.0
+
+
+def seen(view: BlobView | None, now: float, max_age_s: float, colour: int) -> Blob | None:
+    if view is None or now - view.time_s > max_age_s:
+        return None
+    return view.largest(colour)
+
+
+@dataclass(frozen=True, slots=True)
+class VisualServoToColour:
+    """Steer at a colour blob and drive towards it; "reached" within `stop_range_m`.
+
+    `aim_fraction` picks the point across the blob to steer at, so a pusher can aim at the
+    left end (0.2), the middle (0.5) or the right end (0.8) of a long box.
+    """
+
+    colour: int
+    aim_fraction: float = 0.5
+    speed_mps: float = 0.3
+    stop_range_m: float = 0.0
+    max_turn_radps: float = 0.8
+    turn_gain: float = 2.0
+    max_age_s: float = 0.5
+    weight: float = 0.7
+    name: str = "visual-servo-to-colour"
+
+    @property
+    def max_speed_mps(self) -> float:
+        return self.speed_mps
+
+    def decide(self, snapshot: Snapshot, now: float) -> Proposal:
+        view = snapshot.camera
+        blob = seen(view, now, self.max_age_s, self.colour)
+        if blob is None or view is None:
+            return INACTIVE
+        bearing = view.bearing_of_px(aim_px(blob, self.aim_fraction, view.width_px))
+        turn = clamp(self.turn_gain * bearing, self.max_turn_radps)
+        if blob.range_m <= self.stop_range_m:
+            return Proposal(True, 0.0, turn, self.weight, "reached", blob.range_m)
+        speed = self.speed_mps * max(0.0, math.cos(bearing))
+        if abs(bearing) > math.radians(45.0):
+            speed = 0.0
+        return Proposal(True, speed, turn, self.weight, "seen", blob.range_m)
+
+
+@dataclass(frozen=True, slots=True)
+class KeepDistanceToColour:
+    """Track a colour blob from a safe distance: face it and hold `distance_m` to it."""
+
+    colour: int
+    distance_m: float = 1.0
+    tolerance_m: float = 0.15
+    max_speed_mps: float = 0.3
+    max_turn_radps: float = 0.8
+    speed_gain: float = 0.8
+    turn_gain: float = 2.0
+    max_age_s: float = 0.5
+    weight: float = 0.7
+    name: str = "keep-distance-to-colour"
+
+    def decide(self, snapshot: Snapshot, now: float) -> Proposal:
+        view = snapshot.camera
+        blob = seen(view, now, self.max_age_s, self.colour)
+        if blob is None or view is None:
+            return INACTIVE
+        bearing = view.bearing_of_px(blob.x_px)
+        turn = clamp(self.turn_gain * bearing, self.max_turn_radps)
+        error = blob.range_m - self.distance_m
+        if not math.isfinite(error):
+            return Proposal(True, 0.0, turn, self.weight, "tracking", 0.0)
+        speed = 0.0 if abs(error) <= self.tolerance_m else clamp(
+            self.speed_gain * error, self.max_speed_mps
+        )
+        if abs(bearing) > math.radians(45.0):
+            speed = min(speed, 0.0)
+        return Proposal(True, speed, turn, self.weight, "tracking", error)

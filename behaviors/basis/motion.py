@@ -1,0 +1,78 @@
+"""Small manoeuvres relative to the start of a task stage: hold still, turn about, back off."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from behaviors.proposal import INACTIVE, Proposal, clamp
+from behaviors.snapshot import Snapshot, wrap_angle
+
+
+@dataclass(frozen=True, slots=True)
+class Hold:
+    """Stand still (always active)."""
+
+    weight: float = 1.0
+    name: str = "hold"
+    max_speed_mps: float = 0.0
+    max_turn_radps: float = 0.0
+
+    def decide(self, snapshot: Snapshot, now: float) -> Proposal:
+        return Proposal(True, 0.0, 0.0, self.weight, "", 0.0)
+
+
+@dataclass(frozen=True, slots=True)
+class TurnAbout:
+    """Turn in place by `angle_rad` relative to the heading at the stage start ("turned")."""
+
+    angle_rad: float = math.pi
+    tolerance_rad: float = math.radians(8.0)
+    max_turn_radps: float = 0.8
+    turn_gain: float = 1.5
+    max_age_s: float = 0.5
+    name: str = "turn-about"
+    max_speed_mps: float = 0.0
+
+    def decide(self, snapshot: Snapshot, now: float) -> Proposal:
+        odo = snapshot.odometry
+        mark = snapshot.mark
+        if odo is None or mark is None or mark.pose is None or now - odo.time_s > self.max_age_s:
+            return INACTIVE
+        target = mark.pose.yaw_rad + self.angle_rad
+        error = wrap_angle(target - odo.pose.yaw_rad)
+        if abs(error) <= self.tolerance_rad:
+            return Proposal(True, 0.0, 0.0, 1.0, "turned", error)
+        # Keep turning the same way for a half turn (the error flips sign near +-pi).
+        if abs(error) > math.pi - self.tolerance_rad:
+            error = math.copysign(abs(error), self.angle_rad)
+        turn = clamp(self.turn_gain * error, self.max_turn_radps)
+        if abs(turn) < 0.2 * self.max_turn_radps:
+            turn = math.copysign(0.2 * self.max_turn_radps, turn)
+        return Proposal(True, 0.0, turn, 1.0, "", error)
+
+
+@dataclass(frozen=True, slots=True)
+class BackOff:
+    """Reverse for `duration_s` after the stage start, turning a little ("backed-off")."""
+
+    duration_s: float = 1.5
+    speed_mps: float = 0.2
+    turn_radps: float = 0.5
+    name: str = "back-off"
+
+    @property
+    def max_speed_mps(self) -> float:
+        return abs(self.speed_mps)
+
+    @property
+    def max_turn_radps(self) -> float:
+        return abs(self.turn_radps)
+
+    def decide(self, snapshot: Snapshot, now: float) -> Proposal:
+        mark = snapshot.mark
+        if mark is None or not math.isfinite(now):
+            return INACTIVE
+        if now - mark.time_s >= self.duration_s:
+            return Proposal(True, 0.0, 0.0, 1.0, "backed-off", 0.0)
+        return Proposal(True, -abs(self.speed_mps), self.turn_radps, 1.0, "", 0.0)

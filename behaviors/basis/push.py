@@ -1,0 +1,36 @@
+"""Pushing with the bumpers."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from behaviors.proposal import INACTIVE, Proposal
+from behaviors.snapshot import Snapshot
+
+
+@dataclass(frozen=True, slots=True)
+class PushWithBumpers:
+    """While a front bumper is pressed, drive straight ahead ("contact"); "blocked" when stalled.
+
+    A stall while in contact means the object will not move further (e.g. it is against a
+    wall), which the cleanup task takes as "pushed to the edge".
+    """
+
+    speed_mps: float = 0.25
+    max_age_s: float = 0.5
+    weight: float = 0.8
+    name: str = "push-with-bumpers"
+    max_turn_radps: float = 0.0
+
+    @property
+    def max_speed_mps(self) -> float:
+        return self.speed_mps
+
+    def decide(self, snapshot: Snapshot, now: float) -> Proposal:
+        bumpers = snapshot.bumpers
+        if bumpers is None or now - bumpers.time_s > self.max_age_s or not bumpers.front_pressed:
+            return INACTIVE
+        odo = snapshot.odometry
+        if odo is not None and odo.stall and now - odo.time_s <= self.max_age_s:
+            return Proposal(True, self.speed_mps, 0.0, self.weight, "blocked", 0.0)
+        return Proposal(True, self.speed_mps, 0.0, self.weight, "contact", 0.0)

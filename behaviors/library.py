@@ -1,0 +1,469 @@
+"""The task library: the paper's tasks as behaviour compositions, with subjects and metrics.
+
+Every task has a name (the shared vocabulary), the resource subjects a robot needs for it,
+default parameters, a builder that turns parameters into a `TaskPlan` for this robot, and
+weighted metrics that score this robot's fitness for a task instance (higher is better).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from behaviors.arbiter import Layer
+from behaviors.basis import (
+    AvoidWithLaser,
+    AvoidWithSonar,
+    BackOff,
+    BoxAlignmentFromLaser,
+    DockAtCharger,
+    GoalFromCamera,
+    Hold,
+    KeepDistanceToColour,
+    PushWithBumpers,
+    ServoToLocation,
+    TurnAbout,
+    VisualServoToColour,
+    Wander,
+    WatchForMotionWithLaser,
+)
+from behaviors.metrics import (
+    WeightedMetric,
+    battery_fraction,
+    colour_alignment,
+    colour_proximity,
+    colour_visible,
+    constant,
+    negative_distance,
+    weighted_sum,
+)
+from behaviors.params import ParamError, colour_of, number
+from behaviors.profile import OVERHEAD_CAMERA, RobotProfile
+from behaviors.snapshot import Snapshot, wrap_angle
+from behaviors.task import Stage, TaskPlan, TickView, any_of, elapsed, signal, stage_elapsed
+
+Params = Mapping[str, object]
+Builder = Callable[[Params, RobotProfile], TaskPlan]
+
+# Where a pusher aims across the box's width (as seen from behind it).
+AIM_LEFT = 0.2
+AIM_MIDDLE = 0.5
+AIM_RIGHT = 0.8
+
+
+@dataclass(frozen=True)
+class TaskSpec:
+    name: str
+    subjects: frozenset[str]
+    defaults: Mapping[str, object]
+    required: tuple[str, ...]
+    build_plan: Builder
+    metrics: tuple[WeightedMetric, ...]
+    description: str = ""
+    extra: Mapping[str, Any] = field(default_factory=dict)
+
+    def resolve(self, params: Params) -> dict[str, object]:
+        missing = [k for k in self.required if k not in params]
+        if missing:
+            raise ParamError(f"task {self.name!r}: missing parameter(s) {', '.join(missing)}")
+        merged = dict(self.defaults)
+        merged.update(params)
+        return merged
+
+    def build(self, params: Params, profile: RobotProfile) -> TaskPlan:
+        return self.build_plan(self.resolve(params), profile)
+
+    def score(self, snapshot: Snapshot, params: Params, profile: RobotProfile) -> float | None:
+        """Weighted sum of this task's metrics, or None if this robot cannot do it now."""
+        if not self.subjects <= profile.subjects:
+            return None
+        return weighted_sum(self.metrics, snapshot, self.resolve(params), profile)
+
+
+def _avoid(profile: RobotProfile, safe_range_m: float, ignore_half_angle_rad: float = 0.0,
+           prefer_laser: bool = False) -> tuple[Layer, ...]:
+    if profile.has("laser") and (prefer_laser or not profile.has("sonar")):
+        return (Layer(AvoidWithLaser(safe_range_m=safe_range_m,
+                                     ignore_half_angle_rad=ignore_half_angle_rad), 2),)
+    if profile.has("sonar"):
+        return (Layer(AvoidWithSonar(safe_range_m=safe_range_m,
+                                     ignore_half_angle_rad=ignore_half_angle_rad), 2),)
+    return ()
+
+
+def _search(profile: RobotProfile, speed_mps: float = 0.0) -> Wander:
+    """Look for something: keep turning (left or right, by seed) at a varying rate."""
+    bias = 0.4 if profile.seed % 2 == 0 else -0.4
+    return Wander(seed=profile.seed, speed_mps=speed_mps, max_turn_radps=0.6,
+                  turn_bias_radps=bias, straight_fraction=0.0)
+
+
+def _elapsed_progress(duration_s: float) -> Callable[[TickView], float]:
+    return lambda view: view.task_elapsed_s / duration_s if duration_s > 0 else 0.0
+
+
+# --- goto-goal ------------------------------------------------------------------------------
+
+
+def _distance_progress(x: float, y: float) -> Callable[[TickView], float]:
+    def progress(view: TickView) -> float:
+        pose = view.snapshot.pose
+        if pose is None:
+            return 0.0
+        d = pose.distance_to(x, y)
+        start = view.memo.setdefault("start_distance_m", d)
+        return 1.0 - d / start if start > 0 else 1.0
+
+    return progress
+
+
+def build_goto(p: Params, profile: RobotProfile) -> TaskPlan:
+    x, y = number(p, "x"), number(p, "y")
+    tolerance = number(p, "tolerance_m")
+    servo = ServoToLocation(x, y, tolerance_m=tolerance, max_speed_mps=number(p, "speed_mps"))
+    layers = (*_avoid(profile, number(p, "safe_range_m")), Layer(servo, 1))
+    return TaskPlan(
+        "goto-goal",
+        (Stage("go", layers, until=signal("at-goal")),),
+        timeout_s=number(p, "timeout_s"),
+        progress=_distance_progress(x, y),
+    )
+
+
+# --- pushing --------------------------------------------------------------------------------
+
+
+def _push_builder(name: str, aim: float) -> Builder:
+    def build(p: Params, profile: RobotProfile) -> TaskPlan:
+        colour = colour_of(p["colour"])
+        duration = number(p, "duration_s")
+        servo = VisualServoToColour(colour, aim_fraction=aim, speed_mps=number(p, "speed_mps"))
+        layers: tuple[Layer, ...] = (
+            # The box is straight ahead while pushing: avoid only what is off to the sides.
+            *_avoid(profile, 0.3, ignore_half_angle_rad=math.radians(50.0)),
+            Layer(servo, 1),
+            Layer(_search(profile), 0),
+        )
+        if profile.has("bumper"):
+            layers = (*layers, Layer(PushWithBumpers(speed_mps=number(p, "speed_mps")), 1))
+        backoff = number(p, "backoff_s")
+        return TaskPlan(
+            name,
+            (
+                Stage("push", layers, until=stage_elapsed(duration)),
+                # Step back from the box so that it is in view again for the next bid.
+                Stage("back-off", (Layer(BackOff(duration_s=backoff, turn_radps=0.0), 1),),
+                      until=signal("backed-off")),
+            ),
+            failed=lambda view: view.stage_name == "push"
+            and view.task_elapsed_s > number(p, "lost_s")
+            and "seen" not in view.signals
+            and "reached" not in view.signals
+            and "contact" not in view.signals,
+            progress=_elapsed_progress(duration + backoff),
+        )
+
+    return build
+
+
+def _push_metrics(aim: float) -> tuple[WeightedMetric, ...]:
+    return (
+        WeightedMetric("alignment", colour_alignment(aim), 1.0),
+        WeightedMetric("proximity", colour_proximity(), 0.3),
+    )
+
+
+# --- watch-box (the watcher) ----------------------------------------------------------------
+
+
+def needed_push(box_heading_error_rad: float, tolerance_rad: float) -> tuple[str, ...]:
+    """Which pushing tasks move the box towards the goal now.
+
+    A box turned counter-clockwise of the goal direction (positive error) has its left end
+    (as seen by the pushers) lagging, so pushing only the left end turns it back clockwise;
+    a box in line with the goal is pushed at both ends at once.
+    """
+    if box_heading_error_rad > tolerance_rad:
+        return ("push-left-end",)
+    if box_heading_error_rad < -tolerance_rad:
+        return ("push-right-end",)
+    return ("push-left-end", "push-right-end")
+
+
+def build_watch_box(p: Params, profile: RobotProfile) -> TaskPlan:
+    """The watcher faces the goal (camera) with the box behind it (rear-facing laser).
+
+    It drives towards the goal marker while the box is within `lead_m` behind it, waits when
+    the box falls back, and compares the box's heading (from the face its laser sees) with
+    the goal's bearing (from its camera) to decide which pushing task is needed next.
+    """
+    box_colour = colour_of(p["colour"])
+    goal = colour_of(p["goal_colour"])
+    lead = number(p, "lead_m")
+    tolerance = number(p, "tolerance_rad")
+    period = number(p, "need_period_s")
+    duration = number(p, "duration_s")
+    aligner = BoxAlignmentFromLaser(
+        centre_rad=number(p, "laser_sector_rad"), max_range_m=lead + 2.5, wait_range_m=lead
+    )
+    layers = (
+        Layer(aligner, 2),
+        Layer(GoalFromCamera(goal, speed_mps=number(p, "speed_mps"),
+                             arrive_range_m=number(p, "arrive_m")), 1),
+        Layer(_search(profile, 0.0), 0),
+    )
+    del box_colour  # the box is found by shape (laser); its colour is for the pushers
+
+    def observe(view: TickView) -> list[tuple[str, Mapping[str, Any]]]:
+        signals = view.signals
+        goal_bearing = signals.get("goal", signals.get("goal-reached"))
+        if goal_bearing is None or "box" not in signals:
+            return []
+        face = aligner.face(view.snapshot, view.now)
+        if face is None:
+            return []
+        memo = view.memo
+        # The face normal points from the watcher into the box; the box travels the other way.
+        error = wrap_angle(face.normal_rad + math.pi - goal_bearing)
+        need = needed_push(error, tolerance)
+        memo["box_heading_error_rad"] = error
+        memo["box_range_m"] = face.range_m
+        if need == memo.get("need") and view.now - memo.get("need_at_s", -math.inf) < period:
+            return []
+        memo["need"] = need
+        memo["need_at_s"] = view.now
+        return [("need", {"tasks": list(need), "box_heading_error_rad": round(error, 4),
+                          "box_range_m": round(face.range_m, 3)})]
+
+    return TaskPlan(
+        "watch-box",
+        (Stage("lead", layers, until=signal("goal-reached", held_s=1.0)),),
+        done=elapsed(duration),
+        observe=observe,
+        progress=_elapsed_progress(duration),
+    )
+
+
+# --- object-tracking, sentry-duty, cleanup, monitor-object ------------------------------------
+
+
+def build_tracking(p: Params, profile: RobotProfile) -> TaskPlan:
+    colour = colour_of(p["colour"])
+    duration = number(p, "duration_s")
+    layers = (
+        *_avoid(profile, 0.4),
+        Layer(KeepDistanceToColour(colour, distance_m=number(p, "distance_m")), 1),
+        Layer(_search(profile, 0.1), 0),
+    )
+    return TaskPlan(
+        "object-tracking",
+        (Stage("track", layers),),
+        done=elapsed(duration),
+        progress=_elapsed_progress(duration),
+    )
+
+
+def build_sentry(p: Params, profile: RobotProfile) -> TaskPlan:
+    colour = colour_of(p["colour"])
+    duration = number(p, "duration_s")
+    approach = VisualServoToColour(colour, stop_range_m=number(p, "approach_m"), speed_mps=0.3)
+    stages = (
+        Stage(
+            "find",
+            (*_avoid(profile, 0.4, prefer_laser=True), Layer(approach, 1),
+             Layer(_search(profile, 0.05), 0)),
+            until=signal("reached"),
+            timeout_s=number(p, "search_s"),
+        ),
+        Stage("turn-about", (Layer(TurnAbout(math.pi), 1),), until=signal("turned"),
+              timeout_s=30.0),
+        Stage(
+            "watch",
+            (Layer(WatchForMotionWithLaser(threshold_m=number(p, "threshold_m")), 1),),
+            alarms=(("motion", "alarm"),),
+        ),
+    )
+    return TaskPlan(
+        "sentry-duty", stages, done=elapsed(duration), progress=_elapsed_progress(duration)
+    )
+
+
+def build_cleanup(p: Params, profile: RobotProfile) -> TaskPlan:
+    colour = colour_of(p["colour"])
+    duration = number(p, "duration_s")
+    boxes = number(p, "boxes")
+    seek = (
+        *_avoid(profile, 0.35, ignore_half_angle_rad=math.radians(25.0)),
+        Layer(VisualServoToColour(colour, speed_mps=0.25), 1),
+        Layer(_search(profile, 0.05), 0),
+        Layer(PushWithBumpers(speed_mps=0.2), 3),  # raises "contact": the push stage begins
+    )
+    push = (
+        Layer(PushWithBumpers(speed_mps=0.2), 2),
+        Layer(VisualServoToColour(colour, speed_mps=0.2), 1),
+    )
+    stages = (
+        Stage("seek", seek, until=signal("contact"), timeout_s=number(p, "search_s"),
+              on_timeout="done"),
+        Stage("push", push, until=signal("blocked", held_s=1.0),
+              timeout_s=number(p, "push_s"), on_timeout="next"),
+        Stage("back-off", (Layer(BackOff(duration_s=2.0), 1),), until=signal("backed-off")),
+        Stage("turn-away", (Layer(TurnAbout(math.pi * 0.75), 1),), until=signal("turned"),
+              timeout_s=20.0, on_timeout="next"),
+    )
+    return TaskPlan(
+        "cleanup",
+        stages,
+        repeat_from=0,
+        done=any_of(elapsed(duration), lambda view: view.loops >= boxes),
+        progress=lambda view: max(view.loops / boxes if boxes > 0 else 0.0,
+                                  view.task_elapsed_s / duration),
+    )
+
+
+def build_monitor(p: Params, profile: RobotProfile) -> TaskPlan:
+    raw = p["colours"]
+    items = raw.split(",") if isinstance(raw, str) else [raw]
+    colours = frozenset(colour_of(c.strip() if isinstance(c, str) else c) for c in items if c)
+    duration = number(p, "duration_s")
+    period = number(p, "period_s")
+    overhead = profile.overhead
+
+    def observe(view: TickView) -> list[tuple[str, Mapping[str, Any]]]:
+        cam = view.snapshot.camera
+        last = view.memo.get("logged_at_s", -math.inf)
+        if cam is None or view.now - last < period:
+            return []
+        view.memo["logged_at_s"] = view.now
+        seen = []
+        for blob in cam.blobs:
+            if colours and blob.colour not in colours:
+                continue
+            if overhead is not None:
+                x, y = overhead.to_world(blob.x_px, blob.y_px, cam.width_px, cam.height_px)
+            else:
+                x, y = blob.x_px, blob.y_px
+            seen.append({"colour": f"#{blob.colour:06x}", "x": round(x, 3), "y": round(y, 3)})
+        return [("observation", {"objects": seen, "frame": "world" if overhead else "image"})]
+
+    return TaskPlan(
+        "monitor-object",
+        (Stage("monitor", (Layer(Hold(), 0),)),),
+        done=elapsed(duration),
+        observe=observe,
+        progress=_elapsed_progress(duration),
+    )
+
+
+# --- charging (used by the battery manager, not auctioned) -------------------------------------
+
+
+def build_dock(p: Params, profile: RobotProfile) -> TaskPlan:
+    x, y = number(p, "x"), number(p, "y")
+    dock = DockAtCharger(x, y, tolerance_m=number(p, "tolerance_m"))
+    layers = (*_avoid(profile, 0.3), Layer(dock, 3))
+    # Docking wins over avoidance once close: the charger pad is not an obstacle.
+    return TaskPlan(
+        "dock",
+        (Stage("dock", layers, until=signal("docked", held_s=0.5)),),
+        timeout_s=number(p, "timeout_s"),
+        progress=_distance_progress(x, y),
+    )
+
+
+def build_undock(p: Params, profile: RobotProfile) -> TaskPlan:
+    return TaskPlan(
+        "undock",
+        (Stage("back-off", (Layer(BackOff(duration_s=number(p, "duration_s"), turn_radps=0.0),
+                                  1),), until=signal("backed-off")),),
+    )
+
+
+MOBILE_SONAR = frozenset({"mobile", "sonar"})
+
+TASKS: dict[str, TaskSpec] = {
+    spec.name: spec
+    for spec in (
+        TaskSpec(
+            "goto-goal", MOBILE_SONAR,
+            {"tolerance_m": 0.3, "speed_mps": 0.4, "safe_range_m": 0.5, "timeout_s": 300.0},
+            ("x", "y"), build_goto,
+            (WeightedMetric("distance", negative_distance(), 1.0),
+             WeightedMetric("battery", battery_fraction, 0.5)),
+            "drive to (x, y) avoiding obstacles with sonar",
+        ),
+        TaskSpec(
+            "push-left-end", frozenset({"mobile", "camera"}),
+            {"duration_s": 8.0, "speed_mps": 0.2, "lost_s": 20.0, "backoff_s": 1.0}, ("colour",),
+            _push_builder("push-left-end", AIM_LEFT), _push_metrics(AIM_LEFT),
+            "push the left end of the box (as seen from behind it)",
+        ),
+        TaskSpec(
+            "push-right-end", frozenset({"mobile", "camera"}),
+            {"duration_s": 8.0, "speed_mps": 0.2, "lost_s": 20.0, "backoff_s": 1.0}, ("colour",),
+            _push_builder("push-right-end", AIM_RIGHT), _push_metrics(AIM_RIGHT),
+            "push the right end of the box",
+        ),
+        TaskSpec(
+            "push-box", frozenset({"mobile", "camera"}),
+            {"duration_s": 8.0, "speed_mps": 0.2, "lost_s": 20.0, "backoff_s": 1.0}, ("colour",),
+            _push_builder("push-box", AIM_MIDDLE), _push_metrics(AIM_MIDDLE),
+            "push the box in the middle",
+        ),
+        TaskSpec(
+            "watch-box", frozenset({"mobile", "camera", "laser"}),
+            {"lead_m": 1.2, "tolerance_rad": math.radians(8.0), "need_period_s": 4.0,
+             "duration_s": 300.0, "laser_sector_rad": math.pi, "speed_mps": 0.15,
+             "arrive_m": 1.0},
+            ("colour", "goal_colour"), build_watch_box,
+            (WeightedMetric("goal-visible", colour_visible("goal_colour"), 1.0),
+             WeightedMetric("battery", battery_fraction, 0.5)),
+            "lead the box to the goal and say which pushing task is needed",
+        ),
+        TaskSpec(
+            "object-tracking", frozenset({"mobile", "camera"}),
+            {"distance_m": 1.0, "duration_s": 60.0}, ("colour",), build_tracking,
+            (WeightedMetric("visible", colour_visible(), 1.0),
+             WeightedMetric("battery", battery_fraction, 0.5)),
+            "find a colour and track it from a safe distance",
+        ),
+        TaskSpec(
+            "sentry-duty", frozenset({"mobile", "camera", "laser"}),
+            {"duration_s": 120.0, "approach_m": 1.0, "search_s": 120.0, "threshold_m": 0.15},
+            ("colour",), build_sentry,
+            (WeightedMetric("visible", colour_visible(), 1.0),
+             WeightedMetric("battery", battery_fraction, 0.5)),
+            "find a colour, turn about, raise an alarm on laser motion",
+        ),
+        TaskSpec(
+            "cleanup", frozenset({"mobile", "camera", "bumper"}),
+            {"duration_s": 300.0, "boxes": 1.0, "search_s": 60.0, "push_s": 60.0},
+            ("colour",), build_cleanup,
+            (WeightedMetric("visible", colour_visible(), 1.0),
+             WeightedMetric("battery", battery_fraction, 0.5)),
+            "push small boxes of a colour to the edge of the room",
+        ),
+        TaskSpec(
+            "monitor-object", frozenset({OVERHEAD_CAMERA}),
+            {"duration_s": 60.0, "period_s": 1.0, "colours": ""}, (), build_monitor,
+            (WeightedMetric("available", constant(1.0), 1.0),),
+            "log positions of coloured objects seen by the overhead camera",
+        ),
+    )
+}
+
+INTERNAL_TASKS: dict[str, TaskSpec] = {
+    "dock": TaskSpec("dock", frozenset({"mobile"}), {"tolerance_m": 0.1, "timeout_s": 300.0},
+                     ("x", "y"), build_dock, ()),
+    "undock": TaskSpec("undock", frozenset({"mobile"}), {"duration_s": 2.0}, (), build_undock,
+                       ()),
+}
+
+
+def task_spec(name: str) -> TaskSpec:
+    spec = TASKS.get(name) or INTERNAL_TASKS.get(name)
+    if spec is None:
+        raise ParamError(f"unknown task {name!r}; known: {', '.join(sorted(TASKS))}")
+    return spec

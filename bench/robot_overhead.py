@@ -1,0 +1,93 @@
+"""CPU time per tick of one robot process running a three-behaviour task.
+
+Starts `player-server` (world `longterm`, lockstep, speedup 0, 10 Hz sensing) and one
+`murdoch-robot` process for robot p1 (position2d, sonar, laser, blobfinder, power: the
+longterm experiment's robots) running `object-tracking` (avoid-obstacles +
+keep-distance-to-colour + wander, one thread each) for a fixed number of ticks, and takes the robot process's CPU
+time (user + system) from the kernel when it exits. Two tick counts are run so that start-up
+cost cancels: per tick = (cpu(long) - cpu(short)) / (ticks(long) - ticks(short)).
+
+Prints one line per run and, last, `robot_cpu_us_per_tick_median=<x>`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+BIN = Path(sys.executable).parent
+TARGET_US = 300.0
+WORLD = "longterm"
+ROBOT = "p1"
+
+
+def start_server(world: str) -> tuple[subprocess.Popen[str], int]:
+    proc = subprocess.Popen(
+        [str(BIN / "player-server"), world, "-p", "0", "--lockstep", "--speedup", "0",
+         "--seed", "1", "-q"],
+        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+    )
+    assert proc.stdout is not None
+    deadline = time.monotonic() + 30.0
+    while time.monotonic() < deadline:
+        line = proc.stdout.readline()
+        if not line:
+            break
+        parts = line.split()
+        if parts and parts[0] == ROBOT and parts[1].isdigit():
+            return proc, int(parts[1])
+    proc.kill()
+    raise SystemExit(f"player-server did not report {ROBOT}'s port")
+
+
+def robot_cpu_s(port: int, ticks: int) -> float:
+    """Run one robot process for `ticks` ticks; return its CPU seconds (user + system)."""
+    proc = subprocess.Popen(
+        [str(BIN / "murdoch-robot"), "-p", str(port), "--name", ROBOT, "--world", WORLD,
+         "--task", "object-tracking", "--param", "colour=red", "--param", "duration_s=100000",
+         "--no-battery", "--max-ticks", str(ticks)],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )
+    _, status, usage = os.wait4(proc.pid, 0)
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    if proc.returncode != 0:
+        raise SystemExit(f"murdoch-robot exited with {proc.returncode}")
+    return usage.ru_utime + usage.ru_stime
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=int, default=5)
+    parser.add_argument("--short", type=int, default=100, help="ticks of the short run")
+    parser.add_argument("--long", type=int, default=1100, help="ticks of the long run")
+    args = parser.parse_args()
+    server, port = start_server(WORLD)
+    per_tick_us: list[float] = []
+    try:
+        for run in range(args.runs):
+            short = robot_cpu_s(port, args.short)
+            long = robot_cpu_s(port, args.long)
+            us = (long - short) / (args.long - args.short) * 1e6
+            per_tick_us.append(us)
+            print(f"run {run + 1}: short {short:.3f} s, long {long:.3f} s -> {us:.1f} us/tick",
+                  flush=True)
+    finally:
+        server.send_signal(signal.SIGTERM)
+        try:
+            server.wait(10)
+        except subprocess.TimeoutExpired:
+            server.kill()
+    median = statistics.median(per_tick_us)
+    print(f"target <= {TARGET_US:.0f} us/tick; ratio {median / TARGET_US:.2f}")
+    print(f"robot_cpu_us_per_tick_median={median:.1f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

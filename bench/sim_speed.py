@@ -1,0 +1,85 @@
+"""Simulator speed: worlds/longterm.toml headless, every robot sensing every tick (10 Hz) and
+wandering. Prints per-run real-time factors with a cost breakdown, and last a line
+``sim_rtf_median=<x> sim_rtf_min=<y>``.
+
+    .venv/bin/python bench/sim_speed.py                    # fast fidelity, 6 robots
+    .venv/bin/python bench/sim_speed.py --fidelity render --sim-seconds 10
+    .venv/bin/python bench/sim_speed.py --robots 50
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import statistics
+import time
+
+import numpy as np
+
+from player_server.sim import Simulation
+from player_server.sim.demo import WanderDriver
+from worlds import ArenaSpec, Pose, WorldSpec, load_world, world_path
+
+
+def scaled_world(spec: WorldSpec, n_robots: int) -> WorldSpec:
+    """The world with n robots (copies of its own, cycling) on a grid in a larger room."""
+    side = math.ceil(math.sqrt(n_robots))
+    spacing = 2.0
+    size = max(spec.arena.size_x_m, side * spacing + 2.0)
+    arena: ArenaSpec = dataclasses.replace(spec.arena, size_x_m=size, size_y_m=size,
+                                           obstacles=())
+    robots = []
+    for i in range(n_robots):
+        base = spec.robots[i % len(spec.robots)]
+        x = -size / 2 + 1.0 + spacing * (i % side) + 0.5
+        y = -size / 2 + 1.0 + spacing * (i // side) + 0.5
+        robots.append(dataclasses.replace(base, name=f"{base.name}_{i}",
+                                          pose=Pose(x, y, 0.3 * i)))
+    return dataclasses.replace(spec, arena=arena, robots=tuple(robots))
+
+
+def one_run(spec: WorldSpec, fidelity: str, ticks: int, seed: int) -> tuple[float, dict]:  # type: ignore[type-arg]
+    sim = Simulation(spec, fidelity=fidelity, profile_clock=time.perf_counter)
+    try:
+        driver = WanderDriver(sim, np.random.default_rng(seed), sense_all=True)
+        for _ in range(10):  # warm-up: first reads activate the sensors
+            driver.tick()
+        sim.timings = type(sim.timings)()
+        start_tick = sim.tick
+        t0 = time.perf_counter()
+        for _ in range(ticks):
+            driver.tick()
+        wall = time.perf_counter() - t0
+        sim_s = (sim.tick - start_tick) * sim.interval_s
+        per_tick = {k: 1e3 * v / ticks for k, v in sim.timings.as_dict().items()}
+        per_tick["total"] = 1e3 * wall / ticks
+        return sim_s / wall, per_tick
+    finally:
+        sim.close()
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--world", default="longterm")
+    ap.add_argument("--fidelity", choices=["fast", "render"], default="fast")
+    ap.add_argument("--robots", type=int, default=0, help="scale to this many robots")
+    ap.add_argument("--runs", type=int, default=5)
+    ap.add_argument("--sim-seconds", type=float, default=120.0)
+    args = ap.parse_args()
+    spec = load_world(world_path(args.world))
+    if args.robots:
+        spec = scaled_world(spec, args.robots)
+    ticks = round(args.sim_seconds / spec.sim.interval_sim_s)
+    rtfs = []
+    for run in range(args.runs):
+        rtf, per_tick = one_run(spec, args.fidelity, ticks, seed=run)
+        rtfs.append(rtf)
+        parts = " ".join(f"{k}={v:.3f}" for k, v in per_tick.items())
+        print(f"run {run}: {len(spec.robots)} robots {args.fidelity} rtf={rtf:.1f} "
+              f"ms/tick: {parts}", flush=True)
+    print(f"sim_rtf_median={statistics.median(rtfs):.1f} sim_rtf_min={min(rtfs):.1f}")
+
+
+if __name__ == "__main__":
+    main()

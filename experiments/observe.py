@@ -1,0 +1,177 @@
+"""Watching a running simulation without slowing it down.
+
+`ObservedSim` wraps a `player_server.sim.Simulation` for `PlayerServer` (it is a `Steppable`):
+after each step, on the serving thread that owns the PyBullet client, it takes a snapshot only
+when someone wants one - the pose recorder once per `pose_period_s` of simulation time, the
+live view at most `live_period_s` of wall time apart - and hands it over. Both hand-overs are
+cheap (one JSON line into a buffered file; one assignment under a lock).
+
+`JsonlTail` follows a JSON-lines file another process appends to (robot event logs).
+`robot_event_to_run_events` turns a robot's event into run events.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from collections.abc import Callable, Iterator, Mapping
+from pathlib import Path
+from typing import Any, Protocol
+
+from experiments import events as ev
+
+log = logging.getLogger(__name__)
+
+Pose = tuple[float, float, float]
+
+
+class SnapshotSim(Protocol):
+    @property
+    def time_s(self) -> float: ...
+
+    @property
+    def paused(self) -> bool: ...
+
+    def step(self, n: int = 1) -> None: ...
+
+    def snapshot(self) -> Any: ...
+
+
+def snapshot_poses(snapshot: Any) -> dict[str, Pose]:
+    """(x, y, yaw) by body name from a `SceneSnapshot` (bodies of (name, kind, x, y, yaw))."""
+    out: dict[str, Pose] = {}
+    for body in snapshot.bodies:
+        if isinstance(body, tuple):
+            name, _kind, x, y, yaw = body[:5]
+        else:
+            name, x, y, yaw = body.name, body.x, body.y, body.yaw
+        out[str(name)] = (float(x), float(y), float(yaw))
+    return out
+
+
+class ObservedSim:
+    def __init__(
+        self,
+        sim: SnapshotSim,
+        *,
+        wall_clock: Callable[[], float],
+        pose_sampler: ev.PoseSampler | None = None,
+        live_offer: Callable[[Any], None] | None = None,
+        live_period_s: float = 0.1,
+        samplers: tuple[tuple[float, Callable[[Any, float], None]], ...] = (),
+    ) -> None:
+        self.sim = sim
+        # (period in simulation seconds, callback(sim, t)) run on the serving thread
+        self._samplers = [(period, fn, [-1.0]) for period, fn in samplers]
+        self._clock = wall_clock
+        self._poses = pose_sampler
+        self._next_pose_t = -1.0
+        self._pose_period = pose_sampler.period_s if pose_sampler is not None else 0.0
+        self._live = live_offer
+        self._live_period = live_period_s
+        self._next_live_wall = -1.0
+        self.snapshots = 0
+
+    @property
+    def time_s(self) -> float:
+        return self.sim.time_s
+
+    @property
+    def paused(self) -> bool:
+        return self.sim.paused
+
+    def __getattr__(self, name: str) -> Any:
+        # everything else (robot_names, power, ...) is the simulation's own
+        return getattr(self.sim, name)
+
+    def step(self, n: int = 1) -> None:
+        self.sim.step(n)
+        t = self.sim.time_s
+        for period, fn, due in self._samplers:
+            if t >= due[0]:
+                due[0] = t + period
+                fn(self.sim, t)
+        want_pose = self._poses is not None and t >= self._next_pose_t
+        want_live = False
+        if self._live is not None:
+            now = self._clock()
+            if now >= self._next_live_wall:
+                want_live = True
+                self._next_live_wall = now + self._live_period
+        if not (want_pose or want_live):
+            return
+        snap = self.sim.snapshot()
+        self.snapshots += 1
+        if want_pose and self._poses is not None:
+            self._poses.offer(t, snapshot_poses(snap))
+            self._next_pose_t = t + self._pose_period
+        if want_live and self._live is not None:
+            self._live(snap)
+
+
+class JsonlTail:
+    """Yields the complete new lines of a growing JSON-lines file, parsed; bad lines are
+    skipped and counted. Reads at most `max_bytes` per call, so one call is bounded."""
+
+    def __init__(self, path: Path, *, max_bytes: int = 1 << 20) -> None:
+        self.path = Path(path)
+        self._offset = 0
+        self._partial = b""
+        self._max = max_bytes
+        self.malformed = 0
+
+    def read_new(self) -> Iterator[dict[str, Any]]:
+        try:
+            with self.path.open("rb") as f:
+                f.seek(self._offset)
+                chunk = f.read(self._max)
+        except FileNotFoundError:
+            return
+        self._offset += len(chunk)
+        data = self._partial + chunk
+        *lines, self._partial = data.split(b"\n")
+        for line in lines:
+            if not line.strip():
+                continue
+            try:
+                obj = json.loads(line)
+            except ValueError:
+                self.malformed += 1
+                continue
+            if isinstance(obj, dict):
+                yield obj
+            else:
+                self.malformed += 1
+
+
+_ROBOT_KINDS = {
+    "charge-start": ev.CHARGE_START,
+    "charge-end": ev.CHARGE_END,
+    "alarm": ev.ALARM,
+}
+
+
+def robot_event_to_run_events(d: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """A `behaviors.events.Event` dict (time_s, robot, kind, task, task_id, ...) as run events.
+
+    Charging and alarms map to their run kinds; task start/finish/fail as seen by the robot are
+    kept as ``robot_task`` (the terminal outcome of a task is the auctioneer's to report).
+    Anything unusable gives no event.
+    """
+    try:
+        t = float(d["time_s"])
+        robot = str(d["robot"])
+        kind = str(d["kind"])
+    except (KeyError, TypeError, ValueError):
+        return []
+    extra = {k: v for k, v in d.items() if k not in ("time_s", "robot", "kind", "task", "task_id")}
+    try:
+        if kind in _ROBOT_KINDS:
+            return [ev.make_event(t, _ROBOT_KINDS[kind], robot=robot, **extra)]
+        if kind.startswith("task-"):
+            return [ev.make_event(t, "robot_task", robot=robot, phase=kind[5:],
+                                  task=str(d.get("task_id") or ""),
+                                  task_kind=str(d.get("task") or ""), **extra)]
+    except ev.EventError:
+        return []
+    return []

@@ -1,0 +1,199 @@
+"""Everything a run leaves behind and shows while it runs, behind one object.
+
+The experiment runner creates a `RunRecorder`, calls `start()`, reports what happens with
+`event(...)`, wraps its simulation with `observe(sim)` (pose keyframes and the live view),
+samples process memory with `sample_processes(...)` now and then, calls `tick()` from its main
+loop for the progress display, and `finish(reason)` at the end, which writes the summary,
+plots and replay. With `meshcat=True` the live viewer is started and its URL printed.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+import threading
+from collections.abc import Callable, Mapping
+from datetime import datetime
+from pathlib import Path
+from typing import Any, TextIO
+
+from experiments import events as ev
+from experiments import rundir as rd
+from experiments.observe import ObservedSim, SnapshotSim
+from experiments.progress import Progress, ProgressDisplay, ProgressTracker
+from experiments.report import Report, build_report
+from experiments.timeline import RobotStateTracker
+
+log = logging.getLogger(__name__)
+
+_STATUS_RE = re.compile(r"^(VmRSS|VmHWM):\s+(\d+)\s+kB", re.MULTILINE)
+
+
+def parse_proc_status(text: str) -> dict[str, int]:
+    """Resident and peak resident memory in bytes from /proc/<pid>/status."""
+    values = {k: int(v) * 1024 for k, v in _STATUS_RE.findall(text)}
+    return {"rss_bytes": values.get("VmRSS", 0), "peak_rss_bytes": values.get("VmHWM", 0)}
+
+
+def read_process_memory(pid: int) -> dict[str, int] | None:
+    try:
+        return parse_proc_status(Path(f"/proc/{pid}/status").read_text())
+    except OSError:
+        return None
+
+
+class RunRecorder:
+    def __init__(
+        self,
+        out: Path,
+        experiment: str,
+        config: Mapping[str, Any],
+        *,
+        world: Any,
+        started: datetime,
+        wall_clock: Callable[[], float],
+        stream: TextIO,
+        terminal: bool | None = None,
+        meshcat: bool = False,
+        pose_period_s: float = 1.0,
+        progress_period_sim_s: float = 300.0,
+        live_rate_hz: float = 10.0,
+    ) -> None:
+        self.world = world
+        self.experiment = experiment
+        self.config = dict(config)
+        self.run = rd.create_run_dir(out, experiment, started)
+        self._clock = wall_clock
+        self._t0 = wall_clock()
+        self._stream = stream
+        self._events = ev.EventWriter(self.run.events, clock=wall_clock)
+        self._poses_writer = ev.EventWriter(self.run.poses, clock=wall_clock)
+        self.poses = ev.PoseSampler(self._poses_writer, period_s=pose_period_s)
+        robots = tuple(r.name for r in world.robots)
+        self.tracker = ProgressTracker(robots)
+        self._states = RobotStateTracker()
+        for r in robots:
+            self._states.add_robot(r)
+        self.display = ProgressDisplay(
+            self.tracker, wall_clock=wall_clock, stream=stream, terminal=terminal,
+            line_period_sim_s=progress_period_sim_s, title=f"murdoch {experiment}",
+        )
+        self._meshcat = meshcat
+        self._live_rate_hz = live_rate_hz
+        self._viewer: Any = None
+        self._channel: Any = None
+        self.live: Any = None
+        self.viewer_url: str | None = None
+        self._finished = False
+        self._lock = threading.Lock()
+
+    # --- lifecycle ---
+
+    def start(self) -> None:
+        self.run.write_config({"experiment": self.experiment, **self.config})
+        self.event(0.0, ev.RUN_START, experiment=self.experiment,
+                   seed=self.config.get("seed"), world=str(self.config.get("world", "")))
+        if self._meshcat:
+            self._start_viewer()
+        self.display.start()
+
+    def _start_viewer(self) -> None:
+        from player_server.viz.live import LiveView
+        from player_server.viz.scene import layout_from_world
+        from player_server.viz.server import ViewerProcess, ZmqChannel
+
+        self._viewer = ViewerProcess()
+        self._channel = ZmqChannel(self._viewer.urls.zmq_url)
+        self.live = LiveView(layout_from_world(self.world), self._channel,
+                             max_rate_hz=self._live_rate_hz)
+        self.live.start()
+        self.viewer_url = self._viewer.urls.web_url
+        self._stream.write(f"meshcat live view: {self.viewer_url}\n")
+        self._stream.flush()
+
+    def observe(self, sim: SnapshotSim, *, battery_period_s: float = 30.0) -> ObservedSim:
+        """Wrap the simulation for the serving loop: pose keyframes, live view, and a battery
+        sample of every robot with a power device every `battery_period_s`."""
+        powered = tuple(r.name for r in self.world.robots if r.devices.power is not None)
+
+        def sample_battery(s: Any, t: float) -> None:
+            if powered:
+                self.event(t, ev.BATTERY,
+                           percent={r: round(float(s.power(r).percent), 2) for r in powered})
+
+        return ObservedSim(
+            sim, wall_clock=self._clock, pose_sampler=self.poses,
+            live_offer=self.live.offer if self.live is not None else None,
+            live_period_s=1.0 / self._live_rate_hz,
+            samplers=((battery_period_s, sample_battery),),
+        )
+
+    # --- while running ---
+
+    def event(self, t: float, kind: str, **fields: Any) -> dict[str, Any]:
+        """Record one event (any thread)."""
+        e = self._events.write(t, kind, **fields)
+        self.tracker.apply(e)
+        with self._lock:
+            changed = self._states.apply(e)
+            live = self.live
+            if live is not None:
+                for robot, state in changed.items():
+                    live.set_robot(robot, state.state, state.label)
+        return e
+
+    def robot_states(self) -> dict[str, str]:
+        """Each robot's state now: idle, working, charging or failed."""
+        with self._lock:
+            return {name: st.state for name, st in self._states.states().items()}
+
+    def advance(self, sim_s: float) -> None:
+        self.tracker.advance(sim_s)
+
+    def sample_processes(self, t: float, pids: Mapping[str, int]) -> None:
+        for name, pid in pids.items():
+            mem = read_process_memory(pid)
+            if mem is not None:
+                self.event(t, ev.PROCESS, name=name, pid=pid, **mem)
+
+    def tick(self) -> None:
+        self.display.tick()
+
+    def wall_s(self) -> float:
+        return self._clock() - self._t0
+
+    def progress(self) -> Progress:
+        return self.display.snapshot()
+
+    def finish(self, reason: str, *, replay: bool = True) -> Report:
+        """Write run_end, close the logs, stop the viewer, build summary, plots and replay."""
+        if self._finished:
+            raise RuntimeError("the run is already finished")
+        self._finished = True
+        t = self.tracker.progress(0.0).sim_s
+        try:
+            self.event(t, ev.RUN_END, wall_s=round(self.wall_s(), 3), reason=reason)
+        finally:
+            self._events.close()
+            self._poses_writer.close()
+            self.display.stop()
+            self._stop_viewer()
+        return build_report(self.run, replay=replay)
+
+    def _stop_viewer(self) -> None:
+        errors: list[BaseException] = []
+        for stop in (
+            self.live.stop if self.live is not None else None,
+            self._channel.close if self._channel is not None else None,
+            self._viewer.stop if self._viewer is not None else None,
+        ):
+            if stop is None:
+                continue
+            try:
+                stop()
+            except Exception as exc:  # keep stopping the rest; report below
+                errors.append(exc)
+        with self._lock:
+            self.live = self._channel = self._viewer = None
+        if errors:
+            log.error("stopping the live view: %s", errors[0])

@@ -1,0 +1,70 @@
+"""Everything derived from a run directory's events: summary.json, plots and replay.html.
+
+The runner calls `build_report` when a run ends and `murdoch report RUN_DIR` calls it again on
+demand, so a report can always be rebuilt from ``events.jsonl`` (and ``poses.jsonl``) alone.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from experiments import events as ev
+from experiments import rundir as rd
+from experiments.plots import write_plots
+from experiments.summary import summarize
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, slots=True)
+class Report:
+    run: rd.RunDir
+    summary: dict[str, Any]
+    plots: tuple[Path, ...]
+    replay: Path | None
+    malformed_lines: int
+
+
+def world_of(run: rd.RunDir) -> Any | None:
+    """The run's world spec, from the ``world`` entry of config.json (a path or a name)."""
+    from worlds import load_world, world_path
+
+    if not run.config.is_file():
+        return None
+    world = run.read_config().get("world")
+    if not world:
+        return None
+    path = Path(world)
+    return load_world(path if path.suffix == ".toml" else world_path(str(world)))
+
+
+def build_report(run: rd.RunDir, *, replay: bool = True) -> Report:
+    stats = ev.ReadStats()
+    events = ev.read_events(run.events, stats=stats)
+    summary = summarize(events)
+    summary["malformed_event_lines"] = stats.malformed
+    spec = world_of(run)
+    robots = tuple(r.name for r in spec.robots) if spec is not None else ()
+    run.write_summary(summary)
+    plots = tuple(write_plots(events, run.plots, robots))
+    replay_path: Path | None = None
+    if replay:
+        if spec is None:
+            log.warning("%s: no world in config.json; replay.html not built", run.root)
+        else:
+            from experiments.replay import write_replay
+            from player_server.viz.scene import layout_from_world
+
+            pose_stats = ev.ReadStats()
+            poses = (
+                ev.iter_events(run.poses, stats=pose_stats, kinds=(ev.POSES,))
+                if run.poses.is_file()
+                else iter(())
+            )
+            info = write_replay(run.replay, layout_from_world(spec), poses, events,
+                                title=f"{run.root.name}")
+            replay_path = info.path
+    return Report(run, summary, plots, replay_path, stats.malformed)

@@ -1,0 +1,166 @@
+"""A robot that takes part in MURDOCH: ``python -m experiments.robot_node``.
+
+    python -m experiments.robot_node -p PORT --name p1 --world longterm \\
+        --mcast-port 5xxxx [--events FILE] [--seed N]
+
+One thread does everything in turn, so nothing here needs a lock: read one data round and run
+the robot's behaviours (`RobotAgent.step`), then let the MURDOCH node receive, bid, renew and
+report (`Node.step`). The node offers the robot's resource subjects (plus ``idle`` while it
+holds no contract, and nothing while it charges), scores announcements with the robot's task
+metrics, starts awarded tasks on the agent, and reports their completion or failure back to
+the auctioneer. Time is simulation time from the robot's data.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import signal
+import sys
+import threading
+from collections import deque
+from pathlib import Path
+from types import FrameType
+from typing import IO, Any
+
+log = logging.getLogger("murdoch-robot-node")
+
+
+class RobotNode:
+    """Glue between one `RobotAgent` and one MURDOCH `Node` (owner thread only)."""
+
+    def __init__(self, agent: Any, transport: Any, events: Any) -> None:
+        from behaviors.events import TASK_DONE, TASK_FAILED, TASK_STOPPED
+        from murdoch.node import Node
+
+        self.agent = agent
+        self._done_kinds = {TASK_DONE: "done", TASK_FAILED: "failed", TASK_STOPPED: "stopped"}
+        self._finished: deque[tuple[str, str, str]] = deque(maxlen=64)
+        self._current: str | None = None
+        events.add_sink(self._on_event)
+        self.node = Node(
+            transport, self._now, agent_id=agent.name, subjects=agent.subjects(),
+            metric=self._metric, on_start=self._on_start, on_stop=self._on_stop,
+        )
+
+    def _now(self) -> float:
+        return float(self.agent.status().time_s)
+
+    def _metric(self, announce: Any) -> float | None:
+        try:
+            return self.agent.evaluate(announce.name, dict(announce.params))
+        except Exception as exc:  # an unknown task or bad parameters: do not bid
+            log.info("not bidding on %s %s: %s", announce.name, announce.task_id, exc)
+            return None
+
+    def _on_start(self, contract: Any) -> None:
+        a = contract.announce
+        self._current = a.task_id
+        self.agent.start_task(a.name, dict(a.params), a.task_id)
+
+    def _on_stop(self, contract: Any, reason: str) -> None:
+        if self._current == contract.task_id:
+            self._current = None
+            self.agent.stop_task(reason)
+
+    def _on_event(self, event: Any) -> None:
+        # called from agent.step(), on this same thread
+        if event.kind in self._done_kinds and event.task_id:
+            reason = dict(event.detail).get("reason", "")
+            self._finished.append((event.task_id, self._done_kinds[event.kind], str(reason)))
+
+    def step(self) -> None:
+        self.agent.step()
+        while self._finished:
+            task_id, how, reason = self._finished.popleft()
+            if task_id != self._current:
+                continue  # a task we were told to stop, or not a contract
+            self._current = None
+            if how == "done":
+                self.node.complete(task_id)
+            else:
+                self.node.fail(task_id, reason or how)
+        subjects = frozenset(self.agent.subjects())
+        if subjects != self.node.subjects:
+            self.node.set_subjects(subjects)  # none while charging
+        self.node.step(0.0)
+
+    def close(self) -> None:
+        self.node.close()
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="python -m experiments.robot_node", add_help=False)
+    p.add_argument("--help", action="help")
+    p.add_argument("-p", "--port", type=int, required=True)
+    p.add_argument("-h", "--host", default="127.0.0.1")
+    p.add_argument("--name", required=True)
+    p.add_argument("--world", required=True, help="world name or .toml path")
+    p.add_argument("--mcast-group", default="239.255.74.17")
+    p.add_argument("--mcast-port", type=int, required=True)
+    p.add_argument("--events", default="", help="append the robot's events (JSON lines) here")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--battery-low", type=float, default=25.0)
+    p.add_argument("--battery-resume", type=float, default=95.0)
+    p.add_argument("--log-level", default="WARNING")
+    args = p.parse_args(argv)
+    logging.basicConfig(level=args.log_level.upper(),
+                        format="%(asctime)s %(name)s %(levelname)s %(message)s")
+
+    from behaviors.battery import BatteryPolicy
+    from behaviors.events import EventLog
+    from behaviors.robot import build_agent
+    from murdoch.multicast import MulticastConfig, MulticastTransport
+    from player_server.client import PlayerClient, PlayerConnectionError, PlayerError
+    from worlds import load_world, world_path
+
+    path = Path(args.world)
+    world = load_world(path if path.suffix == ".toml" else world_path(args.world))
+    stream: IO[str] | None = open(args.events, "a", encoding="utf-8") if args.events else None  # noqa: SIM115
+    events = EventLog(stream)
+    stop = threading.Event()
+
+    def on_signal(signum: int, frame: FrameType | None) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
+    client = PlayerClient(args.host, args.port)
+    transport = None
+    robot: RobotNode | None = None
+    code = 0
+    try:
+        client.connect()
+        agent = build_agent(client, args.name, world=world, events=events,
+                            battery=BatteryPolicy(args.battery_low, args.battery_resume),
+                            seed=args.seed)
+        transport = MulticastTransport(
+            args.name, lambda: float(agent.status().time_s),
+            MulticastConfig(group=args.mcast_group, port=args.mcast_port),
+        )
+        robot = RobotNode(agent, transport, events)
+        print(json.dumps({"ready": {"robot": args.name, "subjects": sorted(agent.subjects())}}),
+              file=sys.stderr, flush=True)
+        while not stop.is_set():
+            robot.step()
+    except PlayerConnectionError as exc:
+        if not stop.is_set():
+            print(f"robot {args.name}: {exc}", file=sys.stderr)
+            code = 1
+    except PlayerError as exc:
+        print(f"robot {args.name}: {exc}", file=sys.stderr)
+        code = 1
+    finally:
+        if robot is not None:
+            robot.close()
+        if transport is not None:
+            transport.close()
+        client.close()
+        if stream is not None:
+            stream.close()
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(main())

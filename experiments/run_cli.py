@@ -1,0 +1,325 @@
+"""`murdoch run EXPERIMENT`: one command that runs an experiment end to end.
+
+The runner process holds the simulation and the Player device server (its serving thread),
+starts one robot process per endpoint (`python -m experiments.robot_node`, robots joining
+MURDOCH over loopback multicast on a port of their own), and is itself the user: it introduces
+the experiment's tasks through a MURDOCH node, logs every auction message it hears, and writes
+the run directory through `experiments.recorder.RunRecorder`. Lockstep is used when running as
+fast as possible (speedup 0), so a seeded run repeats.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import random
+import re
+import signal
+import socket
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+import click
+
+log = logging.getLogger("murdoch.run")
+
+EXPERIMENT_WORLDS = {"longterm": "longterm"}
+_DURATION_RE = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*([smh]?)\s*$")
+
+
+def parse_duration_s(text: str) -> float:
+    """'90m', '2h', '45s' or plain seconds."""
+    m = _DURATION_RE.match(text)
+    if not m:
+        raise click.BadParameter(f"expected a duration such as 90m, 2h or 300s, got {text!r}")
+    value, unit = float(m.group(1)), m.group(2) or "s"
+    return value * {"s": 1.0, "m": 60.0, "h": 3600.0}[unit]
+
+
+def parse_at(text: str) -> tuple[str, float]:
+    """'p3@30m' -> ('p3', 1800.0)."""
+    robot, sep, when = text.partition("@")
+    if not sep or not robot:
+        raise click.BadParameter(f"expected ROBOT@TIME such as p3@30m, got {text!r}")
+    return robot, parse_duration_s(when)
+
+
+def free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@dataclass
+class RobotProcess:
+    name: str
+    port: int
+    proc: subprocess.Popen[bytes] | None = None
+    log_file: Any = None
+
+
+def _start_robot(rp: RobotProcess, args: list[str], log_path: Path) -> None:
+    rp.log_file = log_path.open("ab")
+    rp.proc = subprocess.Popen(args, stdout=rp.log_file, stderr=subprocess.STDOUT,
+                               stdin=subprocess.DEVNULL)
+
+
+def _stop_robot(rp: RobotProcess, *, kill: bool = False, timeout_s: float = 5.0) -> None:
+    if rp.proc is not None and rp.proc.poll() is None:
+        if kill:
+            rp.proc.kill()
+        else:
+            rp.proc.terminate()
+        try:
+            rp.proc.wait(timeout_s)
+        except subprocess.TimeoutExpired:
+            rp.proc.kill()
+            rp.proc.wait(timeout_s)
+    if rp.log_file is not None:
+        rp.log_file.close()
+        rp.log_file = None
+
+
+@click.command()
+@click.argument("experiment", type=click.Choice(sorted(EXPERIMENT_WORLDS)))
+@click.option("--sim-hours", type=float, default=None, help="Simulated hours to run.")
+@click.option("--until", "until", default=None, help="Simulated duration, e.g. 90m, 2h.")
+@click.option("--speedup", type=float, default=0.0, show_default=True,
+              help="Simulated seconds per wall second; 0 = as fast as possible (lockstep).")
+@click.option("--seed", type=int, default=1, show_default=True)
+@click.option("--meshcat", is_flag=True, help="Serve the live 3-D view on 127.0.0.1.")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("runs"),
+              show_default=True)
+@click.option("--world", default=None, help="World name or .toml (default: the experiment's).")
+@click.option("--task-interval", type=float, default=240.0, show_default=True,
+              help="Mean simulated seconds between new tasks.")
+@click.option("--kill", "kills", multiple=True,
+              help="Kill a robot process: ROBOT@TIME (ROBOT 'busy' = one holding a task).")
+@click.option("--restart", "restarts", multiple=True,
+              help="Start a killed robot again: ROBOT@TIME ('busy' = the last one killed so).")
+@click.option("--no-replay", is_flag=True, help="Do not write replay.html.")
+def run(experiment: str, sim_hours: float | None, until: str | None, speedup: float, seed: int,
+        meshcat: bool, out: Path, world: str | None, task_interval: float,
+        kills: tuple[str, ...], restarts: tuple[str, ...], no_replay: bool) -> None:
+    """Run EXPERIMENT end to end and leave a run directory behind."""
+    if sim_hours is not None and until is not None:
+        raise click.UsageError("give --sim-hours or --until, not both")
+    duration_s = (sim_hours * 3600.0 if sim_hours is not None
+                  else parse_duration_s(until) if until is not None else 600.0)
+    code = run_experiment(
+        experiment=experiment, duration_s=duration_s, speedup=speedup, seed=seed,
+        meshcat=meshcat, out=out, world_name=world or EXPERIMENT_WORLDS[experiment],
+        task_interval_s=task_interval, kills=[parse_at(k) for k in kills],
+        restarts=[parse_at(r) for r in restarts], replay=not no_replay,
+    )
+    sys.exit(code)
+
+
+def run_experiment(
+    *, experiment: str, duration_s: float, speedup: float, seed: int, meshcat: bool, out: Path,
+    world_name: str, task_interval_s: float, kills: list[tuple[str, float]],
+    restarts: list[tuple[str, float]], replay: bool,
+) -> int:
+    from behaviors.library import TASKS
+    from experiments import events as ev
+    from experiments.observe import JsonlTail, robot_event_to_run_events
+    from experiments.recorder import RunRecorder
+    from experiments.summary import terminal_state_problems
+    from experiments.task_source import longterm_tasks
+    from murdoch.auction.messages import TaskSpec
+    from murdoch.multicast import MulticastConfig, MulticastTransport
+    from murdoch.node import Node
+    from murdoch.user_agent import RandomizedBackoff
+    from player_server.server.assembly import world_endpoints
+    from player_server.server.core import CoreConfig
+    from player_server.server.runner import PlayerServer
+    from player_server.sim import Simulation
+    from worlds import load_world, world_path
+
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    wpath = Path(world_name)
+    spec = load_world(wpath if wpath.suffix == ".toml" else world_path(world_name))
+    lockstep = speedup == 0
+    mcast_port = free_udp_port()
+    config = {
+        "experiment": experiment, "seed": seed, "world": str(spec.source),
+        "duration_s": duration_s, "speedup": speedup, "lockstep": lockstep,
+        "task_interval_s": task_interval_s, "multicast_port": mcast_port,
+        "kills": [f"{r}@{t:g}s" for r, t in kills],
+        "restarts": [f"{r}@{t:g}s" for r, t in restarts],
+    }
+    rec = RunRecorder(out, experiment, config, world=spec, started=datetime.now(),
+                      wall_clock=time.monotonic, stream=sys.stdout, meshcat=meshcat)
+    click.echo(f"run directory: {rec.run.root}")
+    sim = Simulation(spec, seed=seed)
+    endpoints = world_endpoints(spec, sim, 0)
+    server = PlayerServer(
+        rec.observe(sim), endpoints, interval_s=sim.interval_s, clock=time.monotonic,
+        speedup=speedup, quit_time_s=duration_s,
+        config=CoreConfig(lockstep=lockstep,
+                          lockstep_clients=max(1, sum(1 for e in endpoints if e.mobile)),
+                          lockstep_timeout_s=5.0),
+    )
+    robots: dict[str, RobotProcess] = {}
+    tails: dict[str, JsonlTail] = {}
+    stop_requested = [False]
+
+    def on_signal(signum: int, frame: object) -> None:
+        stop_requested[0] = True
+
+    old_int = signal.signal(signal.SIGINT, on_signal)
+    old_term = signal.signal(signal.SIGTERM, on_signal)
+    transport = node = None
+    reason = "completed"
+    try:
+        rec.start()
+        server.start()
+        ports = server.ports
+
+        def robot_args(name: str) -> list[str]:
+            return [sys.executable, "-m", "experiments.robot_node", "-p", str(ports[name]),
+                    "--name", name, "--world", str(spec.source), "--mcast-port",
+                    str(mcast_port), "--seed", str(seed),
+                    "--events", str(rec.run.logs / f"{name}.events.jsonl")]
+
+        for ep in endpoints:
+            rp = RobotProcess(ep.name, ports[ep.name])
+            _start_robot(rp, robot_args(ep.name), rec.run.log_file(f"robot-{ep.name}"))
+            robots[ep.name] = rp
+            tails[ep.name] = JsonlTail(rec.run.logs / f"{ep.name}.events.jsonl")
+
+        sim_now = lambda: float(sim.time_s)  # noqa: E731 - a float read across threads
+        transport = MulticastTransport("user", sim_now, MulticastConfig(port=mcast_port))
+        announced_at: dict[str, float] = {}
+
+        def on_message(envelope: Any) -> None:
+            msg = envelope.message
+            fields = {"task": getattr(msg, "task_id", None)} if hasattr(msg, "task_id") else {}
+            rec.event(sim_now(), ev.MESSAGE, msg_kind=envelope.kind, sender=envelope.sender,
+                      bytes=envelope.size_bytes, **fields)
+
+        monitor = transport.subscribe(None, on_message)
+
+        def observer(e: Any) -> None:
+            if e.kind == "announce":
+                announced_at[e.task_id] = e.time_s
+            elif e.kind == "award":
+                latency = e.time_s - announced_at.get(e.task_id, e.time_s)
+                rec.event(e.time_s, ev.AWARD, task=e.task_id, robot=e.detail.get("winner"),
+                          bid=e.detail.get("score"), latency_s=round(latency, 4))
+            elif e.kind == "reallocation":
+                rec.event(e.time_s, ev.REALLOCATION, task=e.task_id,
+                          from_robot=e.detail.get("winner"), reason=e.detail.get("reason", ""))
+            elif e.kind == "outcome":
+                rec.event(e.time_s, ev.TASK_OUTCOME, task=e.task_id,
+                          outcome=e.detail.get("status"), robot=e.detail.get("winner"),
+                          reason=e.detail.get("reason", ""))
+
+        node = Node(transport, sim_now, agent_id="user", observer=observer,
+                    backoff=RandomizedBackoff(random.Random(seed), base_s=5.0, cap_s=60.0))
+        planned = longterm_tasks(spec, random.Random(seed + 1), mean_interval_s=task_interval_s)
+        next_task = next(planned)
+        schedule = sorted([(t, "kill", r) for r, t in kills]
+                          + [(t, "restart", r) for r, t in restarts])
+        next_memory_t = 0.0
+        busy_killed: list[str] = []
+        next_tail_wall = 0.0
+        mobile = {r.name for r in spec.robots if r.mobile}
+        while not server.finished.is_set() and not stop_requested[0]:
+            now = sim_now()
+            while next_task.t_s <= now and next_task.t_s < duration_s:
+                kind = next_task.kind
+                task_spec = TaskSpec(kind, TASKS[kind].subjects, next_task.params,
+                                     duration_s=float(next_task.params.get("duration_s", 0.0)),
+                                     bid_window_s=1.0, renew_period_s=2.0,
+                                     contract_timeout_s=10.0, abandon_after_s=10.0,
+                                     timeout_s=float(next_task.params["duration_s"]) + 600.0)
+                task_id = node.announce(task_spec, patience_s=300.0)
+                rec.event(now, ev.TASK_INTRODUCED, task=task_id, task_kind=kind,
+                          params=next_task.params, source="generator")
+                next_task = next(planned)
+            while schedule and schedule[0][0] <= now:
+                _, action, name = schedule.pop(0)
+                if name == "busy":  # the first robot (by name) that holds a task now
+                    if action == "kill":
+                        working = [r for r, st in sorted(rec.robot_states().items())
+                                   if st == "working" and r in mobile]
+                        busy_killed.append(working[0] if working else "")
+                    name = busy_killed[-1] if busy_killed else ""
+                rp = robots.get(name)
+                if rp is None:
+                    log.warning("no robot %s to %s", name, action)
+                elif action == "kill":
+                    pid = rp.proc.pid if rp.proc is not None else None
+                    _stop_robot(rp, kill=True)
+                    rec.event(now, ev.ROBOT_FAILURE, robot=name, reason="killed", pid=pid)
+                else:
+                    _start_robot(rp, robot_args(name), rec.run.log_file(f"robot-{name}"))
+                    assert rp.proc is not None
+                    rec.event(now, ev.ROBOT_RESTART, robot=name, pid=rp.proc.pid)
+            node.step(0.02)
+            wall = time.monotonic()
+            if wall >= next_tail_wall:  # robots' own events, a few times a second
+                next_tail_wall = wall + 0.25
+                for tail in tails.values():
+                    for d in tail.read_new():
+                        for e in robot_event_to_run_events(d):
+                            rec.event(e.pop("t"), e.pop("kind"), **e)
+            if now >= next_memory_t:
+                next_memory_t = now + 300.0
+                pids = {"runner": os.getpid()}
+                pids.update({f"robot-{n}": rp.proc.pid for n, rp in robots.items()
+                             if rp.proc is not None and rp.proc.poll() is None})
+                rec.sample_processes(now, pids)
+            rec.advance(now)
+            rec.tick()
+        if stop_requested[0]:
+            reason = "interrupted"
+        if server.error is not None:
+            reason = "server-error"
+        # tasks still open when the run ends fail with a reason: one terminal state each
+        end = sim_now()
+        for task_id in node.auctioneer.open_tasks():
+            node.auctioneer.cancel(task_id, end, "run ended")
+        node.step(0.0)
+        pids = {"runner": os.getpid()}
+        pids.update({f"robot-{n}": rp.proc.pid for n, rp in robots.items()
+                     if rp.proc is not None and rp.proc.poll() is None})
+        rec.sample_processes(end, pids)
+        monitor.close()
+    except Exception:
+        log.exception("the run failed")
+        reason = "error"
+    finally:
+        signal.signal(signal.SIGINT, old_int)
+        signal.signal(signal.SIGTERM, old_term)
+        for rp in robots.values():
+            _stop_robot(rp)
+        if node is not None:
+            node.close()
+        if transport is not None:
+            transport.close()
+        try:
+            server.stop()
+        except RuntimeError as exc:
+            log.error("server: %s", exc)
+            reason = "server-error"
+        sim.close()
+    report = rec.finish(reason, replay=replay)
+    problems = terminal_state_problems(ev.read_events(rec.run.events))
+    s = report.summary
+    click.echo(
+        f"done: {s['sim_time_s']:.0f} s simulated in {s['wall_time_s']} s "
+        f"(rtf {s['real_time_factor']}); tasks executed {s['tasks']['executed']}, "
+        f"unachievable {s['tasks']['unachievable']}, failed {s['tasks']['failed']}, "
+        f"charging trips {s['charging_trips']}; {rec.run.root}"
+    )
+    if any(problems.values()):
+        click.echo(f"invariant broken: {problems}", err=True)
+        return 3
+    return 0 if reason == "completed" else 1

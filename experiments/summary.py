@@ -1,0 +1,162 @@
+"""A run's counts, as the MURDOCH paper reports them, computed from its events alone.
+
+`summarize(events)` returns a JSON-ready dict; `murdoch report` writes it to summary.json.
+`terminal_state_problems(events)` lists tasks that did not end in exactly one of completed /
+failed / unachievable (the run's central invariant).
+"""
+
+from __future__ import annotations
+
+import statistics
+from collections import Counter, defaultdict
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+from experiments import events as ev
+
+SCHEMA_VERSION = 1
+
+
+def _latency_stats(values: list[float]) -> dict[str, float | int | None]:
+    if not values:
+        return {"count": 0, "mean": None, "median": None, "p95": None, "max": None}
+    ordered = sorted(values)
+    p95 = ordered[min(len(ordered) - 1, round(0.95 * (len(ordered) - 1)))]
+    return {
+        "count": len(ordered),
+        "mean": round(statistics.fmean(ordered), 6),
+        "median": round(statistics.median(ordered), 6),
+        "p95": round(p95, 6),
+        "max": round(ordered[-1], 6),
+    }
+
+
+def terminal_state_problems(events: Iterable[Mapping[str, Any]]) -> dict[str, list[str]]:
+    """Tasks with no terminal outcome, with more than one, or with an outcome but never
+    introduced. Empty lists everywhere mean the invariant holds."""
+    introduced: set[str] = set()
+    outcomes: dict[str, list[str]] = defaultdict(list)
+    for e in events:
+        if e["kind"] == ev.TASK_INTRODUCED:
+            introduced.add(str(e["task"]))
+        elif e["kind"] == ev.TASK_OUTCOME:
+            outcomes[str(e["task"])].append(str(e["outcome"]))
+    return {
+        "without_outcome": sorted(introduced - outcomes.keys()),
+        "several_outcomes": sorted(t for t, o in outcomes.items() if len(o) > 1),
+        "never_introduced": sorted(outcomes.keys() - introduced),
+    }
+
+
+def summarize(events: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
+    evs = list(events)
+    kinds = Counter(str(e["kind"]) for e in evs)
+    outcomes = Counter(str(e["outcome"]) for e in evs if e["kind"] == ev.TASK_OUTCOME)
+    task_kind_of: dict[str, str] = {}
+    for e in evs:
+        if e["kind"] == ev.TASK_INTRODUCED:
+            task_kind_of[str(e["task"])] = str(e["task_kind"])
+
+    # messages and bytes by kind
+    messages: dict[str, dict[str, int]] = {}
+    for e in evs:
+        if e["kind"] == ev.MESSAGE:
+            m = messages.setdefault(str(e["msg_kind"]), {"count": 0, "bytes": 0})
+            m["count"] += 1
+            m["bytes"] += int(e["bytes"])
+
+    # auction latency: the award's own figure, else first announce of the task -> award
+    first_announce: dict[str, float] = {}
+    latencies: list[float] = []
+    for e in evs:
+        if e["kind"] == ev.MESSAGE and e.get("msg_kind") == "announce" and "task" in e:
+            first_announce.setdefault(str(e["task"]), float(e["t"]))
+        elif e["kind"] == ev.AWARD:
+            if "latency_s" in e:
+                latencies.append(float(e["latency_s"]))
+            elif str(e["task"]) in first_announce:
+                latencies.append(float(e["t"]) - first_announce[str(e["task"])])
+
+    # per robot
+    per_robot: dict[str, Counter[str]] = defaultdict(Counter)
+    awarded_tasks: set[str] = set()
+    for e in evs:
+        k = e["kind"]
+        if k == ev.AWARD:
+            per_robot[str(e["robot"])]["awards"] += 1
+            awarded_tasks.add(str(e["task"]))
+        elif k == ev.TASK_OUTCOME and e.get("robot") and e["outcome"] == ev.COMPLETED:
+            per_robot[str(e["robot"])]["tasks_completed"] += 1
+        elif k == ev.CHARGE_START:
+            per_robot[str(e["robot"])]["charging_trips"] += 1
+        elif k == ev.ROBOT_FAILURE:
+            per_robot[str(e["robot"])]["failures"] += 1
+
+    by_task_kind: dict[str, Counter[str]] = defaultdict(Counter)
+    for e in evs:
+        if e["kind"] == ev.TASK_INTRODUCED:
+            by_task_kind[str(e["task_kind"])]["introduced"] += 1
+        elif e["kind"] == ev.TASK_OUTCOME:
+            by_task_kind[task_kind_of.get(str(e["task"]), "unknown")][str(e["outcome"])] += 1
+
+    # processes: peak and first/last resident memory
+    processes: dict[str, dict[str, Any]] = {}
+    for e in evs:
+        if e["kind"] == ev.PROCESS:
+            name = str(e["name"])
+            rss = int(e["rss_bytes"])
+            peak = int(e.get("peak_rss_bytes", rss))
+            p = processes.setdefault(
+                name, {"pid": e["pid"], "rss_first_bytes": rss, "peak_rss_bytes": 0}
+            )
+            p["rss_last_bytes"] = rss
+            p["peak_rss_bytes"] = max(p["peak_rss_bytes"], peak, rss)
+            p["samples"] = p.get("samples", 0) + 1
+
+    sim_s = max((float(e["t"]) for e in evs), default=0.0)
+    run_end = next((e for e in reversed(evs) if e["kind"] == ev.RUN_END), None)
+    run_start = next((e for e in evs if e["kind"] == ev.RUN_START), None)
+    wall_s = float(run_end["wall_s"]) if run_end is not None else None
+    battery_min: float | None = None
+    for e in evs:
+        if e["kind"] == ev.BATTERY and e["percent"]:
+            low = min(float(v) for v in e["percent"].values())
+            battery_min = low if battery_min is None else min(battery_min, low)
+
+    problems = terminal_state_problems(evs)
+    return {
+        "schema": SCHEMA_VERSION,
+        "experiment": run_start.get("experiment") if run_start else None,
+        "seed": run_start.get("seed") if run_start else None,
+        "end_reason": run_end.get("reason") if run_end else None,
+        "sim_time_s": round(sim_s, 3),
+        "wall_time_s": round(wall_s, 3) if wall_s is not None else None,
+        "real_time_factor": round(sim_s / wall_s, 3) if wall_s else None,
+        "tasks": {
+            "introduced": kinds[ev.TASK_INTRODUCED],
+            "allocated": len(awarded_tasks),
+            "executed": outcomes[ev.COMPLETED],
+            "failed": outcomes[ev.FAILED],
+            "unachievable": outcomes[ev.UNACHIEVABLE],
+            "reallocations": kinds[ev.REALLOCATION],
+            "by_kind": {k: dict(sorted(v.items())) for k, v in sorted(by_task_kind.items())},
+        },
+        "charging_trips": kinds[ev.CHARGE_START],
+        "robot_failures": kinds[ev.ROBOT_FAILURE],
+        "robot_restarts": kinds[ev.ROBOT_RESTART],
+        "alarms": kinds[ev.ALARM],
+        "lowest_battery_percent": battery_min,
+        "messages": {
+            "by_kind": dict(sorted(messages.items())),
+            "total": sum(m["count"] for m in messages.values()),
+            "total_bytes": sum(m["bytes"] for m in messages.values()),
+        },
+        "auction_latency_s": _latency_stats(latencies),
+        "robots": {r: dict(sorted(c.items())) for r, c in sorted(per_robot.items())},
+        "processes": dict(sorted(processes.items())),
+        "invariant_terminal_states": {
+            "holds": not any(problems.values()),
+            **{k: v[:50] for k, v in problems.items()},
+        },
+        "event_counts": dict(sorted(kinds.items())),
+    }

@@ -1,0 +1,236 @@
+"""MURDOCH auction messages (on the wire) and the task, event and outcome records (local).
+
+Wire messages, one round of one task::
+
+    Announce  auctioneer -> required subjects + idle     task, metrics, negotiation subject
+    Bid       bidder     -> negotiation subject          score (higher wins); all bidders see it
+    Award     auctioneer -> negotiation subject          the close: winner, or None with a reason
+    Renew     auctioneer -> negotiation subject          contract renewal, every renew period
+    Progress  winner     -> negotiation subject          answer to a renewal
+    Report    winner     -> negotiation subject          completed | failed | declined | abandoned
+    Revoke    auctioneer -> negotiation subject          the contract is withdrawn
+
+Every message carries `task_id` and `attempt` (one auction round of the task; a reallocation
+or a reintroduction starts the next attempt), so stale traffic from an earlier round is ignored.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, NamedTuple
+
+from murdoch.subjects import IDLE, SubjectSet, check_subject, subject_set
+from murdoch.wire import Codec, freeze
+
+REPORT_STATUSES = ("completed", "failed", "declined", "abandoned")
+OUTCOME_STATUSES = ("completed", "failed", "unachievable")
+
+
+def _finite(name: str, value: float, minimum: float = 0.0) -> None:
+    if not math.isfinite(value) or value < minimum:
+        raise ValueError(f"{name} must be a finite number >= {minimum}, got {value}")
+
+
+def _frozen_mapping(value: Mapping[str, Any]) -> Mapping[str, Any]:
+    if not isinstance(value, Mapping):
+        raise TypeError(f"params must be a mapping, got {type(value).__name__}")
+    frozen: Mapping[str, Any] = freeze(dict(value))
+    return frozen
+
+
+@dataclass(frozen=True)
+class Announce:
+    KIND: ClassVar[str] = "announce"
+    task_id: str
+    attempt: int
+    name: str
+    subjects: tuple[str, ...]
+    params: Mapping[str, Any]
+    duration_s: float
+    metrics: tuple[tuple[str, float], ...]
+    negotiation: str
+    bid_window_s: float
+    renew_period_s: float
+    abandon_after_s: float
+    parent: str | None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "params", _frozen_mapping(self.params))
+        check_subject(self.negotiation)
+        for name in ("duration_s", "bid_window_s", "renew_period_s", "abandon_after_s"):
+            _finite(name, getattr(self, name))
+
+    @property
+    def metric_weights(self) -> dict[str, float]:
+        return dict(self.metrics)
+
+
+@dataclass(frozen=True)
+class Bid:
+    KIND: ClassVar[str] = "bid"
+    task_id: str
+    attempt: int
+    bidder: str
+    score: float
+
+    def __post_init__(self) -> None:
+        if not math.isfinite(self.score):
+            raise ValueError("score must be finite")
+
+
+@dataclass(frozen=True)
+class Award:
+    KIND: ClassVar[str] = "award"
+    task_id: str
+    attempt: int
+    winner: str | None
+    score: float | None
+    bids: int
+    reason: str
+
+
+@dataclass(frozen=True)
+class Renew:
+    KIND: ClassVar[str] = "renew"
+    task_id: str
+    attempt: int
+    winner: str
+    n: int
+
+
+@dataclass(frozen=True)
+class Progress:
+    KIND: ClassVar[str] = "progress"
+    task_id: str
+    attempt: int
+    winner: str
+    fraction: float
+    note: str
+
+
+@dataclass(frozen=True)
+class Report:
+    KIND: ClassVar[str] = "report"
+    task_id: str
+    attempt: int
+    winner: str
+    status: str
+    reason: str
+
+    def __post_init__(self) -> None:
+        if self.status not in REPORT_STATUSES:
+            raise ValueError(f"status must be one of {REPORT_STATUSES}, got {self.status!r}")
+
+
+@dataclass(frozen=True)
+class Revoke:
+    KIND: ClassVar[str] = "revoke"
+    task_id: str
+    attempt: int
+    winner: str
+    reason: str
+
+
+AUCTION_MESSAGES: tuple[type, ...] = (Announce, Bid, Award, Renew, Progress, Report, Revoke)
+AUCTION_CODEC = Codec(AUCTION_MESSAGES)
+
+
+class Outgoing(NamedTuple):
+    """A message a state machine wants published, with its subject set."""
+
+    subjects: SubjectSet
+    message: Any
+
+
+@dataclass(frozen=True)
+class TaskSpec:
+    """A task as its requester describes it.
+
+    `subjects` are the resources it needs (the announcement also adds `idle`); `metrics` name
+    what bidders evaluate, with weights when several are summed. Times are in the clock of the
+    auctioneer's owner (simulation seconds in experiments): `bid_window_s` from announcement to
+    close, `renew_period_s` between renewals, `contract_timeout_s` of silence from the winner
+    before it is dropped, `abandon_after_s` of silence from the auctioneer before the winner
+    gives up, `timeout_s` (optional) from award to failure, `max_attempts` rounds in all.
+    """
+
+    name: str
+    subjects: SubjectSet
+    params: Mapping[str, Any] = field(default_factory=dict)
+    duration_s: float = 0.0
+    metrics: tuple[tuple[str, float], ...] = ()
+    bid_window_s: float = 0.25
+    renew_period_s: float = 1.0
+    contract_timeout_s: float = 3.0
+    abandon_after_s: float = 3.0
+    timeout_s: float | None = None
+    max_attempts: int = 10
+    parent: str | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "subjects", subject_set(self.subjects))
+        object.__setattr__(self, "params", _frozen_mapping(self.params))
+        object.__setattr__(self, "metrics", tuple((str(n), float(w)) for n, w in self.metrics))
+        if not self.name:
+            raise ValueError("a task needs a name")
+        _finite("duration_s", self.duration_s)
+        for name in ("bid_window_s", "renew_period_s", "contract_timeout_s", "abandon_after_s"):
+            _finite(name, getattr(self, name), minimum=1e-6)
+        if self.timeout_s is not None:
+            _finite("timeout_s", self.timeout_s, minimum=1e-6)
+        if self.max_attempts < 1:
+            raise ValueError("max_attempts must be >= 1")
+        if self.contract_timeout_s <= self.renew_period_s:
+            raise ValueError("contract_timeout_s must exceed renew_period_s")
+        if self.abandon_after_s <= self.renew_period_s:
+            raise ValueError("abandon_after_s must exceed renew_period_s")
+
+    @property
+    def announce_subjects(self) -> SubjectSet:
+        return self.subjects | {IDLE}
+
+
+def negotiation_subject(task_id: str) -> str:
+    return check_subject(f"task.{task_id}")
+
+
+@dataclass(frozen=True)
+class AuctionEvent:
+    """Something observable happened: for logs such as a run's events.jsonl."""
+
+    time_s: float
+    agent: str
+    kind: str
+    task_id: str
+    attempt: int
+    detail: Mapping[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "time_s": self.time_s,
+            "agent": self.agent,
+            "kind": self.kind,
+            "task_id": self.task_id,
+            "attempt": self.attempt,
+            **{k: v for k, v in self.detail.items()},
+        }
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """How a task ended; every introduced task gets exactly one."""
+
+    task_id: str
+    name: str
+    status: str
+    reason: str
+    winner: str | None
+    attempts: int
+    time_s: float
+    parent: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.status not in OUTCOME_STATUSES:
+            raise ValueError(f"status must be one of {OUTCOME_STATUSES}")

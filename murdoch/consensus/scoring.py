@@ -1,0 +1,389 @@
+"""Path scores with time windows, and vectorised marginal gains of inserting a task.
+
+A path is an agent's list of task indices in execution order. Each task starts as early as
+possible: when the agent has arrived (straight-line travel at its speed), not before its window
+opens, and not before its prerequisites (which must be earlier on the same path) have finished.
+With time windows a task scores ``reward * exp(-discount * (start - window_start))`` and the
+path is feasible only if every start is at most the window's latest start; without time windows
+the reference time is 0 and there is no latest start.
+
+`insertion_gains` evaluates every candidate task at every insertion position at once: inserting
+a task delays the later tasks by an amount that shrinks by the idle time the agent had before
+each of them, so the delays, feasibility and score changes of the whole suffix are one set of
+numpy operations over a (tasks x positions x path) array.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from murdoch.consensus.scenario import Scenario
+
+_EPS = 1e-9
+
+
+@dataclass(frozen=True)
+class _Lists:
+    agent_task_dist: list[list[float]]
+    task_task_dist: list[list[float]]
+    window_start: list[float]
+    window_end: list[float]
+    duration: list[float]
+    speed: list[float]
+    availability: list[float]
+
+
+@dataclass(frozen=True)
+class Problem:
+    """Numeric arrays derived from a scenario (indices follow the scenario's list order)."""
+
+    scenario: Scenario
+    n_agents: int
+    n_tasks: int
+    agent_pos: np.ndarray  # (N, D)
+    speed: np.ndarray  # (N,)
+    availability: np.ndarray  # (N,)
+    task_pos: np.ndarray  # (M, D)
+    window_start: np.ndarray  # (M,)
+    window_end: np.ndarray  # (M,) latest start, inf when open
+    score_ref: np.ndarray  # (M,) time the discount counts from
+    duration: np.ndarray  # (M,)
+    reward: np.ndarray  # (M,)
+    discount: np.ndarray  # (M,)
+    required: np.ndarray  # (M,) agents needed
+    eligible: np.ndarray  # (N, M) bool: capability (and full equipment for L_j = 1)
+    agent_task_dist: np.ndarray  # (N, M)
+    task_task_dist: np.ndarray  # (M, M)
+    prereqs: tuple[tuple[int, ...], ...]  # per task, indices of its prerequisites
+    has_prereqs: np.ndarray  # (M,) bool
+    agent_equipment: tuple[frozenset[str], ...]
+    task_equipment: tuple[frozenset[str], ...]
+    quit_after: np.ndarray  # (M,) inf = never
+    team_reward: np.ndarray  # (M,)
+    max_depth: int
+    gain_bound: np.ndarray  # (N, M): no insertion can gain more (direct travel, no delays)
+    lists: _Lists  # the same numbers as Python lists, for the scalar path walk
+
+
+def build_problem(s: Scenario) -> Problem:
+    n, m = len(s.agents), len(s.tasks)
+    dim = len(s.agents[0].pos)
+    agent_pos = np.array([a.pos for a in s.agents], dtype=float).reshape(n, dim)
+    task_pos = np.array([t.pos for t in s.tasks], dtype=float).reshape(m, dim)
+    if s.time_windows:
+        ws = np.array([t.start_s for t in s.tasks], dtype=float)
+        we = np.array([t.end_s for t in s.tasks], dtype=float)
+        ref = ws.copy()
+    else:
+        ws = np.zeros(m)
+        we = np.full(m, np.inf)
+        ref = np.zeros(m)
+    eligible = np.zeros((n, m), dtype=bool)
+    for i, a in enumerate(s.agents):
+        for j, t in enumerate(s.tasks):
+            ok = a.capabilities is None or t.type in a.capabilities
+            if t.agents_required == 1 and not t.equipment <= a.equipment:
+                ok = False
+            if t.agents_required > 1 and len(s.agents) < t.agents_required:
+                ok = False
+            eligible[i, j] = ok
+    index = {t.id: j for j, t in enumerate(s.tasks)}
+    prereqs = tuple(tuple(index[p] for p in t.prerequisites) for t in s.tasks)
+    speed = np.array([a.speed_mps for a in s.agents], dtype=float)
+    availability = np.array([a.availability_s for a in s.agents], dtype=float)
+    reward = np.array([t.reward for t in s.tasks], dtype=float)
+    discount = np.array([t.discount for t in s.tasks], dtype=float)
+    duration = np.array([t.duration_s for t in s.tasks], dtype=float)
+    at_dist = (np.linalg.norm(agent_pos[:, None, :] - task_pos[None, :, :], axis=2)
+               if m else np.zeros((n, 0)))
+    tt_dist = (np.linalg.norm(task_pos[:, None, :] - task_pos[None, :, :], axis=2)
+               if m else np.zeros((0, 0)))
+    earliest = np.maximum(ws[None, :], availability[:, None] + at_dist / speed[:, None])
+    bound = np.where(earliest <= we[None, :] + _EPS,
+                     reward[None, :] * np.exp(-discount[None, :] * (earliest - ref[None, :])),
+                     -np.inf)
+    lists = _Lists(at_dist.tolist(), tt_dist.tolist(), ws.tolist(), we.tolist(),
+                   duration.tolist(), speed.tolist(), availability.tolist())
+    return Problem(
+        scenario=s, n_agents=n, n_tasks=m, agent_pos=agent_pos,
+        speed=speed, availability=availability,
+        task_pos=task_pos, window_start=ws, window_end=we, score_ref=ref,
+        duration=duration, reward=reward, discount=discount,
+        required=np.array([t.agents_required for t in s.tasks], dtype=np.int64),
+        eligible=eligible,
+        agent_task_dist=at_dist, task_task_dist=tt_dist,
+        prereqs=prereqs,
+        has_prereqs=np.array([bool(p) for p in prereqs], dtype=bool),
+        agent_equipment=tuple(a.equipment for a in s.agents),
+        task_equipment=tuple(t.equipment for t in s.tasks),
+        quit_after=np.array([np.inf if t.quit_after is None else t.quit_after
+                             for t in s.tasks], dtype=float),
+        team_reward=np.array([t.team_reward for t in s.tasks], dtype=float),
+        max_depth=s.bundle_limit,
+        gain_bound=bound,
+        lists=lists,
+    )
+
+
+def task_scores(p: Problem, tasks: np.ndarray, starts: np.ndarray) -> np.ndarray:
+    """Score of each task when started at the given time."""
+    return p.reward[tasks] * np.exp(-p.discount[tasks] * (starts - p.score_ref[tasks]))
+
+
+def path_times(p: Problem, agent: int, path: list[int],
+               lower_bounds: dict[int, float] | None = None) -> tuple[np.ndarray, bool]:
+    """Earliest start times along a path and whether every start fits its window.
+
+    `lower_bounds` optionally adds a not-before time per task (used for group tasks whose
+    start waits for the whole group). Prerequisites must appear earlier on the path.
+    """
+    lst = p.lists
+    out: list[float] = []
+    ready = lst.availability[agent]
+    speed = lst.speed[agent]
+    dist_row = lst.agent_task_dist[agent]
+    ok = True
+    finish: dict[int, float] = {}
+    for j in path:
+        start = ready + dist_row[j] / speed
+        ws = lst.window_start[j]
+        if ws > start:
+            start = ws
+        if lower_bounds is not None and j in lower_bounds:
+            start = max(start, lower_bounds[j])
+        for q in p.prereqs[j]:
+            if q not in finish:
+                ok = False
+            elif finish[q] > start:
+                start = finish[q]
+        if start > lst.window_end[j] + _EPS:
+            ok = False
+        out.append(start)
+        ready = finish[j] = start + lst.duration[j]
+        dist_row = lst.task_task_dist[j]
+    return np.array(out), ok
+
+
+def path_score(p: Problem, path: list[int], times: np.ndarray) -> float:
+    if not path:
+        return 0.0
+    return float(task_scores(p, np.asarray(path), times).sum())
+
+
+def insertion_gains(p: Problem, agent: int, path: list[int], times: np.ndarray,
+                    candidates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Best marginal gain of inserting each task into one agent's path, and its position.
+
+    `candidates` is a boolean mask over tasks; gains of non-candidates and of infeasible
+    insertions are -inf. Ties between positions go to the earliest position.
+    """
+    gains, pos = insertion_gains_batch(p, [agent], [path], [times], candidates[None, :])
+    return gains[0], pos[0]
+
+
+_BIG = 1e12
+
+
+def insertion_gains_batch(p: Problem, agents: list[int], paths: list[list[int]],
+                          times: list[np.ndarray], candidates: np.ndarray,
+                          not_before: np.ndarray | None = None
+                          ) -> tuple[np.ndarray, np.ndarray]:
+    """`insertion_gains` for several agents at once: (A, M) gains and positions.
+
+    `not_before` (A, M), when given, is a time each candidate may not start before (group
+    tasks wait for the members already in the group).
+
+    Only the columns some agent has as a candidate are evaluated. Paths are padded to the
+    longest; padded entries score nothing, end nowhere and absorb any delay. A delayed
+    prerequisite can push its dependant further than the idle-time estimate; callers re-check
+    the chosen insertion with `path_times`.
+    """
+    n_a, m = len(agents), p.n_tasks
+    gains = np.full((n_a, m), -np.inf)
+    best_pos = np.zeros((n_a, m), dtype=np.int64)
+    cols = np.flatnonzero(candidates.any(axis=0))
+    if cols.size == 0:
+        return gains, best_pos
+    cand = candidates[:, cols]
+    lmax = max((len(x) for x in paths), default=0)
+    ag = np.asarray(agents, dtype=np.int64)
+    lens = np.array([len(x) for x in paths], dtype=np.int64)
+    path_arr = np.zeros((n_a, lmax), dtype=np.int64)
+    t_arr = np.zeros((n_a, lmax))
+    for a in range(n_a):
+        if lens[a]:
+            path_arr[a, : lens[a]] = paths[a]
+            t_arr[a, : lens[a]] = times[a]
+    in_path = np.arange(lmax)[None, :] < lens[:, None]  # (A, L)
+    spd = p.speed[ag][:, None, None]
+    c_ws = p.window_start[cols]
+    c_we = p.window_end[cols]
+    c_dur = p.duration[cols]
+    dur_path = np.where(in_path, p.duration[path_arr], 0.0)
+    ready = np.concatenate((p.availability[ag][:, None], t_arr + dur_path), axis=1)  # (A, L+1)
+    dist_prev = np.concatenate((p.agent_task_dist[ag][:, None, cols],
+                                p.task_task_dist[path_arr][:, :, cols]), axis=1)  # (A, L+1, C)
+    start = np.maximum(c_ws, ready[:, :, None] + dist_prev / spd)
+    if not_before is not None:
+        start = np.maximum(start, not_before[:, None, cols])
+    valid = (np.arange(lmax + 1)[None, :] <= lens[:, None])[:, :, None] & cand[:, None, :]
+    if p.has_prereqs[cols].any():
+        for a in range(n_a):
+            pos_of = {t: n for n, t in enumerate(paths[a])}
+            for c in np.flatnonzero(cand[a] & p.has_prereqs[cols]):
+                pre = p.prereqs[cols[c]]
+                if not all(q in pos_of for q in pre):
+                    valid[a, :, c] = False
+                    continue
+                last = max(pos_of[q] for q in pre)
+                lb = max(times[a][pos_of[q]] + p.duration[q] for q in pre)
+                valid[a, : last + 1, c] = False
+                start[a, :, c] = np.maximum(start[a, :, c], lb)
+    valid &= start <= c_we + _EPS
+    total = p.reward[cols] * np.exp(-p.discount[cols] * (start - p.score_ref[cols]))
+    if lmax:
+        finish = start[:, :lmax] + c_dur
+        arrive_next = finish + dist_prev[:, 1:, :] / spd  # dist(j, path[n]) (A, L, C)
+        delay0 = np.maximum(0.0, arrive_next - t_arr[:, :, None])
+        prev_dist = np.concatenate(
+            (p.agent_task_dist[ag, path_arr[:, 0]][:, None],
+             p.task_task_dist[path_arr[:, :-1], path_arr[:, 1:]]), axis=1)  # (A, L)
+        wait = np.maximum(0.0, t_arr - (ready[:, :lmax] + prev_dist / spd[:, :, 0]))
+        wait = np.where(in_path, wait, _BIG)
+        cum = np.cumsum(wait, axis=1)  # (A, L)
+        # only feasible insertions that delay the next task need the suffix evaluated:
+        # gather those (agent, position, task) triples and walk the path after each
+        a_i, n_i, c_i = np.nonzero(valid[:, :lmax, :] & (delay0 > 0))
+        change = np.zeros_like(delay0)
+        late = np.zeros(delay0.shape, dtype=bool)
+        if a_i.size:
+            d0 = delay0[a_i, n_i, c_i]  # (P,)
+            ks = np.arange(lmax)
+            after = (ks[None, :] >= n_i[:, None]) & in_path[a_i]  # (P, L)
+            slack = cum[a_i] - cum[a_i, n_i][:, None]
+            delay = np.where(after, np.maximum(0.0, d0[:, None] - slack), 0.0)  # (P, L)
+            old = np.where(in_path, p.reward[path_arr]
+                           * np.exp(-p.discount[path_arr] * (t_arr - p.score_ref[path_arr])),
+                           0.0)  # (A, L)
+            lam = p.discount[path_arr]
+            change[a_i, n_i, c_i] = (old[a_i] * np.expm1(-lam[a_i] * delay)).sum(axis=1)
+            room = np.where(in_path, p.window_end[path_arr] - t_arr, np.inf) + _EPS
+            late[a_i, n_i, c_i] = (delay > room[a_i]).any(axis=1)
+        total[:, :lmax] += change
+        valid[:, :lmax] &= ~late
+    total = np.where(valid, total, -np.inf)
+    pos = np.argmax(total, axis=1)  # (A, C)
+    gains[:, cols] = np.take_along_axis(total, pos[:, None, :], axis=1)[:, 0, :]
+    best_pos[:, cols] = pos
+    return gains, best_pos
+
+
+def _upper(n: int) -> np.ndarray:
+    return np.arange(n)[None, :] >= np.arange(n)[:, None]  # [n, k]: k >= n
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """A joint plan: start times per agent path, which tasks complete, and the total score."""
+
+    start_times: tuple[tuple[float, ...], ...]  # per agent, aligned with its path
+    completed: tuple[bool, ...]  # per task
+    group: tuple[tuple[int, ...], ...]  # per task, the agents with it on their path
+    task_start: tuple[float, ...]  # per task (nan when not completed)
+    total_score: float
+
+
+def evaluate_plan(p: Problem, paths: list[list[int]]) -> Evaluation:
+    """Execute the agents' paths jointly.
+
+    A task completes when its whole group (L_j agents covering its equipment list) is on it,
+    all of them have arrived, the joint start is inside the window and every prerequisite has
+    finished before it. Members of a task that cannot complete skip it. Every member of a
+    completed task earns the task's score at the joint start time.
+    """
+    m = p.n_tasks
+    group: list[list[int]] = [[] for _ in range(m)]
+    for i, path in enumerate(paths):
+        for j in path:
+            group[j].append(i)
+    usable = np.zeros(m, dtype=bool)
+    for j in range(m):
+        members = group[j]
+        if len(members) != p.required[j]:
+            continue
+        covered: set[str] = set()
+        for i in members:
+            covered |= p.agent_equipment[i]
+        if not p.task_equipment[j] <= covered:
+            continue
+        if not all(p.eligible[i, j] or p.required[j] > 1 for i in members):
+            continue
+        usable[j] = True
+
+    queues = [[j for j in path if usable[j]] for path in paths]
+    ptr = [0] * len(paths)
+    ready = [float(p.availability[i]) for i in range(len(paths))]
+    pos = [-1] * len(paths)
+    start_of = np.full(m, np.nan)
+    completed = np.zeros(m, dtype=bool)
+    finish: dict[int, float] = {}
+    per_agent_start: list[dict[int, float]] = [{} for _ in paths]
+    remaining = sum(len(q) for q in queues)
+    while remaining:
+        progressed = False
+        for i in range(len(paths)):
+            while ptr[i] < len(queues[i]):
+                j = queues[i][ptr[i]]
+                members = group[j]
+                if not all(ptr[k] < len(queues[k]) and queues[k][ptr[k]] == j for k in members):
+                    break
+                arrive = 0.0
+                for k in members:
+                    d = (p.agent_task_dist[k, j] if pos[k] < 0 else p.task_task_dist[pos[k], j])
+                    arrive = max(arrive, ready[k] + d / p.speed[k])
+                start = max(float(p.window_start[j]), arrive)
+                pre_ok = True
+                for q in p.prereqs[j]:
+                    if q in finish:
+                        start = max(start, finish[q])
+                    else:
+                        pre_ok = False
+                ok = pre_ok and start <= p.window_end[j] + _EPS
+                for k in members:
+                    ptr[k] += 1
+                    remaining -= 1
+                    if ok:
+                        ready[k] = start + p.duration[j]
+                        pos[k] = j
+                        per_agent_start[k][j] = start
+                if ok:
+                    completed[j] = True
+                    start_of[j] = start
+                    finish[j] = start + p.duration[j]
+                progressed = True
+        if not progressed:
+            # agents wait on each other in a cycle: drop the lowest-index blocked task
+            blocked = min(queues[i][ptr[i]] for i in range(len(paths)) if ptr[i] < len(queues[i]))
+            for k in group[blocked]:
+                if ptr[k] < len(queues[k]) and queues[k][ptr[k]] == blocked:
+                    ptr[k] += 1
+                    remaining -= 1
+                else:
+                    queues[k].remove(blocked)
+                    remaining -= 1
+    score = 0.0
+    for j in np.flatnonzero(completed):
+        score += float(len(group[j]) * task_scores(p, np.array([j]), np.array([start_of[j]]))[0])
+    starts = tuple(
+        tuple(float(per_agent_start[i].get(j, np.nan)) for j in path)
+        for i, path in enumerate(paths)
+    )
+    return Evaluation(
+        start_times=starts,
+        completed=tuple(bool(c) for c in completed),
+        group=tuple(tuple(g) for g in group),
+        task_start=tuple(float(x) for x in start_of),
+        total_score=score,
+    )

@@ -1,0 +1,338 @@
+"""Synchronous rounds of CBBA or CBGA over a scenario's communication graph.
+
+A round: every agent (quits stalled group tasks, then) builds its bundle; every agent sends its
+state to each neighbour; every agent merges its neighbours' messages in index order; every
+agent releases what it was outbid on. Timestamps are round numbers.
+
+Measured: **comm_steps** = the last round in which any agent's bids (y, z or X) or bundle
+changed; **messages** = agent-to-neighbour transmissions in rounds 1..comm_steps; **bytes** =
+the encoded size (`messages.encode`) of those transmissions. The run stops once nothing has
+changed for (graph diameter + 1) rounds and no task-quitting timer is pending, or at
+`max_rounds` (then `converged` is false).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+from murdoch.consensus.cbba import CbbaAgent, build_bundles, consensus_batch, new_timestamps
+from murdoch.consensus.cbga import CbgaAgent, CbgaOptions
+from murdoch.consensus.conflict import NONE
+from murdoch.consensus.messages import encoded_size
+from murdoch.consensus.scenario import Scenario, Task
+from murdoch.consensus.scoring import Problem, build_problem, evaluate_plan
+
+Algorithm = Literal["cbba", "cbga"]
+
+
+@dataclass(frozen=True)
+class AllocationResult:
+    algorithm: str
+    assignment: dict[str, list[str]]
+    start_times: dict[str, list[float | None]]
+    total_score: float
+    unassigned: list[str]
+    incomplete: list[str]
+    conflict_free: bool
+    agreed: bool
+    converged: bool
+    comm_steps: int
+    messages: int
+    bytes: int
+    rounds: int
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "algorithm": self.algorithm,
+            "assignment": self.assignment,
+            "start_times": self.start_times,
+            "total_score": round(self.total_score, 6),
+            "unassigned": self.unassigned,
+            "incomplete": self.incomplete,
+            "conflict_free": self.conflict_free,
+            "agreed": self.agreed,
+            "converged": self.converged,
+            "comm_steps": self.comm_steps,
+            "messages": self.messages,
+            "bytes": self.bytes,
+            "rounds": self.rounds,
+        }
+
+
+def graph_diameter(neighbours: Sequence[Sequence[int]], active: Sequence[bool]) -> int:
+    """Longest finite shortest path (in hops) among active agents; at least 1."""
+    n = len(neighbours)
+    out: list[list[int]] = [[] for _ in range(n)]
+    for i, nbrs in enumerate(neighbours):
+        for k in nbrs:
+            out[k].append(i)  # information flows k -> i
+    best = 1
+    for src in range(n):
+        if not active[src]:
+            continue
+        dist = {src: 0}
+        queue = deque([src])
+        while queue:
+            a = queue.popleft()
+            for b in out[a]:
+                if b not in dist and active[b]:
+                    dist[b] = dist[a] + 1
+                    queue.append(b)
+        best = max(best, max(dist.values()))
+    return best
+
+
+def build_result(algorithm: str, problem: Problem, paths: list[list[int]],
+                 views: list[list[frozenset[int]]] | None, active: list[bool],
+                 neighbours: Sequence[Sequence[int]], converged: bool, comm_steps: int,
+                 messages: int, nbytes: int, rounds: int) -> AllocationResult:
+    s = problem.scenario
+    ev = evaluate_plan(problem, paths)
+    groups = ev.group
+    conflict_free = all(len(g) <= int(problem.required[j]) for j, g in enumerate(groups))
+    conflict_free &= all(len(set(p)) == len(p) for p in paths)
+    agreed = True
+    if views is not None:
+        truth = [frozenset(g) for g in groups]
+        for comp in components(neighbours, active):
+            ref = [frozenset(m for m in w if m in comp) for w in truth]
+            for i in comp:
+                if [frozenset(m for m in w if m in comp) for w in views[i]] != ref:
+                    agreed = False
+    assignment = {s.agents[i].id: [s.tasks[j].id for j in paths[i]]
+                  for i in range(problem.n_agents) if active[i]}
+    start_times = {
+        s.agents[i].id: [None if math.isnan(t) else round(t, 6) for t in ev.start_times[i]]
+        for i in range(problem.n_agents) if active[i]
+    }
+    unassigned = [s.tasks[j].id for j in range(problem.n_tasks) if not ev.completed[j]]
+    incomplete = [s.tasks[j].id for j in range(problem.n_tasks)
+                  if not ev.completed[j] and groups[j]]
+    return AllocationResult(
+        algorithm=algorithm, assignment=assignment, start_times=start_times,
+        total_score=ev.total_score, unassigned=unassigned, incomplete=incomplete,
+        conflict_free=bool(conflict_free), agreed=agreed, converged=converged,
+        comm_steps=comm_steps, messages=messages, bytes=nbytes, rounds=rounds)
+
+
+def components(neighbours: Sequence[Sequence[int]], active: Sequence[bool]) -> list[set[int]]:
+    """Weakly connected components of the active agents."""
+    n = len(neighbours)
+    adj: list[set[int]] = [set() for _ in range(n)]
+    for i, nbrs in enumerate(neighbours):
+        for k in nbrs:
+            adj[i].add(k)
+            adj[k].add(i)
+    seen: set[int] = set()
+    out: list[set[int]] = []
+    for i in range(n):
+        if i in seen or not active[i]:
+            continue
+        comp = {i}
+        stack = [i]
+        while stack:
+            a = stack.pop()
+            for b in adj[a]:
+                if b not in comp and active[b]:
+                    comp.add(b)
+                    stack.append(b)
+        seen |= comp
+        out.append(comp)
+    return out
+
+
+class SyncRunner:
+    """Runs one allocator in synchronous rounds; supports adding tasks and removing agents."""
+
+    def __init__(self, scenario: Scenario, algorithm: Algorithm = "cbba",
+                 options: CbgaOptions | None = None, max_rounds: int = 1000) -> None:
+        if algorithm not in ("cbba", "cbga"):
+            raise ValueError(f"unknown algorithm {algorithm!r} (expected 'cbba' or 'cbga')")
+        if algorithm == "cbba" and any(t.agents_required != 1 for t in scenario.tasks):
+            raise ValueError("CBBA handles single-agent tasks only; use CBGA for group tasks")
+        self.algorithm = algorithm
+        self.options = options or CbgaOptions()
+        self.max_rounds = max_rounds
+        self.scenario = scenario
+        self.problem = build_problem(scenario)
+        n, m = self.problem.n_agents, self.problem.n_tasks
+        self.active = [True] * n
+        self.round = 0
+        self.last_change = 0
+        self.quiet = 0
+        self.per_round: list[tuple[int, int]] = []  # (messages, bytes) per round
+        self.s = np.stack([new_timestamps(n) for _ in range(n)])
+        if algorithm == "cbba":
+            self.y = np.zeros((n, m))
+            self.z = np.full((n, m), NONE, dtype=np.int64)
+            self.agents: list[CbbaAgent | CbgaAgent] = [
+                CbbaAgent(self.problem, i, self.y[i], self.z[i], self.s[i]) for i in range(n)]
+        else:
+            self.x = np.zeros((n, m, n))
+            self.t = np.zeros((n, m, n))
+            self.agents = [CbgaAgent(self.problem, i, self.options, self.x[i], self.s[i],
+                                     self.t[i]) for i in range(n)]
+        self._set_graph(scenario)
+
+    def _set_graph(self, scenario: Scenario) -> None:
+        nbrs = scenario.neighbours()
+        self.neighbours = tuple(tuple(k for k in ks if self.active[k]) if self.active[i] else ()
+                                for i, ks in enumerate(nbrs))
+        self.out_degree = [0] * len(nbrs)
+        for ks in self.neighbours:
+            for k in ks:
+                self.out_degree[k] += 1
+        self.diameter = graph_diameter(self.neighbours, self.active)
+
+    # -- one round ----------------------------------------------------------------------
+    def step(self) -> bool:
+        self.round += 1
+        now = float(self.round)
+        before = self._signature()
+        for a in self.agents:
+            if isinstance(a, CbgaAgent):
+                a.quit_stalled(now)
+        build_bundles(self.agents, now)
+        self._count_messages()
+        if self.algorithm == "cbba":
+            self._consensus_cbba(now)
+        else:
+            self._consensus_cbga(now)
+        for a in self.agents:
+            a.release_outbid()
+            if isinstance(a, CbgaAgent):
+                a.refresh_times()
+        changed = self._signature() != before
+        if changed:
+            self.last_change = self.round
+            self.quiet = 0
+        else:
+            self.quiet += 1
+        return changed
+
+    def _signature(self) -> tuple[bytes, tuple[tuple[int, ...], ...]]:
+        state = self.y.tobytes() + self.z.tobytes() if self.algorithm == "cbba" \
+            else self.x.tobytes() + self.t.tobytes()
+        return state, tuple(tuple(a.bundle) for a in self.agents)
+
+    def _count_messages(self) -> None:
+        msgs = 0
+        nbytes = 0
+        n = self.problem.n_agents
+        for k, a in enumerate(self.agents):
+            d = self.out_degree[k]
+            if not d or not self.active[k]:
+                continue
+            starts = 0
+            if isinstance(a, CbbaAgent):
+                entries = int((a.z != NONE).sum())
+            else:
+                entries = int(np.count_nonzero(a.x))
+                starts = int(np.count_nonzero((a.t > 0) & (a.x > 0)))
+            msgs += d
+            nbytes += d * encoded_size(entries, n, starts)
+        self.per_round.append((msgs, nbytes))
+
+    def _consensus_cbba(self, now: float) -> None:
+        y0, z0, s0 = self.y.copy(), self.z.copy(), self.s.copy()
+        depth = max((len(k) for k in self.neighbours), default=0)
+        for q in range(depth):
+            recv = np.array([i for i, ks in enumerate(self.neighbours) if len(ks) > q],
+                            dtype=np.int64)
+            send = np.array([self.neighbours[i][q] for i in recv], dtype=np.int64)
+            for i in consensus_batch(recv, send, self.y, self.z, self.s, y0, z0, s0, now):
+                self.agents[int(i)].needs_build = True
+
+    def _consensus_cbga(self, now: float) -> None:
+        x0, s0, t0 = self.x.copy(), self.s.copy(), self.t.copy()
+        for k in range(len(self.agents)):
+            s0[k, k] = now
+        for i, ks in enumerate(self.neighbours):
+            agent = self.agents[i]
+            assert isinstance(agent, CbgaAgent)
+            for k in ks:
+                agent.receive_arrays(k, x0[k], s0[k], now, t_k=t0[k])
+
+    # -- running ------------------------------------------------------------------------
+    def pending_quit(self) -> bool:
+        return any(isinstance(a, CbgaAgent) and a.next_quit_time() < math.inf
+                   for a in self.agents)
+
+    def done(self) -> bool:
+        return self.quiet >= self.diameter + 1 and not self.pending_quit()
+
+    def run(self) -> AllocationResult:
+        start_round = self.round
+        while not self.done() and self.round - start_round < self.max_rounds:
+            self.step()
+        return self.result()
+
+    def result(self) -> AllocationResult:
+        steps = self.last_change
+        msgs = sum(m for m, _ in self.per_round[:steps])
+        nbytes = sum(b for _, b in self.per_round[:steps])
+        paths = [list(a.path) if self.active[i] else [] for i, a in enumerate(self.agents)]
+        views = [a.winners_view() for a in self.agents]
+        return build_result(self.algorithm, self.problem, paths, views, self.active,
+                            self.neighbours, self.done(), steps, msgs, nbytes, self.round)
+
+    # -- dynamic changes ----------------------------------------------------------------
+    def add_tasks(self, tasks: Sequence[Task]) -> None:
+        """New tasks become known to every agent at once; bids resume next round."""
+        if self.algorithm == "cbba" and any(t.agents_required != 1 for t in tasks):
+            raise ValueError("CBBA handles single-agent tasks only")
+        self.scenario = self.scenario.with_tasks(tasks)
+        problem = build_problem(self.scenario)
+        n, m_old, m = problem.n_agents, self.problem.n_tasks, problem.n_tasks
+        self.problem = problem
+        if self.algorithm == "cbba":
+            y = np.zeros((n, m))
+            z = np.full((n, m), NONE, dtype=np.int64)
+            y[:, :m_old], z[:, :m_old] = self.y, self.z
+            self.y, self.z = y, z
+            for i, a in enumerate(self.agents):
+                assert isinstance(a, CbbaAgent)
+                a.problem, a.y, a.z = problem, self.y[i], self.z[i]
+                a.needs_build = True
+        else:
+            x = np.zeros((n, m, n))
+            x[:, :m_old, :] = self.x
+            t = np.zeros((n, m, n))
+            t[:, :m_old, :] = self.t
+            self.x, self.t = x, t
+            for i, a in enumerate(self.agents):
+                assert isinstance(a, CbgaAgent)
+                a.problem, a.x, a.t = problem, self.x[i], self.t[i]
+                a.assigned_at = np.concatenate((a.assigned_at, np.full(m - m_old, np.nan)))
+                a.banned = np.concatenate((a.banned, np.full(m - m_old, -1, dtype=np.int64)))
+                a._refresh_static()
+                a.needs_build = True
+        self.quiet = 0
+
+    def remove_agent(self, agent_id: str) -> None:
+        """An agent leaves: links to it are cut and the others drop its bids."""
+        ids = [a.id for a in self.scenario.agents]
+        gone = ids.index(agent_id)
+        self.active[gone] = False
+        agent = self.agents[gone]
+        agent.active = False
+        agent.bundle, agent.path = [], []
+        for i, a in enumerate(self.agents):
+            if i != gone:
+                a.forget_agent(gone)
+        self.scenario = self.scenario.without_agent_edges(agent_id)
+        self._set_graph(self.scenario)
+        self.quiet = 0
+
+
+def allocate(scenario: Scenario, algorithm: Algorithm = "cbba",
+             options: CbgaOptions | None = None, max_rounds: int = 1000) -> AllocationResult:
+    """Run an allocator to convergence in synchronous rounds."""
+    return SyncRunner(scenario, algorithm, options, max_rounds).run()

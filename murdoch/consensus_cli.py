@@ -1,0 +1,96 @@
+"""`murdoch allocate` and `murdoch sweep`: the consensus allocators from the command line."""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from datetime import UTC, datetime
+from pathlib import Path
+
+import click
+
+from murdoch.consensus.cbga import CbgaOptions
+from murdoch.consensus.experiments import DEFAULT_AGENTS, EXPERIMENTS
+from murdoch.consensus.scenario import ScenarioError, load_scenario
+from murdoch.consensus.sync_runner import allocate as run_allocation
+
+
+@click.command()
+@click.argument("scenario", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--algorithm", type=click.Choice(["cbba", "cbga"]), default="cbba",
+              show_default=True)
+@click.option("--task-quitting/--no-task-quitting", default=True, show_default=True,
+              help="CBGA: leave group tasks still incomplete after their quit_after.")
+@click.option("--team-reward/--no-team-reward", default=True, show_default=True,
+              help="CBGA: group-task bids count the team's value.")
+@click.option("--max-rounds", type=click.IntRange(1), default=1000, show_default=True)
+def allocate(scenario: Path, algorithm: str, task_quitting: bool, team_reward: bool,
+             max_rounds: int) -> None:
+    """Run CBBA or CBGA on SCENARIO (JSON) in synchronous rounds; print the result as JSON."""
+    try:
+        sc = load_scenario(scenario)
+    except ScenarioError as exc:
+        raise click.ClickException(str(exc)) from exc
+    try:
+        result = run_allocation(sc, algorithm,  # type: ignore[arg-type]
+                                CbgaOptions(task_quitting, team_reward), max_rounds)
+    except ValueError as exc:
+        raise click.ClickException(f"{scenario}: {exc}") from exc
+    click.echo(json.dumps(result.to_json(), indent=2))
+
+
+@click.command()
+@click.option("--experiment", type=click.Choice([*EXPERIMENTS, "all"]), default="fig5",
+              show_default=True)
+@click.option("--agents", default=None,
+              help="Agent counts, e.g. 1-10 or 2,5,10 (default: the paper's for the "
+                   "experiment: 1-10, or 10 for fig7).")
+@click.option("--runs", type=click.IntRange(1), default=100, show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--jobs", type=click.IntRange(1), default=max(1, (os.cpu_count() or 1)),
+              show_default="CPU count")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Output directory (default runs/sweep-<experiment>-<UTC time>).")
+def sweep(experiment: str, agents: str | None, runs: int, seed: int, jobs: int,
+          out: Path | None) -> None:
+    """Reproduce the CBGA paper's experiments: table (mean ± std) and figures."""
+    from murdoch.consensus import plots
+    from murdoch.consensus.sweep import (
+        jobs_for,
+        markdown_table,
+        parse_agents,
+        run_jobs,
+        summarise,
+        write_outputs,
+    )
+
+    names = list(EXPERIMENTS) if experiment == "all" else [experiment]
+    if out is None:
+        stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
+        out = Path("runs") / f"sweep-{experiment}-{stamp}"
+    try:
+        counts = {n: parse_agents(agents) if agents else DEFAULT_AGENTS[n] for n in names}
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--agents") from exc
+    all_jobs = [j for n in names for j in jobs_for(n, counts[n], runs, seed)]
+    click.echo(f"{len(all_jobs)} allocations in {jobs} process(es) -> {out}", err=True)
+    t0 = time.monotonic()
+    last = [0.0]
+
+    def progress(done: int, total: int) -> None:
+        now = time.monotonic()
+        if now - last[0] > 5 or done == total:
+            last[0] = now
+            click.echo(f"  {done}/{total} ({now - t0:.0f} s)", err=True)
+
+    records = run_jobs(all_jobs, jobs, progress)
+    rows = summarise(records)
+    meta = {"experiments": names, "agents": {n: list(c) for n, c in counts.items()},
+            "runs": runs, "seed": seed, "jobs": jobs, "wall_s": round(time.monotonic() - t0, 1)}
+    files = write_outputs(out, records, rows, meta)
+    for n in names:
+        files += plots.plot_experiment(rows, n, out)
+    click.echo(markdown_table(rows))
+    for f in files:
+        click.echo(f"wrote {f}")

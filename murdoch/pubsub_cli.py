@@ -1,0 +1,237 @@
+"""`murdoch listen` and `murdoch announce`: the bus from a terminal (multicast, loopback)."""
+
+from __future__ import annotations
+
+import json
+import os
+import random
+import sys
+import time
+from typing import Any
+
+import click
+
+from murdoch.auction.messages import AuctionEvent, Outcome, TaskSpec
+from murdoch.auth import TeamKey
+from murdoch.multicast import DEFAULT_GROUP, DEFAULT_PORT, MulticastConfig, MulticastTransport
+from murdoch.node import Node
+from murdoch.subjects import SubjectError, matches, subject_set
+from murdoch.user_agent import RandomizedBackoff
+from murdoch.wire import Frame
+
+KEY_ENV = "MURDOCH_TEAM_KEY"
+
+
+def _key(value: str | None) -> TeamKey | None:
+    value = value or os.environ.get(KEY_ENV)
+    try:
+        return TeamKey(value) if value else None
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--key") from None
+
+
+def _config(group: str, port: int) -> MulticastConfig:
+    try:
+        return MulticastConfig(group, port)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--group/--port") from None
+
+
+def _subjects(value: str | None) -> frozenset[str] | None:
+    if value is None:
+        return None
+    try:
+        return subject_set(value)
+    except SubjectError as exc:
+        raise click.BadParameter(str(exc)) from None
+
+
+def _format_frame(now: float, frame: Frame, size: int) -> str:
+    fields = " ".join(f"{k}={json.dumps(v, separators=(',', ':'))}" for k, v in frame.body.items())
+    subjects = ",".join(sorted(frame.subjects)) or "-"
+    return f"{now:10.3f} {frame.sender}#{frame.seq} {frame.kind:<9} [{subjects}] {size}B {fields}"
+
+
+def _network_options(func: Any) -> Any:
+    func = click.option("--group", default=DEFAULT_GROUP, show_default=True)(func)
+    func = click.option("--port", type=int, default=DEFAULT_PORT, show_default=True)(func)
+    func = click.option(
+        "--key", default=None, help=f"Shared team key (default: ${KEY_ENV} if set)."
+    )(func)
+    return func
+
+
+@click.command()
+@click.option(
+    "--subjects", default=None, help="Show only messages these subjects would receive (a,b,c)."
+)
+@click.option("--duration", type=float, default=None, help="Stop after this many seconds.")
+@click.option("--count", type=int, default=None, help="Stop after this many messages.")
+@click.option("--json", "as_json", is_flag=True, help="One JSON object per message.")
+@_network_options
+def listen(
+    subjects: str | None,
+    duration: float | None,
+    count: int | None,
+    as_json: bool,
+    group: str,
+    port: int,
+    key: str | None,
+) -> None:
+    """Print live MURDOCH traffic with decoded fields."""
+    wanted = _subjects(subjects)
+    clock = time.monotonic
+    start = clock()
+    sender = f"listen-{os.getpid()}"
+    transport = MulticastTransport(sender, clock, _config(group, port), key=_key(key))
+    shown = 0
+
+    def show(frame: Frame, size: int) -> None:
+        nonlocal shown
+        if wanted is not None and not matches(frame.subjects, wanted):
+            return
+        shown += 1
+        if as_json:
+            record = {
+                "t": round(clock() - start, 6),
+                "sender": frame.sender,
+                "seq": frame.seq,
+                "kind": frame.kind,
+                "subjects": sorted(frame.subjects),
+                "bytes": size,
+                "fields": dict(frame.body),
+            }
+            click.echo(json.dumps(record))
+        else:
+            click.echo(_format_frame(clock() - start, frame, size))
+        sys.stdout.flush()
+
+    transport.core.frame_tap = show
+    click.echo(f"listening on {group}:{port} (loopback)", err=True)
+    try:
+        while (duration is None or clock() - start < duration) and (
+            count is None or shown < count
+        ):
+            transport.poll(timeout_s=0.1)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        transport.close()
+    dropped = transport.counters.dropped
+    bad = {k: v for k, v in dropped.items() if k != "unmatched"}
+    if bad:
+        click.echo(f"dropped: {json.dumps(bad)}", err=True)
+
+
+def _parse_params(items: tuple[str, ...]) -> dict[str, Any]:
+    params: dict[str, Any] = {}
+    for item in items:
+        name, sep, raw = item.partition("=")
+        if not sep or not name:
+            raise click.BadParameter(f"{item!r} is not NAME=VALUE")
+        try:
+            params[name] = json.loads(raw)
+        except json.JSONDecodeError:
+            params[name] = raw
+    return params
+
+
+@click.command()
+@click.argument("name")
+@click.option("--subjects", required=True, help="Resources the task needs (a,b,c).")
+@click.option("--duration", type=float, default=0.0, show_default=True, help="Expected seconds.")
+@click.option("--param", "params", multiple=True, help="NAME=VALUE task parameter (repeatable).")
+@click.option("--metric", "metrics", multiple=True, help="Metric name, or NAME=WEIGHT.")
+@click.option("--bid-window", type=float, default=0.25, show_default=True)
+@click.option("--renew-period", type=float, default=0.5, show_default=True)
+@click.option("--contract-timeout", type=float, default=1.5, show_default=True)
+@click.option("--patience", type=float, default=None, help="Reintroduce while unachievable.")
+@click.option("--wait", type=float, default=600.0, show_default=True, help="Give up after.")
+@click.option("--seed", type=int, default=None, help="Seed for the reintroduction backoff.")
+@click.option("--quiet", is_flag=True, help="Print only the outcome.")
+@_network_options
+def announce(
+    name: str,
+    subjects: str,
+    duration: float,
+    params: tuple[str, ...],
+    metrics: tuple[str, ...],
+    bid_window: float,
+    renew_period: float,
+    contract_timeout: float,
+    patience: float | None,
+    wait: float,
+    seed: int | None,
+    quiet: bool,
+    group: str,
+    port: int,
+    key: str | None,
+) -> None:
+    """Auction one task and print its outcome (exit 0 only when completed)."""
+    metric_pairs = []
+    for item in metrics:
+        metric_name, _, weight = item.partition("=")
+        try:
+            metric_pairs.append((metric_name, float(weight) if weight else 1.0))
+        except ValueError:
+            raise click.BadParameter(f"{item!r} is not NAME or NAME=WEIGHT") from None
+    try:
+        spec = TaskSpec(
+            name=name,
+            subjects=_subjects(subjects) or frozenset(),
+            params=_parse_params(params),
+            duration_s=duration,
+            metrics=tuple(metric_pairs),
+            bid_window_s=bid_window,
+            renew_period_s=renew_period,
+            contract_timeout_s=contract_timeout,
+            abandon_after_s=contract_timeout,
+        )
+    except ValueError as exc:
+        raise click.BadParameter(str(exc)) from None
+    clock = time.monotonic
+    rng = random.Random(seed)
+    sender = f"announce-{os.getpid()}-{rng.getrandbits(24):06x}"
+    transport = MulticastTransport(sender, clock, _config(group, port), key=_key(key))
+    outcomes: list[Outcome] = []
+
+    def show(event: AuctionEvent) -> None:
+        if not quiet:
+            detail = " ".join(f"{k}={v}" for k, v in event.detail.items())
+            click.echo(f"{event.kind:<12} {event.task_id}#{event.attempt} {detail}")
+
+    node = Node(
+        transport,
+        clock,
+        agent_id=sender,
+        on_outcome=outcomes.append,
+        observer=show,
+        backoff=RandomizedBackoff(rng, base_s=max(bid_window, 0.5), cap_s=30.0),
+    )
+    deadline = clock() + wait
+    try:
+        node.announce(spec, patience_s=patience)
+        while not outcomes and clock() < deadline:
+            node.step(timeout_s=0.01)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        node.close()
+        transport.close()
+    if not outcomes:
+        click.echo(json.dumps({"task": name, "status": "unknown", "reason": "gave up waiting"}))
+        sys.exit(3)
+    outcome = outcomes[0]
+    click.echo(
+        json.dumps(
+            {
+                "task_id": outcome.task_id,
+                "task": outcome.name,
+                "status": outcome.status,
+                "reason": outcome.reason,
+                "winner": outcome.winner,
+                "attempts": outcome.attempts,
+            }
+        )
+    )
+    sys.exit(0 if outcome.status == "completed" else 1)

@@ -1,0 +1,138 @@
+"""A stand-alone bidder process for demonstrations, tests and benchmarks.
+
+It joins the multicast group with some resource subjects, bids a fixed score on every task it
+hears, "executes" an awarded task by waiting the task's `duration_s` on its clock while
+reporting progress, then reports completion. It prints one line per event on stdout (JSON)
+and exits after `--lifetime` seconds. Run it as ``python -m murdoch.sample_bidder``.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from collections.abc import Callable
+
+import click
+
+from murdoch.auction.bidder import Contract
+from murdoch.auction.messages import Announce, AuctionEvent
+from murdoch.auth import TeamKey
+from murdoch.multicast import DEFAULT_GROUP, DEFAULT_PORT, MulticastConfig, MulticastTransport
+from murdoch.node import Node
+
+
+class TimedExecutor:
+    """Completes each contract once its announced duration has passed on the clock."""
+
+    def __init__(self, node_ref: list[Node]) -> None:
+        self._node_ref = node_ref
+        self.current: Contract | None = None
+
+    def start(self, contract: Contract) -> None:
+        self.current = contract
+        if contract.announce.duration_s <= 0.0:
+            self.current = None
+            self._node_ref[0].complete(contract.task_id, "done")
+
+    def stop(self, contract: Contract, reason: str) -> None:
+        del contract, reason
+        self.current = None
+
+    def step(self, now: float) -> None:
+        contract = self.current
+        if contract is None:
+            return
+        node = self._node_ref[0]
+        elapsed = now - contract.awarded_at
+        duration = contract.announce.duration_s
+        if elapsed >= duration:
+            self.current = None
+            node.complete(contract.task_id, "done")
+        else:
+            node.progress(contract.task_id, elapsed / duration)
+
+
+@click.command()
+@click.option("--name", required=True, help="Agent id (a subject-safe name).")
+@click.option("--score", type=float, required=True, help="The score bid on every task.")
+@click.option("--subjects", default="camera,mobile", show_default=True)
+@click.option("--group", default=DEFAULT_GROUP, show_default=True)
+@click.option("--port", type=int, default=DEFAULT_PORT, show_default=True)
+@click.option("--key", default=None, help="Shared team key (enables authentication).")
+@click.option("--lifetime", type=float, default=30.0, show_default=True, help="Seconds to run.")
+@click.option("--quiet", is_flag=True, help="Print only the ready line.")
+@click.option(
+    "--batch-ms", type=float, default=0.0, show_default=True,
+    help="Rest this long after handling traffic while bids are out (read bursts at once).",
+)
+def main(
+    name: str,
+    score: float,
+    subjects: str,
+    group: str,
+    port: int,
+    key: str | None,
+    lifetime: float,
+    quiet: bool,
+    batch_ms: float,
+) -> None:
+    clock = time.monotonic
+
+    def show(event: AuctionEvent) -> None:
+        if not quiet:
+            print(json.dumps(event.to_dict()), flush=True)
+
+    def metric(announce: Announce) -> float:
+        del announce
+        return score
+
+    node_ref: list[Node] = []
+    executor = TimedExecutor(node_ref)
+    transport = MulticastTransport(
+        name, clock, MulticastConfig(group=group, port=port), key=TeamKey(key) if key else None
+    )
+    node = Node(
+        transport,
+        clock,
+        subjects=subjects,
+        metric=metric,
+        on_start=executor.start,
+        on_stop=executor.stop,
+        observer=show,
+    )
+    node_ref.append(node)
+    print(json.dumps({"ready": name}), flush=True)
+    try:
+        run(node, executor, clock, time.sleep, lifetime, batch_ms / 1000.0)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        node.close()
+        transport.close()
+    sys.exit(0)
+
+
+def run(
+    node: Node,
+    executor: TimedExecutor,
+    clock: Callable[[], float],
+    sleep: Callable[[float], None],
+    lifetime_s: float,
+    batch_s: float,
+) -> None:
+    """The bidder's loop: wait for traffic, handle it, advance the task, for `lifetime_s`.
+
+    With `batch_s`, after handling traffic while bids are out (the other bids of the round are
+    arriving) the loop rests, so that they are read in one go instead of one wake-up each.
+    """
+    end = clock() + lifetime_s
+    while clock() < end:
+        handled = node.step(timeout_s=0.05)
+        executor.step(clock())
+        if handled and batch_s > 0 and node.bidder is not None and node.bidder.pending_bids:
+            sleep(batch_s)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,306 @@
+"""The transport interface and the receive pipeline every transport shares.
+
+The interface is deliberately small::
+
+    transport.publish(subjects, message) -> int          # datagram size in bytes
+    sub = transport.subscribe(subjects, callback=None)   # a Subscription handle
+    transport.poll(timeout_s=0.0) -> int                 # receive and dispatch; count delivered
+    transport.counters                                   # Counters: per kind, sent/received
+    transport.close()
+
+`subjects` is any iterable of subject names (or a comma-separated string), or None for a
+monitor that hears every message whatever its subjects (listeners, loggers); `message` is a
+frozen dataclass instance whose class is in the transport's `Codec`. A `Subscription` is a
+context manager; it receives each message whose subject set is a subset of its own subjects,
+either through `callback(envelope)` (called from inside `poll`) or, without a callback, in a
+bounded queue read with `drain()`. `update(subjects)` changes what it listens to in place;
+`close()` stops it. Every transport delivers a publisher's own messages to its own matching
+subscriptions too (multicast loops them back), so all transports behave alike.
+
+`EndpointCore` holds what is common: sequence numbering, signing, the receive pipeline
+(size check, tag check, frame decode, replay check, body decode, subject match, dispatch) and
+the counters. Transports only move bytes.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections import deque
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from types import TracebackType
+from typing import Any, Protocol
+
+from murdoch.auth import ReplayWindow, TeamKey, is_signed, strip_tag
+from murdoch.subjects import SubjectIndex, SubjectSet, subject_set
+from murdoch.wire import Codec, Envelope, Frame, WireError
+
+log = logging.getLogger(__name__)
+
+Clock = Callable[[], float]
+Callback = Callable[[Envelope], None]
+
+
+@dataclass
+class KindCount:
+    sent_msgs: int = 0
+    sent_bytes: int = 0
+    recv_msgs: int = 0
+    recv_bytes: int = 0
+
+
+@dataclass
+class Counters:
+    """Messages and bytes per kind, plus dropped datagrams per reason."""
+
+    kinds: dict[str, KindCount] = field(default_factory=dict)
+    dropped: dict[str, int] = field(default_factory=dict)
+
+    def count_sent(self, kind: str, size: int) -> None:
+        entry = self.kinds.setdefault(kind, KindCount())
+        entry.sent_msgs += 1
+        entry.sent_bytes += size
+
+    def count_received(self, kind: str, size: int) -> None:
+        entry = self.kinds.setdefault(kind, KindCount())
+        entry.recv_msgs += 1
+        entry.recv_bytes += size
+
+    def count_dropped(self, reason: str) -> None:
+        self.dropped[reason] = self.dropped.get(reason, 0) + 1
+
+    def sent(self, kind: str | None = None) -> int:
+        return sum(c.sent_msgs for k, c in self.kinds.items() if kind in (None, k))
+
+    def received(self, kind: str | None = None) -> int:
+        return sum(c.recv_msgs for k, c in self.kinds.items() if kind in (None, k))
+
+    def snapshot(self) -> dict[str, Any]:
+        """A JSON-friendly copy, for run summaries."""
+        return {
+            "kinds": {
+                k: {
+                    "sent_msgs": c.sent_msgs,
+                    "sent_bytes": c.sent_bytes,
+                    "recv_msgs": c.recv_msgs,
+                    "recv_bytes": c.recv_bytes,
+                }
+                for k, c in sorted(self.kinds.items())
+            },
+            "dropped": dict(sorted(self.dropped.items())),
+        }
+
+
+class Subscription:
+    """A handle on one subscription; close it (or use `with`) to stop receiving."""
+
+    def __init__(
+        self,
+        core: EndpointCore,
+        key: int,
+        callback: Callback | None,
+        queue_limit: int,
+    ) -> None:
+        self._core = core
+        self.key = key
+        self._callback = callback
+        self._queue: deque[Envelope] = deque()
+        self._queue_limit = queue_limit
+        self.overflowed = 0
+        self.closed = False
+
+    @property
+    def subjects(self) -> SubjectSet | None:
+        """The subjects listened to; None for a monitor."""
+        return self._core.subjects_of(self.key) if not self.closed else frozenset()
+
+    def update(self, subjects: Iterable[str] | str | None) -> None:
+        """Listen to `subjects` from now on (an empty set hears only subject-less messages)."""
+        if self.closed:
+            raise RuntimeError("subscription is closed")
+        self._core.set_subjects(self.key, None if subjects is None else subject_set(subjects))
+
+    def drain(self) -> list[Envelope]:
+        """Queued envelopes in arrival order (empty for callback subscriptions)."""
+        items = list(self._queue)
+        self._queue.clear()
+        return items
+
+    def close(self) -> None:
+        if not self.closed:
+            self.closed = True
+            self._core.remove(self.key)
+
+    def __enter__(self) -> Subscription:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    def _deliver(self, envelope: Envelope) -> None:
+        if self._callback is not None:
+            self._callback(envelope)
+            return
+        if len(self._queue) >= self._queue_limit:
+            self._queue.popleft()
+            self.overflowed += 1
+        self._queue.append(envelope)
+
+
+class Transport(Protocol):
+    """What the auction layer and the consensus allocators need from a transport."""
+
+    @property
+    def sender_id(self) -> str: ...
+
+    @property
+    def counters(self) -> Counters: ...
+
+    @property
+    def codec(self) -> Codec: ...
+
+    def publish(self, subjects: Iterable[str] | str, message: Any) -> int: ...
+
+    def subscribe(
+        self,
+        subjects: Iterable[str] | str | None,
+        callback: Callback | None = None,
+        queue_limit: int = 4096,
+    ) -> Subscription: ...
+
+    def poll(self, timeout_s: float = 0.0) -> int: ...
+
+    def close(self) -> None: ...
+
+
+class EndpointCore:
+    """Encoding, counting and the receive pipeline shared by all transports."""
+
+    def __init__(
+        self,
+        sender_id: str,
+        codec: Codec,
+        clock: Clock,
+        key: TeamKey | None = None,
+        replay_window: int = 1024,
+    ) -> None:
+        if not sender_id or len(sender_id) > 80:
+            raise ValueError("sender_id must be 1-80 characters")
+        self.sender_id = sender_id
+        self.codec = codec
+        self.clock = clock
+        self.key = key
+        self.counters = Counters()
+        self._replay = ReplayWindow(replay_window)
+        self._index = SubjectIndex()
+        self._monitors: set[int] = set()
+        self._subs: dict[int, Subscription] = {}
+        self._next_key = 0
+        self._seq = 0
+        self._lock = threading.RLock()
+        self.frame_tap: Callable[[Frame, int], None] | None = None
+        """Called with every accepted frame and its size, known kind or not (for listeners)."""
+
+    # -- subscriptions
+    def subscribe(
+        self,
+        subjects: Iterable[str] | str | None,
+        callback: Callback | None = None,
+        queue_limit: int = 4096,
+    ) -> Subscription:
+        wanted = None if subjects is None else subject_set(subjects)
+        with self._lock:
+            key = self._next_key
+            self._next_key += 1
+            sub = Subscription(self, key, callback, queue_limit)
+            self._subs[key] = sub
+            self.set_subjects(key, wanted)
+            return sub
+
+    def subjects_of(self, key: int) -> SubjectSet | None:
+        with self._lock:
+            return None if key in self._monitors else self._index.subjects_of(key)
+
+    def set_subjects(self, key: int, subjects: SubjectSet | None) -> None:
+        with self._lock:
+            if subjects is None:
+                self._index.remove(key)
+                self._monitors.add(key)
+            else:
+                self._monitors.discard(key)
+                self._index.set(key, subjects)
+
+    def remove(self, key: int) -> None:
+        with self._lock:
+            self._index.remove(key)
+            self._monitors.discard(key)
+            self._subs.pop(key, None)
+
+    # -- sending
+    def encode(self, subjects: Iterable[str] | str, message: Any) -> bytes:
+        """Datagram bytes for `message`, numbered, signed when keyed, and counted as sent."""
+        subject_fs = subject_set(subjects)
+        with self._lock:
+            seq = self._seq
+            self._seq += 1
+            data = self.codec.encode_frame(self.sender_id, seq, subject_fs, message)
+            if self.key is not None:
+                data = self.key.sign(data)
+            self.counters.count_sent(message.KIND, len(data))
+        return data
+
+    # -- receiving
+    def receive(self, datagram: bytes) -> int:
+        """Run one datagram through the pipeline; return how many subscriptions got it."""
+        with self._lock:
+            try:
+                frame = self._accept(datagram)
+                keys = self._index.match(frame.subjects)
+                if self._monitors:
+                    keys = sorted(set(keys) | self._monitors)
+                if not keys:
+                    # nobody listens: the body is not decoded, but the kind must be known
+                    if not self.codec.knows(frame.kind):
+                        raise WireError("unknown_kind", f"kind {frame.kind!r}")
+                    self.counters.count_received(frame.kind, len(datagram))
+                    self.counters.count_dropped("unmatched")
+                    return 0
+                message = self.codec.message_of(frame)
+            except WireError as exc:
+                self.counters.count_dropped(exc.reason)
+                log.debug("dropped datagram (%s)", exc)
+                return 0
+            self.counters.count_received(frame.kind, len(datagram))
+            envelope = Envelope(
+                sender=frame.sender,
+                seq=frame.seq,
+                subjects=frame.subjects,
+                message=message,
+                size_bytes=len(datagram),
+                received_at=self.clock(),
+            )
+            targets = [self._subs[k] for k in keys]
+        for sub in targets:
+            if not sub.closed:
+                sub._deliver(envelope)
+        return len(targets)
+
+    def _accept(self, datagram: bytes) -> Frame:
+        if len(datagram) > self.codec.max_datagram_bytes:
+            raise WireError("too_large", f"{len(datagram)} bytes")
+        if self.key is not None:
+            plain = self.key.verify(datagram)
+        else:
+            plain = strip_tag(datagram) if is_signed(datagram) else datagram
+        frame = self.codec.parse_frame(plain)
+        if self.key is not None and not self._replay.accept(frame.sender, frame.seq):
+            raise WireError("replayed", f"{frame.sender}#{frame.seq}")
+        if self.frame_tap is not None:
+            self.frame_tap(frame, len(datagram))
+        return frame

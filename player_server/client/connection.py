@@ -1,0 +1,320 @@
+"""A blocking Player client with libplayerc's shape.
+
+::
+
+    with PlayerClient("127.0.0.1", 6665) as client:      # banner, then PULL mode
+        pos = client.subscribe(Position2dProxy, 0)
+        laser = client.subscribe(LaserProxy, 0)
+        while ...:
+            client.read()                     # one full data round (REQ DATA ... SYNCH)
+            pos.set_velocity(0.2, 0.0)         # commands return at once
+            print(client.data_time_s, pos.x, min(laser.ranges))
+
+``read()`` in PULL mode asks for a round, then dispatches each DATA to the proxy with the
+same interface and index until the SYNCH; requests wait for their ACK/NACK (DATA that
+arrives meanwhile is kept for the next ``read``). Requests and reads are serialised with
+a lock; commands may be sent from any thread.
+
+Lockstep servers count a PULL client that subscribes to position2d as a participant that
+the simulation waits for. Pass ``lockstep=False`` for observers that must not hold the
+simulation (``True`` forces participation). In lockstep, send a tick's commands before the
+next ``read()``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import socket
+import struct
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+from player_server.client.errors import PlayerConnectionError, PlayerNack, PlayerTimeout
+from player_server.client.proxy import Proxy
+from player_server.protocol import constants as c
+from player_server.protocol import player_msgs as pm
+from player_server.protocol.codec import NEED_DATA, Decoder, Undecodable, encode_message
+from player_server.protocol.common import DevAddr
+from player_server.protocol.constants import MsgType
+from player_server.protocol.errors import FrameError
+from player_server.protocol.header import Message
+
+log = logging.getLogger(__name__)
+
+P = TypeVar("P", bound=Proxy)
+
+_DATA, _CMD, _REQ = int(MsgType.DATA), int(MsgType.CMD), int(MsgType.REQ)
+_ACK, _NACK, _SYNCH = int(MsgType.RESP_ACK), int(MsgType.RESP_NACK), int(MsgType.SYNCH)
+_PLAYER = int(c.Interface.PLAYER)
+#: longest single wait inside a receive; timeouts are checked between slices
+_RECV_SLICE_S = 0.1
+
+
+class PlayerClient:
+    """One TCP connection to one port (robot) of a Player server."""
+
+    def __init__(
+        self,
+        host: str = "127.0.0.1",
+        port: int = c.DEFAULT_PORT,
+        *,
+        timeout_s: float = 5.0,
+        read_timeout_s: float = 60.0,
+        lockstep: bool | None = None,
+        mode: int = c.PLAYER_DATAMODE_PULL,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.host = host
+        self.port = port
+        self.timeout_s = timeout_s
+        self.read_timeout_s = read_timeout_s
+        self.lockstep = lockstep
+        self._wanted_mode = mode
+        self._clock = clock
+        self._sock: socket.socket | None = None
+        self._decoder = Decoder()
+        self._backlog: deque[Message] = deque()
+        self._io_lock = threading.RLock()
+        self._send_lock = threading.Lock()
+        self._round_outstanding = False
+        self.proxies: dict[tuple[int, int], Proxy] = {}
+        self.banner = ""
+        self.mode = c.PLAYER_DATAMODE_PUSH
+        self.data_time_s: float | None = None
+        self.overflow_count = 0
+        self.rounds = 0
+
+    # -- connection -------------------------------------------------------------------------
+    def connect(self, timeout_s: float | None = None) -> PlayerClient:
+        """Open the connection, read the banner and switch to the wanted data mode."""
+        timeout = self.timeout_s if timeout_s is None else timeout_s
+        try:
+            sock = socket.create_connection((self.host, self.port), timeout=timeout)
+        except OSError as exc:
+            raise PlayerConnectionError(
+                f"cannot connect to {self.host}:{self.port}: {exc}") from exc
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self._sock = sock
+        try:
+            banner = b""
+            deadline = self._clock() + timeout
+            while len(banner) < c.BANNER_SIZE:
+                sock.settimeout(max(deadline - self._clock(), 1e-3))
+                chunk = sock.recv(c.BANNER_SIZE - len(banner))
+                if not chunk:
+                    raise PlayerConnectionError("the server closed the connection at once")
+                banner += chunk
+            self.banner = banner.split(b"\0", 1)[0].decode("ascii", "replace")
+            try:
+                sock.settimeout(None)
+                sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVTIMEO,
+                                struct.pack("ll", 0, int(_RECV_SLICE_S * 1e6)))
+            except (OSError, struct.error):
+                sock.settimeout(_RECV_SLICE_S)  # no SO_RCVTIMEO: Python's own timeout
+            if self._wanted_mode != c.PLAYER_DATAMODE_PUSH:
+                self.set_datamode(self._wanted_mode)
+            if self.lockstep is not None:
+                try:
+                    self.request(_PLAYER, 0, c.PLAYER_SET_INTPROP_REQ,
+                                 pm.IntPropReq("lockstep", int(self.lockstep)))
+                except PlayerNack:
+                    log.info("the server has no lockstep property (not our server?)")
+        except (OSError, PlayerNack, PlayerTimeout) as exc:
+            self.close()
+            if isinstance(exc, PlayerConnectionError):
+                raise
+            raise PlayerConnectionError(f"handshake with {self.host}:{self.port} failed: "
+                                        f"{exc}") from exc
+        return self
+
+    def close(self) -> None:
+        sock, self._sock = self._sock, None
+        if sock is not None:
+            with contextlib.suppress(OSError):
+                sock.close()
+
+    @property
+    def connected(self) -> bool:
+        return self._sock is not None
+
+    def __enter__(self) -> PlayerClient:
+        if self._sock is None:
+            self.connect()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- low level --------------------------------------------------------------------------
+    def _send(self, wire: bytes) -> None:
+        sock = self._sock
+        if sock is None:
+            raise PlayerConnectionError("not connected")
+        with self._send_lock:
+            try:
+                sock.sendall(wire)
+            except OSError as exc:
+                self.close()
+                raise PlayerConnectionError(f"send failed: {exc}") from exc
+
+    def _next(self, deadline: float | None) -> Message:
+        """The next decoded message from the server (blocking until ``deadline``)."""
+        while True:
+            try:
+                ev = self._decoder.next_event()
+            except FrameError as exc:
+                self.close()
+                raise PlayerConnectionError(f"unframeable stream from server: {exc}") from exc
+            if isinstance(ev, Message):
+                return ev
+            if isinstance(ev, Undecodable):
+                log.warning("skipping a message that does not decode: %s", ev.reason)
+                if ev.header.type in (_ACK, _NACK):
+                    return Message(ev.header, None)
+                continue
+            assert ev is NEED_DATA
+            sock = self._sock
+            if sock is None:
+                raise PlayerConnectionError("not connected")
+            if deadline is not None and deadline - self._clock() <= 0:
+                raise PlayerTimeout("timed out waiting for the server")
+            try:
+                # a blocking recv bounded by SO_RCVTIMEO slices: one system call per
+                # receive (a Python socket timeout would add a poll() to each)
+                chunk = sock.recv(262144)
+            except (BlockingIOError, TimeoutError, InterruptedError):
+                continue  # a slice ended: check the deadline and wait again
+            except OSError as exc:
+                self.close()
+                raise PlayerConnectionError(f"receive failed: {exc}") from exc
+            if not chunk:
+                self.close()
+                raise PlayerConnectionError("the server closed the connection")
+            self._decoder.feed(chunk)
+
+    def _deadline(self, timeout_s: float | None, default: float) -> float | None:
+        t = default if timeout_s is None else timeout_s
+        return None if t <= 0 else self._clock() + t
+
+    # -- requests and commands ----------------------------------------------------------------
+    def request(
+        self,
+        interf: int,
+        index: int,
+        subtype: int,
+        body: Any = None,
+        timeout_s: float | None = None,
+    ) -> Any:
+        """Send a REQ and return the ACK's body (``None`` if empty).
+
+        Raises ``PlayerNack`` on a NACK and ``PlayerTimeout`` when no reply comes in time.
+        """
+        wire = encode_message(interf, index, _REQ, subtype, body, timestamp=self._clock())
+        with self._io_lock:
+            self._send(wire)
+            deadline = self._deadline(timeout_s, self.timeout_s)
+            while True:
+                msg = self._next(deadline)
+                h = msg.header
+                if h.type in (_ACK, _NACK):
+                    if (h.interf, h.index, h.subtype) != (interf, index, subtype):
+                        log.warning("discarding an unclaimed reply %s", h)
+                        continue
+                    if h.type == _NACK:
+                        raise PlayerNack(interf, index, subtype, msg.body)
+                    return msg.body
+                self._backlog.append(msg)
+
+    def command(self, interf: int, index: int, subtype: int, body: Any = None) -> None:
+        """Send a CMD (never answered)."""
+        self._send(encode_message(interf, index, _CMD, subtype, body, timestamp=self._clock()))
+
+    def set_datamode(self, mode: int) -> None:
+        self.request(_PLAYER, 0, c.PLAYER_REQ_DATAMODE, pm.DeviceDatamodeReq(mode))
+        self.mode = mode
+        self._round_outstanding = False
+
+    def set_replace_rule(self, replace: int, interf: int = -1, index: int = -1,
+                         msg_type: int = -1, subtype: int = -1) -> None:
+        self.request(_PLAYER, 0, c.PLAYER_REQ_ADD_REPLACE_RULE,
+                     pm.AddReplaceRuleReq(interf, index, msg_type, subtype, replace))
+
+    def devlist(self) -> tuple[DevAddr, ...]:
+        reply = self.request(_PLAYER, 0, c.PLAYER_REQ_DEVLIST)
+        return tuple(reply.devices) if reply is not None else ()
+
+    def driver_name(self, interf: int, index: int) -> str:
+        reply = self.request(_PLAYER, 0, c.PLAYER_REQ_DRIVERINFO,
+                             pm.DeviceDriverInfo(DevAddr(0, 0, interf, index), ""))
+        return str(reply.driver_name)
+
+    def is_lockstep_participant(self) -> bool:
+        reply = self.request(_PLAYER, 0, c.PLAYER_GET_INTPROP_REQ, pm.IntPropReq("lockstep", 0))
+        return bool(reply.value)
+
+    # -- proxies ------------------------------------------------------------------------------
+    def subscribe(self, proxy_cls: type[P], index: int = 0, timeout_s: float | None = None) -> P:
+        """Open a device and return its proxy (NACK -> ``PlayerNack``)."""
+        reply = self.request(
+            _PLAYER, 0, c.PLAYER_REQ_DEV,
+            pm.DeviceReq(DevAddr(0, 0, proxy_cls.interf, index), c.PLAYER_OPEN_MODE, ""),
+            timeout_s,
+        )
+        proxy = proxy_cls(self, index)
+        proxy.driver_name = reply.driver_name if reply is not None else ""
+        self.proxies[(proxy_cls.interf, index)] = proxy
+        return proxy
+
+    def unsubscribe(self, proxy: Proxy, timeout_s: float | None = None) -> None:
+        self.proxies.pop((proxy.interf, proxy.index), None)
+        self.request(
+            _PLAYER, 0, c.PLAYER_REQ_DEV,
+            pm.DeviceReq(DevAddr(0, 0, proxy.interf, proxy.index), c.PLAYER_CLOSE_MODE, ""),
+            timeout_s,
+        )
+
+    def _dispatch(self, msg: Message) -> Proxy | None:
+        h = msg.header
+        proxy = self.proxies.get((h.interf, h.index))
+        if proxy is None:
+            log.debug("data for %d:%d without a proxy", h.interf, h.index)
+            return None
+        proxy._on_data(h.subtype, msg.body, h.timestamp)
+        self.data_time_s = h.timestamp
+        return proxy
+
+    def read(self, timeout_s: float | None = None) -> list[Proxy]:
+        """Wait for one full data round (PULL) or one DATA (PUSH); return updated proxies."""
+        with self._io_lock:
+            deadline = self._deadline(timeout_s, self.read_timeout_s)
+            updated: list[Proxy] = []
+            if (self.mode == c.PLAYER_DATAMODE_PULL and not self._round_outstanding
+                    and not any(m.header.type == _SYNCH for m in self._backlog)):
+                self.request(_PLAYER, 0, c.PLAYER_REQ_DATA, None, timeout_s)
+                self._round_outstanding = True
+            got_data = False
+            while True:
+                msg = self._backlog.popleft() if self._backlog else self._next(deadline)
+                t = msg.header.type
+                if t == _DATA:
+                    p = self._dispatch(msg)
+                    got_data = True
+                    if p is not None and p not in updated:
+                        updated.append(p)
+                    if self.mode == c.PLAYER_DATAMODE_PUSH:
+                        return updated
+                elif t == _SYNCH:
+                    if msg.header.subtype == c.PLAYER_SYNCH_OVERFLOW and msg.body is not None:
+                        self.overflow_count += msg.body.dropped
+                    self._round_outstanding = False
+                    if self.mode == c.PLAYER_DATAMODE_PULL:
+                        self.rounds += 1
+                        if not got_data:
+                            log.warning("a data round without data")
+                        return updated
+                elif t in (_ACK, _NACK):
+                    log.warning("discarding an unclaimed reply %s", msg.header)

@@ -1,0 +1,85 @@
+"""The proxy base class: a subscribed device seen from the client."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, ClassVar
+
+from player_server.client.errors import PlayerNack
+from player_server.protocol import constants as c
+from player_server.protocol import player_msgs as pm
+
+if TYPE_CHECKING:
+    from player_server.client.connection import PlayerClient
+
+
+class Proxy:
+    """Latest values of one device plus its requests and commands.
+
+    Subclasses set ``interf`` and keep each DATA body they understand in an attribute
+    (frozen values, replaced and never mutated, so other threads may read them).
+    ``data_time_s`` is the simulation time of the latest DATA, ``data_count`` how many
+    arrived.
+    """
+
+    interf: ClassVar[int] = 0
+
+    def __init__(self, client: PlayerClient, index: int = 0) -> None:
+        self.client = client
+        self.index = index
+        self.driver_name = ""
+        self.data_time_s: float | None = None
+        self.data_count = 0
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {c.interface_name(self.interf)}:{self.index}>"
+
+    @property
+    def fresh(self) -> bool:
+        """True once at least one DATA has arrived."""
+        return self.data_count > 0
+
+    def _on_data(self, subtype: int, body: Any, timestamp: float) -> None:
+        self.data_time_s = timestamp
+        self.data_count += 1
+        self._update(subtype, body)
+
+    def _update(self, subtype: int, body: Any) -> None:
+        """Store one DATA body (override)."""
+
+    # -- requests and commands ----------------------------------------------------------------
+    def request(self, subtype: int, body: Any = None, timeout_s: float | None = None) -> Any:
+        return self.client.request(self.interf, self.index, subtype, body, timeout_s)
+
+    def command(self, subtype: int, body: Any = None) -> None:
+        self.client.command(self.interf, self.index, subtype, body)
+
+    def capable(self, msg_type: int, subtype: int) -> bool:
+        try:
+            self.request(c.PLAYER_CAPABILITIES_REQ, pm.CapabilitiesReq(msg_type, subtype))
+        except PlayerNack:
+            return False
+        return True
+
+    def get_int_prop(self, key: str) -> int:
+        return int(self.request(c.PLAYER_GET_INTPROP_REQ, pm.IntPropReq(key, 0)).value)
+
+    def set_int_prop(self, key: str, value: int) -> None:
+        self.request(c.PLAYER_SET_INTPROP_REQ, pm.IntPropReq(key, value))
+
+    def get_dbl_prop(self, key: str) -> float:
+        return float(self.request(c.PLAYER_GET_DBLPROP_REQ, pm.DblPropReq(key, 0.0)).value)
+
+    def set_dbl_prop(self, key: str, value: float) -> None:
+        self.request(c.PLAYER_SET_DBLPROP_REQ, pm.DblPropReq(key, value))
+
+    def get_str_prop(self, key: str) -> str:
+        return str(self.request(c.PLAYER_GET_STRPROP_REQ, pm.StrPropReq(key, "")).value)
+
+    def set_str_prop(self, key: str, value: str) -> None:
+        self.request(c.PLAYER_SET_STRPROP_REQ, pm.StrPropReq(key, value))
+
+    def get_bool_prop(self, key: str) -> bool:
+        return bool(self.request(c.PLAYER_GET_BOOLPROP_REQ, pm.BoolPropReq(key, 0)).value)
+
+    def set_bool_prop(self, key: str, value: bool) -> None:
+        self.request(c.PLAYER_SET_BOOLPROP_REQ, pm.BoolPropReq(key, int(value)))

@@ -1,0 +1,129 @@
+"""position2d: odometry out; velocity, position, car and heading commands in."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+from player_server.drivers.base import ACK, Driver, Reply, Unsupported, ack
+from player_server.drivers.geometry import body_geometry, finite, wrap_angle
+from player_server.protocol import actuator_msgs as am
+from player_server.protocol import constants as c
+from player_server.protocol.common import Pose2d
+from player_server.protocol.constants import Interface
+
+_NULL_REQUESTS = frozenset({
+    c.PLAYER_POSITION2D_REQ_VELOCITY_MODE, c.PLAYER_POSITION2D_REQ_POSITION_MODE,
+    c.PLAYER_POSITION2D_REQ_SPEED_PID, c.PLAYER_POSITION2D_REQ_POSITION_PID,
+    c.PLAYER_POSITION2D_REQ_SPEED_PROF,
+})
+
+
+def _numbers(body: Any) -> list[float]:
+    """Every float of a command body (nested poses included)."""
+    out: list[float] = []
+    for name in body.__slots__:
+        v = getattr(body, name)
+        if isinstance(v, float):
+            out.append(v)
+        elif hasattr(v, "__slots__"):
+            out.extend(_numbers(v))
+    return out
+
+
+class Position2dDriver(Driver):
+    """Differential drive. Position (CMD POS) and heading (CMD VEL_HEAD) goals are followed
+    by a proportional controller that sets the velocity before every simulation step."""
+
+    interf = int(Interface.POSITION2D)
+    commands = frozenset({1, 2, 3, 4})
+    requests = frozenset(range(1, 10))
+
+    def __init__(self, sim: Any, robot: Any, index: int = 0) -> None:
+        super().__init__(index, "sim_position2d")
+        self.sim = sim
+        self.robot = robot
+        self.spec = robot.devices.position2d
+        self.properties = {
+            "max_speed": float(self.spec.max_speed_mps),
+            "max_yaw_rate": float(self.spec.max_yaw_rate_radps),
+            "position_tolerance_m": 0.05,
+            "heading_tolerance_rad": 0.05,
+        }
+        self._goal: tuple[str, tuple[float, ...]] | None = None
+
+    def data(self) -> Sequence[tuple[int, Any]]:
+        o = self.sim.odometry(self.robot.name)
+        return ((c.PLAYER_POSITION2D_DATA_STATE, am.Position2dData(
+            Pose2d(o.x, o.y, o.yaw), Pose2d(o.vx, o.vy, o.vyaw), int(bool(o.stall)))),)
+
+    def _clamp(self, vx: float, vyaw: float) -> tuple[float, float]:
+        vmax = float(self.properties["max_speed"])
+        wmax = float(self.properties["max_yaw_rate"])
+        return max(-vmax, min(vmax, vx)), max(-wmax, min(wmax, vyaw))
+
+    def handle_command(self, subtype: int, body: Any) -> None:
+        name = self.robot.name
+        if body is None:
+            raise Unsupported("position2d commands need a body")
+        finite(*(float(v) for v in _numbers(body)))
+        if subtype == c.PLAYER_POSITION2D_CMD_VEL:
+            self._goal = None
+            vx, vyaw = self._clamp(body.vel.px, body.vel.pa)
+            self.sim.set_velocity(name, vx, vyaw)
+        elif subtype == c.PLAYER_POSITION2D_CMD_POS:
+            self._goal = ("pos", (body.pos.px, body.pos.py, body.pos.pa,
+                                  abs(body.vel.px) or float(self.properties["max_speed"])))
+        elif subtype == c.PLAYER_POSITION2D_CMD_CAR:
+            self._goal = None
+            wheelbase_m = max(float(self.robot.body.length_m), 1e-3)
+            vyaw = body.velocity * math.tan(body.angle) / wheelbase_m
+            self.sim.set_velocity(name, *self._clamp(body.velocity, vyaw))
+        elif subtype == c.PLAYER_POSITION2D_CMD_VEL_HEAD:
+            self._goal = ("head", (body.velocity, body.angle))
+        else:
+            raise Unsupported(f"position2d command {subtype}")
+
+    def before_step(self) -> None:
+        if self._goal is None:
+            return
+        kind, g = self._goal
+        o = self.sim.odometry(self.robot.name)
+        if kind == "head":
+            err = wrap_angle(g[1] - o.yaw)
+            self.sim.set_velocity(self.robot.name, *self._clamp(g[0], 2.0 * err))
+            return
+        gx, gy, gyaw, speed = g
+        dx, dy = gx - o.x, gy - o.y
+        dist = math.hypot(dx, dy)
+        if dist > float(self.properties["position_tolerance_m"]):
+            err = wrap_angle(math.atan2(dy, dx) - o.yaw)
+            vx = min(speed, 1.5 * dist) * max(0.0, math.cos(err)) ** 2
+            self.sim.set_velocity(self.robot.name, *self._clamp(vx, 2.0 * err))
+            return
+        err = wrap_angle(gyaw - o.yaw)
+        if abs(err) > float(self.properties["heading_tolerance_rad"]):
+            self.sim.set_velocity(self.robot.name, *self._clamp(0.0, 2.0 * err))
+            return
+        self.sim.set_velocity(self.robot.name, 0.0, 0.0)
+        self._goal = None
+
+    def handle_request(self, subtype: int, body: Any) -> Reply:
+        name = self.robot.name
+        if subtype == c.PLAYER_POSITION2D_REQ_GET_GEOM:
+            pose, size = body_geometry(self.robot)
+            return ack(am.Position2dGeom(pose, size))
+        if subtype == c.PLAYER_POSITION2D_REQ_MOTOR_POWER:
+            self.sim.set_motor_power(name, bool(body.state))
+            return ACK
+        if subtype == c.PLAYER_POSITION2D_REQ_SET_ODOM:
+            finite(body.pose.px, body.pose.py, body.pose.pa)
+            self.sim.set_odometry(name, body.pose.px, body.pose.py, body.pose.pa)
+            return ACK
+        if subtype == c.PLAYER_POSITION2D_REQ_RESET_ODOM:
+            self.sim.set_odometry(name, 0.0, 0.0, 0.0)
+            return ACK
+        if subtype in _NULL_REQUESTS and body is not None:
+            return ACK
+        raise Unsupported(f"position2d request {subtype}")

@@ -1,0 +1,129 @@
+"""Range sensors: sonar, laser and ranger."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from player_server.drivers.base import ACK, Driver, Reply, Unsupported, ack
+from player_server.drivers.geometry import mount_pose
+from player_server.protocol import constants as c
+from player_server.protocol import sensor_msgs as sm
+from player_server.protocol.common import Bbox3d
+from player_server.protocol.constants import Interface
+
+LASER_SIZE = Bbox3d(0.155, 0.185, 0.2)  # SICK LMS200 housing, w x l x h
+SONAR_SIZE = Bbox3d(0.04, 0.02, 0.04)
+
+
+def _ranges(values: Any) -> tuple[float, ...]:
+    """Plain non-negative floats (libplayerc asserts ranges >= 0; NaN becomes 0)."""
+    arr = np.nan_to_num(np.asarray(values, dtype=np.float64), nan=0.0, posinf=0.0, neginf=0.0)
+    return tuple(np.maximum(arr, 0.0).tolist())
+
+
+class SonarDriver(Driver):
+    interf = int(Interface.SONAR)
+    requests = frozenset({c.PLAYER_SONAR_REQ_GET_GEOM, c.PLAYER_SONAR_REQ_POWER})
+
+    def __init__(self, sim: Any, robot: Any, index: int = 0) -> None:
+        super().__init__(index, "sim_sonar")
+        self.sim = sim
+        self.robot = robot
+        self.spec = robot.devices.sonar
+        self.powered = True
+        self.properties = {"max_range": float(self.spec.max_range_m)}
+
+    def data(self) -> Sequence[tuple[int, Any]]:
+        return ((c.PLAYER_SONAR_DATA_RANGES, sm.SonarData(_ranges(self.sim.sonar(
+            self.robot.name)))),)
+
+    def geometry(self) -> sm.SonarGeom:
+        return sm.SonarGeom(tuple(mount_pose(m) for m in self.spec.poses))
+
+    def handle_request(self, subtype: int, body: Any) -> Reply:
+        if subtype == c.PLAYER_SONAR_REQ_GET_GEOM:
+            return ack(self.geometry())
+        if subtype == c.PLAYER_SONAR_REQ_POWER and body is not None:
+            self.powered = bool(body.state)
+            return ACK
+        raise Unsupported(f"sonar request {subtype}")
+
+
+class LaserDriver(Driver):
+    interf = int(Interface.LASER)
+    requests = frozenset({1, 2, 3, 4, 5})
+
+    def __init__(self, sim: Any, robot: Any, index: int = 0, serial_number: int = 0) -> None:
+        super().__init__(index, "sim_laser")
+        self.sim = sim
+        self.robot = robot
+        self.spec = robot.devices.laser
+        self.serial_number = serial_number
+        self.powered = True
+        self.properties = {"max_range": float(self.spec.max_range_m)}
+
+    def config(self) -> sm.LaserConfig:
+        s = self.spec
+        return sm.LaserConfig(s.min_angle_rad, s.max_angle_rad, s.resolution_rad,
+                              s.max_range_m, s.range_res_m, 0, s.frequency_hz)
+
+    def data(self) -> Sequence[tuple[int, Any]]:
+        s = self.spec
+        ranges = _ranges(self.sim.laser(self.robot.name))
+        res = s.resolution_rad if len(ranges) == s.samples else (
+            (s.max_angle_rad - s.min_angle_rad) / max(len(ranges) - 1, 1))
+        return ((c.PLAYER_LASER_DATA_SCAN, sm.LaserData(
+            s.min_angle_rad, s.max_angle_rad, res, s.max_range_m, ranges, b"",
+            int(self.sim.tick) & 0xFFFFFFFF)),)
+
+    def handle_request(self, subtype: int, body: Any) -> Reply:
+        if subtype == c.PLAYER_LASER_REQ_GET_GEOM:
+            return ack(sm.LaserGeom(mount_pose(self.spec.pose), LASER_SIZE))
+        if subtype == c.PLAYER_LASER_REQ_GET_CONFIG:
+            return ack(self.config())
+        if subtype == c.PLAYER_LASER_REQ_SET_CONFIG and body is not None:
+            return ack(self.config())  # the scan geometry is fixed by the world
+        if subtype == c.PLAYER_LASER_REQ_POWER and body is not None:
+            self.powered = bool(body.state)
+            return ACK
+        if subtype == c.PLAYER_LASER_REQ_GET_ID:
+            return ack(sm.LaserGetIdConfig(self.serial_number))
+        raise Unsupported(f"laser request {subtype}")
+
+
+class RangerDriver(Driver):
+    interf = int(Interface.RANGER)
+    requests = frozenset({1, 2, 3, 4, 5})
+
+    def __init__(self, sim: Any, robot: Any, index: int = 0) -> None:
+        super().__init__(index, "sim_ranger")
+        self.sim = sim
+        self.robot = robot
+        self.spec = robot.devices.ranger
+        self.properties = {"max_range": float(self.spec.max_range_m)}
+
+    def config(self) -> sm.RangerConfig:
+        s = self.spec
+        return sm.RangerConfig(s.min_angle_rad, s.max_angle_rad, s.resolution_rad,
+                               s.min_range_m, s.max_range_m, s.range_res_m, s.frequency_hz)
+
+    def geometry(self) -> sm.RangerGeom:
+        pose = mount_pose(self.spec.pose)
+        return sm.RangerGeom(pose, LASER_SIZE, (pose,), (LASER_SIZE,))
+
+    def data(self) -> Sequence[tuple[int, Any]]:
+        return ((c.PLAYER_RANGER_DATA_RANGE,
+                 sm.RangerDataRange(_ranges(self.sim.ranger(self.robot.name)))),)
+
+    def handle_request(self, subtype: int, body: Any) -> Reply:
+        if subtype == c.PLAYER_RANGER_REQ_GET_GEOM:
+            return ack(self.geometry())
+        if subtype in (c.PLAYER_RANGER_REQ_GET_CONFIG, c.PLAYER_RANGER_REQ_SET_CONFIG):
+            return ack(self.config())  # SET answers with the resulting (fixed) config
+        if subtype in (c.PLAYER_RANGER_REQ_POWER, c.PLAYER_RANGER_REQ_INTNS) and body is not None:
+            return ACK
+        raise Unsupported(f"ranger request {subtype}")
+

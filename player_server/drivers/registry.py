@@ -1,0 +1,56 @@
+"""Which drivers a robot (or the overhead camera) gets, from its world spec."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from player_server.drivers.base import Driver
+from player_server.drivers.body import BumperDriver, GripperDriver, PowerDriver
+from player_server.drivers.overhead import OverheadBlobfinderDriver, OverheadFiducialDriver
+from player_server.drivers.position2d import Position2dDriver
+from player_server.drivers.ranging import LaserDriver, RangerDriver, SonarDriver
+from player_server.drivers.simulation import SimulationDriver
+from player_server.drivers.vision import (
+    BlobfinderDriver,
+    CameraDriver,
+    FiducialDriver,
+    PtzDriver,
+)
+
+DeviceKey = tuple[int, int]
+
+_BY_DEVICE: dict[str, Any] = {
+    "position2d": Position2dDriver,
+    "sonar": SonarDriver,
+    "laser": LaserDriver,
+    "ranger": RangerDriver,
+    "camera": CameraDriver,
+    "blobfinder": BlobfinderDriver,
+    "bumper": BumperDriver,
+    "gripper": GripperDriver,
+    "ptz": PtzDriver,
+    "power": PowerDriver,
+    "fiducial": FiducialDriver,
+}
+
+
+def _keyed(drivers: list[Driver]) -> dict[DeviceKey, Driver]:
+    return {(d.interf, d.index): d for d in drivers}
+
+
+def robot_drivers(sim: Any, robot: Any) -> dict[DeviceKey, Driver]:
+    """Drivers for every device the robot declares, plus simulation:0."""
+    drivers: list[Driver] = []
+    for name in robot.devices.names():
+        cls = _BY_DEVICE.get(name)
+        if cls is None:
+            raise ValueError(f"robot {robot.name!r}: no driver for device {name!r}")
+        drivers.append(cls(sim, robot))
+    drivers.append(SimulationDriver(sim))
+    return _keyed(drivers)
+
+
+def overhead_drivers(sim: Any, world: Any) -> dict[DeviceKey, Driver]:
+    """Blobfinder:0, fiducial:0 and simulation:0 of the overhead camera."""
+    return _keyed([OverheadBlobfinderDriver(sim, world), OverheadFiducialDriver(sim, world),
+                   SimulationDriver(sim)])

@@ -1,0 +1,148 @@
+"""Seeing devices: camera, blobfinder, fiducial detector and the pan-tilt-zoom head."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+from player_server.drivers.base import ACK, Driver, Reply, Unsupported, ack
+from player_server.drivers.geometry import mount_pose
+from player_server.protocol import actuator_msgs as am
+from player_server.protocol import constants as c
+from player_server.protocol import sensor_msgs as sm
+from player_server.protocol.common import Bbox2d, Bbox3d, Pose3d
+from player_server.protocol.constants import Interface
+
+CAMERA_SIZE = Bbox3d(0.1, 0.1, 0.1)
+
+
+def encode_image(image: Any, jpeg: bool, quality: int) -> sm.CameraData:
+    """An (H, W, 3) uint8 RGB array as camera data, raw RGB888 or JPEG."""
+    height, width = int(image.shape[0]), int(image.shape[1])
+    if jpeg:
+        import cv2  # only needed when JPEG is asked for
+
+        ok, buf = cv2.imencode(".jpg", image[:, :, ::-1], [cv2.IMWRITE_JPEG_QUALITY, quality])
+        if not ok:
+            raise ValueError("JPEG encoding failed")
+        return sm.CameraData(width, height, 24, c.PLAYER_CAMERA_FORMAT_RGB888, 0,
+                             c.PLAYER_CAMERA_COMPRESS_JPEG, buf.tobytes())
+    return sm.CameraData(width, height, 24, c.PLAYER_CAMERA_FORMAT_RGB888, 0,
+                         c.PLAYER_CAMERA_COMPRESS_RAW, image.tobytes())
+
+
+class CameraDriver(Driver):
+    """Rendered RGB images (raw by default; the bool property ``jpeg`` compresses)."""
+
+    interf = int(Interface.CAMERA)
+    requests = frozenset({c.PLAYER_CAMERA_REQ_GET_SOURCE, c.PLAYER_CAMERA_REQ_GET_IMAGE})
+
+    def __init__(self, sim: Any, robot: Any, index: int = 0) -> None:
+        super().__init__(index, "sim_camera")
+        self.sim = sim
+        self.robot = robot
+        self.spec = robot.devices.camera
+        self.properties = {"jpeg": False, "jpeg_quality": 80}
+
+    def image(self) -> sm.CameraData:
+        img = self.sim.camera_image(self.robot.name)
+        return encode_image(img, bool(self.properties["jpeg"]),
+                            int(self.properties["jpeg_quality"]))
+
+    def data(self) -> Sequence[tuple[int, Any]]:
+        return ((c.PLAYER_CAMERA_DATA_STATE, self.image()),)
+
+    def handle_request(self, subtype: int, body: Any) -> Reply:
+        if subtype == c.PLAYER_CAMERA_REQ_GET_IMAGE:
+            return ack(self.image())
+        if subtype == c.PLAYER_CAMERA_REQ_GET_SOURCE:
+            return ack(sm.CameraSourceReq("UNKNOWN", 0))
+        raise Unsupported(f"camera request {subtype}")
+
+
+class BlobfinderDriver(Driver):
+    interf = int(Interface.BLOBFINDER)
+
+    def __init__(self, sim: Any, robot: Any, index: int = 0) -> None:
+        super().__init__(index, "sim_blobfinder")
+        self.sim = sim
+        self.robot = robot
+        cam = robot.devices.camera
+        self.width = int(cam.width_px) if cam is not None else 0
+        self.height = int(cam.height_px) if cam is not None else 0
+
+    def data(self) -> Sequence[tuple[int, Any]]:
+        blobs = tuple(
+            sm.BlobfinderBlob(b.id, b.colour & 0xFFFFFF, b.area, b.x, b.y, b.l, b.r, b.t, b.b,
+                              float(b.range_m))
+            for b in self.sim.blobs(self.robot.name)
+        )
+        return ((c.PLAYER_BLOBFINDER_DATA_BLOBS,
+                 sm.BlobfinderData(self.width, self.height, blobs)),)
+
+
+class FiducialDriver(Driver):
+    interf = int(Interface.FIDUCIAL)
+    requests = frozenset({c.PLAYER_FIDUCIAL_REQ_GET_GEOM, c.PLAYER_FIDUCIAL_REQ_GET_FOV,
+                          c.PLAYER_FIDUCIAL_REQ_GET_ID})
+
+    def __init__(self, sim: Any, robot: Any, index: int = 0) -> None:
+        super().__init__(index, "sim_fiducial")
+        self.sim = sim
+        self.robot = robot
+        self.spec = robot.devices.fiducial
+
+    def data(self) -> Sequence[tuple[int, Any]]:
+        items = tuple(
+            sm.FiducialItem(int(f.id), Pose3d(f.x, f.y, 0.0, 0.0, 0.0, f.yaw), Pose3d())
+            for f in self.sim.fiducials(self.robot.name)
+        )
+        return ((c.PLAYER_FIDUCIAL_DATA_SCAN, sm.FiducialData(items)),)
+
+    def handle_request(self, subtype: int, body: Any) -> Reply:
+        if subtype == c.PLAYER_FIDUCIAL_REQ_GET_GEOM:
+            return ack(sm.FiducialGeom(mount_pose(self.spec.pose), CAMERA_SIZE,
+                                       Bbox2d(0.1, 0.1)))
+        if subtype == c.PLAYER_FIDUCIAL_REQ_GET_FOV:
+            s = self.spec
+            return ack(sm.FiducialFov(s.min_range_m, s.max_range_m, s.fov_rad))
+        if subtype == c.PLAYER_FIDUCIAL_REQ_GET_ID:
+            return ack(sm.FiducialId(int(self.robot.fiducial_id)))
+        raise Unsupported(f"fiducial request {subtype}")
+
+
+class PtzDriver(Driver):
+    interf = int(Interface.PTZ)
+    commands = frozenset({c.PLAYER_PTZ_CMD_STATE})
+    requests = frozenset({c.PLAYER_PTZ_REQ_CONTROL_MODE, c.PLAYER_PTZ_REQ_GEOM,
+                          c.PLAYER_PTZ_REQ_STATUS})
+
+    def __init__(self, sim: Any, robot: Any, index: int = 0) -> None:
+        super().__init__(index, "sim_ptz")
+        self.sim = sim
+        self.robot = robot
+
+    def data(self) -> Sequence[tuple[int, Any]]:
+        p = self.sim.ptz(self.robot.name)
+        return ((c.PLAYER_PTZ_DATA_STATE,
+                 am.PtzData(p.pan, p.tilt, p.zoom, p.pan_speed, p.tilt_speed, 0)),)
+
+    def handle_command(self, subtype: int, body: Any) -> None:
+        if subtype != c.PLAYER_PTZ_CMD_STATE or body is None:
+            raise Unsupported(f"ptz command {subtype}")
+        zoom = body.zoom if body.zoom > 0 else self.sim.ptz(self.robot.name).zoom
+        if not all(math.isfinite(v) for v in (body.pan, body.tilt, zoom)):
+            raise ValueError("ptz targets must be finite")
+        self.sim.ptz_command(self.robot.name, body.pan, body.tilt, zoom)
+
+    def handle_request(self, subtype: int, body: Any) -> Reply:
+        if subtype == c.PLAYER_PTZ_REQ_GEOM:
+            cam = self.robot.devices.camera
+            pose = mount_pose(cam.pose) if cam is not None else Pose3d()
+            return ack(am.PtzGeom(pose, CAMERA_SIZE))
+        if subtype == c.PLAYER_PTZ_REQ_STATUS:
+            return ack(am.PtzReqStatus(0))
+        if subtype == c.PLAYER_PTZ_REQ_CONTROL_MODE and body is not None and body.mode == 1:
+            return ACK  # position control only
+        raise Unsupported(f"ptz request {subtype}")

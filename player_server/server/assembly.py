@@ -1,0 +1,31 @@
+"""Building endpoints (robot -> port -> drivers) for a world and its simulator."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from player_server.drivers.registry import overhead_drivers, robot_drivers
+from player_server.server.endpoint import Endpoint
+
+
+def world_endpoints(world: Any, sim: Any, base_port: int) -> list[Endpoint]:
+    """One endpoint per robot on base_port, base_port + 1, ...; the overhead camera last.
+
+    With ``base_port`` 0 every endpoint gets an ephemeral port.
+    """
+    endpoints: list[Endpoint] = []
+
+    def port(i: int) -> int:
+        return 0 if base_port == 0 else base_port + i
+
+    for i, robot in enumerate(world.robots):
+        endpoints.append(Endpoint(robot.name, robot_drivers(sim, robot), requested_port=port(i),
+                                  mobile=bool(robot.mobile)))
+    if world.overhead_camera is not None:
+        endpoints.append(Endpoint(world.overhead_camera.name, overhead_drivers(sim, world),
+                                  requested_port=port(len(world.robots)), mobile=False))
+    return endpoints
+
+
+def all_drivers(endpoints: list[Endpoint]) -> list[Any]:
+    return [d for ep in endpoints for d in ep.drivers.values()]

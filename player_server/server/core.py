@@ -1,0 +1,500 @@
+"""The sans-IO dispatch core: bytes in, queued messages out, no sockets.
+
+One ``ServerCore`` serves every endpoint (port) of a world. The TCP front end calls
+``open_session`` on accept, ``receive`` with whatever bytes arrived, ``take_output``
+when a socket can be written, ``close_session`` on disconnect; the stepping loop calls
+``publish`` after each simulation tick and asks ``lockstep_ready`` whether it may step.
+
+Data rounds (PULL mode): REQ DATA is ACKed at once; the round itself (the current DATA of
+every subscribed device, then SYNCH OK) is sent as soon as a round newer than the
+client's last one exists, i.e. a client sees each published round at most once and a
+round never goes out empty (with nothing to send the round waits). In PUSH mode every
+published round is queued for the client, subject to its replace rules (default:
+REPLACE, the latest value wins).
+
+Lockstep: when enabled, a *participant* is a client in PULL mode that holds a
+position2d subscription, unless it set the ``lockstep`` integer property of the
+``player`` device (1 = always a participant, 0 = never, -1 = automatic). The simulation
+may step only when at least ``lockstep_clients`` participants have been seen since start
+and every current participant has consumed the current round and asked for the next
+one. A participant that holds the gate for longer than ``lockstep_timeout_s`` is
+demoted to a monitor (logged). Monitors never hold the gate.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from player_server.drivers.base import Driver, Reply, Unsupported
+from player_server.protocol import constants as c
+from player_server.protocol import player_msgs as pm
+from player_server.protocol.codec import NEED_DATA, Decoder, Undecodable, encode_message
+from player_server.protocol.common import DevAddr
+from player_server.protocol.constants import Interface, MsgType
+from player_server.protocol.errors import EncodeError, FrameError
+from player_server.protocol.header import Message
+from player_server.server.endpoint import Endpoint
+from player_server.server.out_queue import DataKey, OutQueue
+
+log = logging.getLogger(__name__)
+
+_ACK = int(MsgType.RESP_ACK)
+_NACK = int(MsgType.RESP_NACK)
+_DATA = int(MsgType.DATA)
+_REQ = int(MsgType.REQ)
+_CMD = int(MsgType.CMD)
+_PLAYER = int(Interface.PLAYER)
+_POSITION2D = int(Interface.POSITION2D)
+_SYNCH_OK = encode_message(_PLAYER, 0, int(MsgType.SYNCH), c.PLAYER_SYNCH_OK)
+LOCKSTEP_PROPERTY = "lockstep"
+
+_PROP_TYPES: dict[int, type] = {
+    c.PLAYER_GET_INTPROP_REQ: int, c.PLAYER_SET_INTPROP_REQ: int,
+    c.PLAYER_GET_DBLPROP_REQ: float, c.PLAYER_SET_DBLPROP_REQ: float,
+    c.PLAYER_GET_STRPROP_REQ: str, c.PLAYER_SET_STRPROP_REQ: str,
+    c.PLAYER_GET_BOOLPROP_REQ: bool, c.PLAYER_SET_BOOLPROP_REQ: bool,
+}
+_PROP_GETS = {c.PLAYER_GET_INTPROP_REQ, c.PLAYER_GET_DBLPROP_REQ, c.PLAYER_GET_STRPROP_REQ,
+              c.PLAYER_GET_BOOLPROP_REQ}
+
+
+@dataclass(frozen=True)
+class CoreConfig:
+    lockstep: bool = False
+    lockstep_clients: int = 1
+    lockstep_timeout_s: float = 30.0
+    queue_limit: int = 1024
+    max_message_size: int = c.MAX_MESSAGE_SIZE
+    #: stop reading from a client while this many replies wait unsent
+    max_replies_waiting: int = 4096
+
+
+@dataclass
+class SessionCounters:
+    messages_in: int = 0
+    requests: int = 0
+    commands: int = 0
+    bad_messages: int = 0
+    nacks: int = 0
+    rounds: int = 0
+
+
+@dataclass(eq=False)
+class Session:
+    """One TCP connection: its subscriptions, data mode, rules, queue and round state."""
+
+    id: int
+    endpoint: Endpoint
+    decoder: Decoder
+    queue: OutQueue
+    peer: str = ""
+    mode: int = c.PLAYER_DATAMODE_PUSH
+    subs: dict[tuple[int, int], Driver] = field(default_factory=dict)
+    rules: list[pm.AddReplaceRuleReq] = field(default_factory=list)
+    round_pending: bool = False
+    last_round: int = -1
+    lockstep_override: bool | None = None
+    counted_as_participant: bool = False
+    stalled_since: float | None = None
+    closing: str | None = None
+    counters: SessionCounters = field(default_factory=SessionCounters)
+
+    @property
+    def wants_input(self) -> bool:
+        return self.closing is None
+
+    def __hash__(self) -> int:
+        return self.id
+
+
+@dataclass
+class CoreCounters:
+    sessions_opened: int = 0
+    sessions_closed_bad_input: int = 0
+    bad_messages: int = 0
+    rounds_published: int = 0
+    demoted: int = 0
+
+
+class ServerCore:
+    def __init__(
+        self,
+        endpoints: Sequence[Endpoint],
+        sim_time_s: Callable[[], float],
+        config: CoreConfig | None = None,
+    ) -> None:
+        self.endpoints = list(endpoints)
+        self.config = config or CoreConfig()
+        self._sim_time_s = sim_time_s
+        self._ids = itertools.count(1)
+        self.sessions: dict[int, Session] = {}
+        self.round_seq = 0
+        self._cache: dict[tuple[int, int, int], tuple[Any, list[tuple[DataKey, bytes]]]] = {}
+        #: bumped whenever a driver handles a request or command (state may have changed)
+        self._mutations = 0
+        self.participants_seen = 0
+        self.counters = CoreCounters()
+
+    # -- sessions -------------------------------------------------------------------------
+    def open_session(self, endpoint: Endpoint, peer: str = "") -> Session:
+        s = Session(
+            id=next(self._ids),
+            endpoint=endpoint,
+            decoder=Decoder(self.config.max_message_size),
+            queue=OutQueue(self.config.queue_limit),
+            peer=peer,
+        )
+        s.queue.push_reply(c.banner())
+        self.sessions[s.id] = s
+        self.counters.sessions_opened += 1
+        return s
+
+    def close_session(self, session: Session) -> None:
+        """Forget a connection and everything it subscribed to."""
+        session.subs.clear()
+        session.round_pending = False
+        self.sessions.pop(session.id, None)
+
+    def take_output(self, session: Session, max_bytes: int = 1 << 20) -> bytes:
+        return session.queue.take(max_bytes)
+
+    def has_output(self, session: Session) -> bool:
+        return len(session.queue) > 0
+
+    def accepting_input(self, session: Session) -> bool:
+        return (
+            session.closing is None
+            and session.queue.replies_waiting < self.config.max_replies_waiting
+        )
+
+    # -- input ----------------------------------------------------------------------------
+    def receive(self, session: Session, data: bytes) -> None:
+        """Feed bytes from a client; handles every complete message."""
+        if session.closing is not None:
+            return
+        session.decoder.feed(data)
+        while session.closing is None:
+            try:
+                ev = session.decoder.next_event()
+            except FrameError as exc:
+                self._bad(session, None, str(exc))
+                session.closing = str(exc)
+                self.counters.sessions_closed_bad_input += 1
+                log.warning("closing client %s on %s: %s", session.peer,
+                            session.endpoint.name, exc)
+                return
+            if ev is NEED_DATA:
+                return
+            session.counters.messages_in += 1
+            if isinstance(ev, Undecodable):
+                self._bad(session, ev.header, ev.reason)
+                if ev.header.type == _REQ:
+                    self._reply(session, ev.header.interf, ev.header.index,
+                                ev.header.subtype, None, ack=False)
+                continue
+            assert isinstance(ev, Message)
+            try:
+                self._dispatch(session, ev)
+            except Exception:  # a driver bug must not take the server down
+                log.exception("error handling %s from %s", ev.header, session.peer)
+                self._bad(session, ev.header, "internal error")
+                if ev.type == _REQ:
+                    self._reply(session, ev.interf, ev.index, ev.subtype, None, ack=False)
+
+    def _bad(self, session: Session, header: Any, reason: str) -> None:
+        session.counters.bad_messages += 1
+        self.counters.bad_messages += 1
+        log.warning("bad message from %s on %s (%s): %s", session.peer,
+                    session.endpoint.name, header, reason)
+
+    def _reply(
+        self, s: Session, interf: int, index: int, subtype: int, body: Any, *, ack: bool
+    ) -> None:
+        if not ack:
+            s.counters.nacks += 1
+        try:
+            wire = encode_message(
+                interf, index, _ACK if ack else _NACK, subtype, body,
+                timestamp=self._sim_time_s(), robot=s.endpoint.port,
+            )
+        except EncodeError:
+            log.exception("cannot encode the reply to %d:%d subtype %d", interf, index, subtype)
+            wire = encode_message(interf, index, _NACK, subtype, None,
+                                  timestamp=self._sim_time_s(), robot=s.endpoint.port)
+        s.queue.push_reply(wire)
+
+    def _dispatch(self, s: Session, msg: Message) -> None:
+        h = msg.header
+        if h.interf == _PLAYER:
+            if h.type == _REQ:
+                s.counters.requests += 1
+                self._player_request(s, msg)
+            else:
+                self._bad(s, h, "only requests go to the player device")
+            return
+        key = (h.interf, h.index)
+        driver = s.endpoint.drivers.get(key)
+        self._mutations += 1
+        if h.type == _REQ:
+            s.counters.requests += 1
+            if driver is None:
+                self._bad(s, h, "request to an unknown device")
+                self._reply(s, h.interf, h.index, h.subtype, None, ack=False)
+            elif key not in s.subs:
+                self._bad(s, h, "request to a device not subscribed")
+                self._reply(s, h.interf, h.index, h.subtype, None, ack=False)
+            elif h.subtype >= c.PLAYER_SET_BOOLPROP_REQ:
+                self._universal_request(s, driver, msg)
+            else:
+                reply = self._call_driver_request(driver, h.subtype, msg.body)
+                self._reply(s, h.interf, h.index, h.subtype, reply.body, ack=reply.ack)
+        elif h.type == _CMD:
+            s.counters.commands += 1
+            if driver is None or key not in s.subs:
+                self._bad(s, h, "command to an unknown or unsubscribed device")
+                return
+            try:
+                driver.handle_command(h.subtype, msg.body)
+            except Unsupported as exc:
+                log.info("%s ignores command %d: %s", driver.driver_name, h.subtype, exc)
+        else:
+            self._bad(s, h, f"clients do not send message type {h.type}")
+
+    @staticmethod
+    def _call_driver_request(driver: Driver, subtype: int, body: Any) -> Reply:
+        try:
+            return driver.handle_request(subtype, body)
+        except Unsupported:
+            return Reply(False)
+        except (KeyError, ValueError, TypeError, AttributeError) as exc:
+            log.warning("%s rejects request %d: %s", driver.driver_name, subtype, exc)
+            return Reply(False)
+
+    # -- the player device ------------------------------------------------------------------
+    def _player_request(self, s: Session, msg: Message) -> None:
+        st, body = msg.subtype, msg.body
+        ep = s.endpoint
+        if st == c.PLAYER_REQ_DATA:
+            self._reply(s, _PLAYER, msg.index, st, None, ack=True)
+            if s.mode == c.PLAYER_DATAMODE_PULL:
+                s.round_pending = True
+                s.stalled_since = None
+                self._try_round(s)
+        elif st == c.PLAYER_REQ_DEV and isinstance(body, pm.DeviceReq):
+            self._dev_request(s, msg.index, body)
+        elif st == c.PLAYER_REQ_DATAMODE and isinstance(body, pm.DeviceDatamodeReq):
+            if body.mode in (c.PLAYER_DATAMODE_PUSH, c.PLAYER_DATAMODE_PULL):
+                s.mode = body.mode
+                if s.mode == c.PLAYER_DATAMODE_PUSH:
+                    s.round_pending = False
+                else:
+                    s.queue.clear_data()
+            else:
+                log.warning("unknown data mode %d from %s", body.mode, s.peer)
+            self._reply(s, _PLAYER, msg.index, st, None, ack=True)
+        elif st == c.PLAYER_REQ_DEVLIST:
+            devs = tuple(DevAddr(0, ep.port, i, x) for (i, x) in ep.drivers)
+            self._reply(s, _PLAYER, msg.index, st, pm.DeviceDevlist(devs), ack=True)
+        elif st == c.PLAYER_REQ_DRIVERINFO and isinstance(body, pm.DeviceDriverInfo):
+            drv = ep.drivers.get((body.addr.interf, body.addr.index))
+            if drv is None:
+                self._reply(s, _PLAYER, msg.index, st, None, ack=False)
+            else:
+                addr = DevAddr(0, ep.port, body.addr.interf, body.addr.index)
+                self._reply(s, _PLAYER, msg.index, st,
+                            pm.DeviceDriverInfo(addr, drv.driver_name), ack=True)
+        elif st == c.PLAYER_REQ_ADD_REPLACE_RULE and isinstance(body, pm.AddReplaceRuleReq):
+            if body.replace in (0, 1, 2):
+                s.rules.append(body)
+                self._reply(s, _PLAYER, msg.index, st, None, ack=True)
+            else:
+                self._reply(s, _PLAYER, msg.index, st, None, ack=False)
+        elif st in (c.PLAYER_SET_INTPROP_REQ, c.PLAYER_GET_INTPROP_REQ) and isinstance(
+            body, pm.IntPropReq
+        ) and body.key == LOCKSTEP_PROPERTY:
+            if st == c.PLAYER_SET_INTPROP_REQ:
+                s.lockstep_override = None if body.value < 0 else bool(body.value)
+                self._reply(s, _PLAYER, msg.index, st, None, ack=True)
+            else:
+                value = int(self.is_participant(s))
+                self._reply(s, _PLAYER, msg.index, st,
+                            pm.IntPropReq(body.key, value), ack=True)
+        else:
+            # AUTH, NAMESERVICE, unknown subtypes and bodies that do not fit
+            self._reply(s, _PLAYER, msg.index, st, None, ack=False)
+
+    def _dev_request(self, s: Session, index: int, body: pm.DeviceReq) -> None:
+        ep = s.endpoint
+        key = (body.addr.interf, body.addr.index)
+        drv = ep.drivers.get(key)
+        addr = DevAddr(0, ep.port, body.addr.interf, body.addr.index)
+        st = c.PLAYER_REQ_DEV
+        if drv is None or body.access not in (c.PLAYER_OPEN_MODE, c.PLAYER_CLOSE_MODE):
+            self._reply(s, _PLAYER, index, st,
+                        pm.DeviceReq(addr, c.PLAYER_ERROR_MODE, ""), ack=False)
+            return
+        if body.access == c.PLAYER_OPEN_MODE:
+            s.subs[key] = drv
+        else:
+            s.subs.pop(key, None)
+        self._reply(s, _PLAYER, index, st, pm.DeviceReq(addr, body.access, drv.driver_name),
+                    ack=True)
+        if body.access == c.PLAYER_OPEN_MODE and s.round_pending:
+            self._try_round(s)
+
+    def _universal_request(self, s: Session, driver: Driver, msg: Message) -> None:
+        st, body, h = msg.subtype, msg.body, msg.header
+        if st == c.PLAYER_CAPABILITIES_REQ and isinstance(body, pm.CapabilitiesReq):
+            ok = driver.supports(body.type, body.subtype)
+            self._reply(s, h.interf, h.index, st, None, ack=ok)
+            return
+        want = _PROP_TYPES.get(st)
+        key = getattr(body, "key", None)
+        if want is None or key is None:
+            self._reply(s, h.interf, h.index, st, None, ack=False)
+            return
+        try:
+            if st in _PROP_GETS:
+                value = driver.get_property(key)
+                if want is float and isinstance(value, int) and not isinstance(value, bool):
+                    value = float(value)
+                if want is bool and isinstance(value, bool):
+                    value = int(value)
+                elif type(value) is not want:
+                    raise TypeError(f"property {key!r} is a {type(value).__name__}")
+                self._reply(s, h.interf, h.index, st, type(body)(key, value), ack=True)
+            else:
+                value = bool(body.value) if want is bool else body.value
+                driver.set_property(key, value)
+                self._reply(s, h.interf, h.index, st, None, ack=True)
+        except (KeyError, TypeError, ValueError) as exc:
+            log.info("property request %d %r on %s refused: %s", st, key,
+                     driver.driver_name, exc)
+            self._reply(s, h.interf, h.index, st, None, ack=False)
+
+    # -- data -------------------------------------------------------------------------------
+    def _rule(self, s: Session, key: DataKey) -> int:
+        interf, index, mtype, subtype = key
+        for r in s.rules:
+            if ((r.interf in (-1, interf)) and (r.index in (-1, index))
+                    and (r.type in (-1, mtype)) and (r.subtype in (-1, subtype))):
+                return r.replace
+        return c.PLAYER_PLAYER_MSG_REPLACE_RULE_REPLACE
+
+    def _device_data(self, ep: Endpoint, key: tuple[int, int],
+                     driver: Driver) -> list[tuple[DataKey, bytes]]:
+        # data depends only on simulation state: the same tick and no request or command
+        # handled since means the same bytes (several clients, or rounds while paused)
+        ck = (id(ep), key[0], key[1])
+        version = (self._sim_time_s(), self._mutations)
+        hit = self._cache.get(ck)
+        if hit is not None and hit[0] == version:
+            return hit[1]
+        out: list[tuple[DataKey, bytes]] = []
+        try:
+            items = driver.data()
+            t = self._sim_time_s()
+            for subtype, body in items:
+                out.append(((key[0], key[1], _DATA, subtype), encode_message(
+                    key[0], key[1], _DATA, subtype, body, timestamp=t, robot=ep.port)))
+        except Exception:
+            log.exception("driver %s failed to produce data", driver.driver_name)
+            out = []
+        self._cache[ck] = (version, out)
+        return out
+
+    def _round_items(self, s: Session) -> Iterable[tuple[DataKey, bytes]]:
+        for key, driver in s.subs.items():
+            yield from self._device_data(s.endpoint, key, driver)
+
+    def _try_round(self, s: Session) -> bool:
+        """Send a pending PULL round if there is a newer round with data to send."""
+        if not s.round_pending or s.last_round >= self.round_seq:
+            return False
+        sent = 0
+        for dkey, wire in self._round_items(s):
+            if s.rules and self._rule(s, dkey) == c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE:
+                continue
+            s.queue.push_reply(wire)
+            sent += 1
+        if not sent:
+            return False
+        s.queue.push_reply(_SYNCH_OK)
+        s.round_pending = False
+        s.last_round = self.round_seq
+        s.counters.rounds += 1
+        return True
+
+    def publish(self) -> None:
+        """A new round of data exists (the simulation stepped): push or serve it."""
+        self.round_seq += 1
+        self.counters.rounds_published += 1
+        for s in list(self.sessions.values()):
+            if s.closing is not None:
+                continue
+            if s.mode == c.PLAYER_DATAMODE_PULL:
+                self._try_round(s)
+            else:
+                for dkey, wire in self._round_items(s):
+                    rule = self._rule(s, dkey)
+                    if rule != c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE:
+                        s.queue.push_data(
+                            dkey, wire, rule == c.PLAYER_PLAYER_MSG_REPLACE_RULE_REPLACE)
+                s.last_round = self.round_seq
+
+    def rounds_wanted(self) -> bool:
+        """Is some PULL client waiting for a round newer than the current one?"""
+        return any(s.round_pending and s.last_round >= self.round_seq and s.closing is None
+                   for s in self.sessions.values())
+
+    # -- lockstep ---------------------------------------------------------------------------
+    def is_participant(self, s: Session) -> bool:
+        if not self.config.lockstep or s.closing is not None:
+            return False
+        if s.lockstep_override is not None:
+            return s.lockstep_override
+        return s.mode == c.PLAYER_DATAMODE_PULL and any(
+            k[0] == _POSITION2D for k in s.subs)
+
+    def participants(self) -> list[Session]:
+        return [s for s in self.sessions.values() if self.is_participant(s)]
+
+    def lockstep_ready(self, now_s: float) -> bool:
+        """May the simulation step? (Always true when lockstep is off.)"""
+        if not self.config.lockstep:
+            return True
+        parts = self.participants()
+        for s in parts:
+            if not s.counted_as_participant:
+                s.counted_as_participant = True
+                self.participants_seen += 1
+        if not parts or self.participants_seen < self.config.lockstep_clients:
+            return False
+        laggards = [s for s in parts
+                    if not (s.round_pending and s.last_round >= self.round_seq)]
+        if not laggards:
+            return True
+        timeout = self.config.lockstep_timeout_s
+        if timeout > 0:
+            for s in laggards:
+                if s.stalled_since is None:
+                    s.stalled_since = now_s
+                elif now_s - s.stalled_since > timeout:
+                    log.warning("lockstep: client %s on %s kept the simulation waiting "
+                                "for %.1f s; it no longer holds the clock", s.peer,
+                                s.endpoint.name, now_s - s.stalled_since)
+                    s.lockstep_override = False
+                    self.counters.demoted += 1
+        return False
+
+    def stats(self) -> dict[str, Any]:
+        return {
+            "sessions": len(self.sessions),
+            "round_seq": self.round_seq,
+            "participants": len(self.participants()),
+            **vars(self.counters),
+        }

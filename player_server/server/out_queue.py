@@ -1,0 +1,116 @@
+"""A client's bounded outgoing queue of encoded messages.
+
+Replies and SYNCH are never dropped. DATA follows the client's replace rules: REPLACE
+removes an older queued DATA with the same (interface, index, type, subtype) (the latest
+value wins), IGNORE drops it, ACCEPT queues it. When more than ``limit`` DATA are
+queued, the oldest DATA is dropped and counted.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+DataKey = tuple[int, int, int, int]
+
+
+class _Entry:
+    __slots__ = ("alive", "key", "wire")
+
+    def __init__(self, wire: bytes, key: DataKey | None) -> None:
+        self.wire = wire
+        self.key = key
+        self.alive = True
+
+
+@dataclass(frozen=True)
+class QueueStats:
+    depth: int
+    peak: int
+    replaced: int
+    dropped: int
+    replies_waiting: int
+
+
+class OutQueue:
+    def __init__(self, limit: int = 1024) -> None:
+        self._entries: deque[_Entry] = deque()
+        self._latest: dict[DataKey, _Entry] = {}
+        self._limit = limit
+        self._data_count = 0
+        self._reply_count = 0
+        self.peak = 0
+        self.replaced = 0
+        self.dropped = 0
+
+    def __len__(self) -> int:
+        return self._data_count + self._reply_count
+
+    @property
+    def replies_waiting(self) -> int:
+        return self._reply_count
+
+    def push_reply(self, wire: bytes) -> None:
+        """A reply or SYNCH: always queued, in order."""
+        self._entries.append(_Entry(wire, None))
+        self._reply_count += 1
+        self._note_peak()
+
+    def push_data(self, key: DataKey, wire: bytes, replace: bool) -> None:
+        if replace:
+            old = self._latest.get(key)
+            if old is not None and old.alive:
+                old.alive = False
+                self._data_count -= 1
+                self.replaced += 1
+        entry = _Entry(wire, key)
+        self._entries.append(entry)
+        self._latest[key] = entry
+        self._data_count += 1
+        if self._data_count > self._limit:
+            self._drop_oldest_data()
+        self._note_peak()
+
+    def _drop_oldest_data(self) -> None:
+        for e in self._entries:
+            if e.alive and e.key is not None:
+                e.alive = False
+                self._data_count -= 1
+                self.dropped += 1
+                return
+
+    def _note_peak(self) -> None:
+        n = self._data_count + self._reply_count
+        if n > self.peak:
+            self.peak = n
+
+    def take(self, max_bytes: int = 1 << 20) -> bytes:
+        """Remove and return queued messages, whole, up to about ``max_bytes``."""
+        parts: list[bytes] = []
+        total = 0
+        entries = self._entries
+        while entries and total < max_bytes:
+            e = entries.popleft()
+            if not e.alive:
+                continue
+            if e.key is None:
+                self._reply_count -= 1
+            else:
+                self._data_count -= 1
+                if self._latest.get(e.key) is e:
+                    del self._latest[e.key]
+            parts.append(e.wire)
+            total += len(e.wire)
+        if len(parts) == 1:
+            return parts[0]
+        return b"".join(parts)
+
+    def clear_data(self) -> None:
+        for e in self._entries:
+            if e.alive and e.key is not None:
+                e.alive = False
+        self._data_count = 0
+        self._latest.clear()
+
+    def stats(self) -> QueueStats:
+        return QueueStats(len(self), self.peak, self.replaced, self.dropped, self._reply_count)

@@ -1,0 +1,168 @@
+"""The serving loop: one thread that steps the simulation and does all socket I/O.
+
+Keeping stepping and I/O on one thread means drivers and the core need no locks and a
+seeded lockstep run repeats exactly. ``PlayerServer`` owns that thread: ``start()``
+binds the ports and starts it, ``stop()`` stops and joins it and re-raises whatever it
+died of.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable, Sequence
+from typing import Protocol
+
+from player_server.drivers.base import Driver
+from player_server.protocol.constants import interface_name
+from player_server.server.core import CoreConfig, ServerCore
+from player_server.server.endpoint import Endpoint
+from player_server.server.tcp import TcpFrontEnd
+
+log = logging.getLogger(__name__)
+
+
+class Steppable(Protocol):
+    """What the loop needs of the simulator."""
+
+    @property
+    def time_s(self) -> float: ...
+
+    @property
+    def paused(self) -> bool: ...
+
+    def step(self, n: int = 1) -> object: ...
+
+
+class PlayerServer:
+    """Serves ``endpoints`` over TCP while stepping ``sim``.
+
+    speedup: simulated seconds per wall second (0 = as fast as possible).
+    quit_time_s: stop once simulation time reaches it (0 = never).
+    """
+
+    def __init__(
+        self,
+        sim: Steppable,
+        endpoints: Sequence[Endpoint],
+        *,
+        interval_s: float,
+        clock: Callable[[], float],
+        host: str = "127.0.0.1",
+        speedup: float = 1.0,
+        config: CoreConfig | None = None,
+        quit_time_s: float = 0.0,
+    ) -> None:
+        if interval_s <= 0:
+            raise ValueError(f"interval_s must be positive, got {interval_s}")
+        if speedup < 0:
+            raise ValueError(f"speedup must be >= 0, got {speedup}")
+        self.sim = sim
+        self.endpoints = list(endpoints)
+        self.interval_s = interval_s
+        self.speedup = speedup
+        self.quit_time_s = quit_time_s
+        self._clock = clock
+        self.core = ServerCore(self.endpoints, lambda: float(sim.time_s), config)
+        self.tcp = TcpFrontEnd(self.core, host)
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self.finished = threading.Event()
+        self.error: BaseException | None = None
+        self.ticks = 0
+        self._drivers: list[Driver] = []
+
+    # -- lifecycle ----------------------------------------------------------------------------
+    def start(self) -> PlayerServer:
+        self.tcp.bind(self.endpoints)
+        self._thread = threading.Thread(target=self._run, name="player-server", daemon=True)
+        self._thread.start()
+        return self
+
+    def stop(self, timeout_s: float = 10.0) -> None:
+        self._stop.set()
+        self.tcp.wake()
+        if self._thread is not None:
+            self._thread.join(timeout_s)
+            if self._thread.is_alive():
+                raise RuntimeError("the server thread did not stop")
+            self._thread = None
+        if self.error is not None:
+            err, self.error = self.error, None
+            raise RuntimeError("the server thread failed") from err
+
+    def __enter__(self) -> PlayerServer:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    @property
+    def ports(self) -> dict[str, int]:
+        return {ep.name: ep.port for ep in self.endpoints}
+
+    def table(self) -> str:
+        """The start-up table: robot -> port -> devices."""
+        rows = [("robot", "port", "devices")]
+        for ep in self.endpoints:
+            devs = ", ".join(f"{interface_name(i)}:{x}" for (i, x) in ep.drivers)
+            rows.append((ep.name, str(ep.port), devs))
+        w0 = max(len(r[0]) for r in rows)
+        w1 = max(len(r[1]) for r in rows)
+        return "\n".join(f"{a:<{w0}}  {b:>{w1}}  {d}" for a, b, d in rows)
+
+    # -- the loop -------------------------------------------------------------------------------
+    def _run(self) -> None:
+        try:
+            self._loop()
+        except BaseException as exc:  # seen by the owner in stop()
+            log.exception("server loop failed")
+            self.error = exc
+        finally:
+            self.tcp.close()
+            self.finished.set()
+
+    def _step_and_publish(self) -> None:
+        if not self.sim.paused:
+            for d in self._drivers:
+                d.before_step()
+            self.sim.step()
+        self.core.publish()
+        self.ticks += 1
+
+    def _paused_rounds(self) -> None:
+        """While paused, serve waiting rounds at once (in the same write as their ACK)."""
+        core = self.core
+        if (self.sim.paused and self.speedup == 0 and core.rounds_wanted()
+                and (not core.config.lockstep or core.lockstep_ready(self._clock()))):
+            core.publish()
+            self.ticks += 1
+
+    def _loop(self) -> None:
+        core, tcp, sim = self.core, self.tcp, self.sim
+        lockstep = core.config.lockstep
+        period = self.interval_s / self.speedup if self.speedup > 0 else 0.0
+        self._drivers = [d for ep in self.endpoints for d in ep.drivers.values()]
+        next_due = self._clock()
+        while not self._stop.is_set():
+            now = self._clock()
+            due = period == 0.0 or now >= next_due
+            ready = due and (core.lockstep_ready(now) if lockstep else True)
+            if ready and sim.paused and not core.rounds_wanted():
+                ready = False  # paused: publish only when a client waits for a round
+            if ready:
+                self._step_and_publish()
+                tcp.flush()
+                if self.quit_time_s > 0 and sim.time_s >= self.quit_time_s - 1e-9:
+                    log.info("quit time %.3f s reached", self.quit_time_s)
+                    return
+                if period:
+                    next_due += period
+                    if next_due < now - period:
+                        next_due = now
+                timeout = 0.0
+            elif not due:
+                timeout = min(next_due - now, 0.1)
+            else:
+                timeout = 0.05  # waiting for clients; their I/O wakes the selector
+            tcp.poll(timeout, self._paused_rounds)

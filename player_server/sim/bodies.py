@@ -1,0 +1,160 @@
+"""Build a world's PyBullet bodies on a given client (simple collision shapes only)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import pybullet as pb
+
+from worlds import WorldSpec, colour_rgb01
+
+_FLOOR_THICKNESS_M = 0.05
+
+
+def _rgba(colour: int, alpha: float = 1.0) -> list[float]:
+    r, g, b = colour_rgb01(colour)
+    return [r, g, b, alpha]
+
+
+def _quat_yaw(yaw: float) -> tuple[float, float, float, float]:
+    return (0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0))
+
+
+@dataclass
+class BodyIds:
+    """PyBullet ids of a built world, by world-file name."""
+
+    floor: int
+    static: list[int]
+    robots: dict[str, int]
+    boxes: dict[str, int]
+    objects: dict[str, int]
+    markers: dict[str, int]
+    chargers: dict[str, int]
+
+
+def build_world(spec: WorldSpec, client: int) -> BodyIds:
+    """Create every body of the world on ``client``; robots' base frame is their body centre."""
+    cid = client
+    arena = spec.arena
+    pb.setGravity(0.0, 0.0, -9.81, physicsClientId=cid)
+
+    # Floor: a thin static box whose top is z = 0.
+    fx = arena.half_x_m + 1.0
+    fy = arena.half_y_m + 1.0
+    floor_col = pb.createCollisionShape(
+        pb.GEOM_BOX, halfExtents=[fx, fy, _FLOOR_THICKNESS_M / 2], physicsClientId=cid
+    )
+    floor_vis = pb.createVisualShape(
+        pb.GEOM_BOX, halfExtents=[fx, fy, _FLOOR_THICKNESS_M / 2],
+        rgbaColor=_rgba(arena.floor_colour), physicsClientId=cid,
+    )
+    floor = pb.createMultiBody(0.0, floor_col, floor_vis, [0, 0, -_FLOOR_THICKNESS_M / 2],
+                               physicsClientId=cid)
+    pb.changeDynamics(floor, -1, lateralFriction=1.0, physicsClientId=cid)
+
+    static: list[int] = []
+    t = arena.wall_thickness_m
+    h = arena.wall_height_m
+    hx, hy = arena.half_x_m, arena.half_y_m
+    for cx, cy, sx, sy in (
+        (hx + t / 2, 0.0, t / 2, hy + t),
+        (-hx - t / 2, 0.0, t / 2, hy + t),
+        (0.0, hy + t / 2, hx + t, t / 2),
+        (0.0, -hy - t / 2, hx + t, t / 2),
+    ):
+        col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[sx, sy, h / 2],
+                                      physicsClientId=cid)
+        vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=[sx, sy, h / 2],
+                                   rgbaColor=_rgba(arena.wall_colour), physicsClientId=cid)
+        static.append(pb.createMultiBody(0.0, col, vis, [cx, cy, h / 2], physicsClientId=cid))
+
+    for o in arena.obstacles:
+        if o.shape == "box":
+            col = pb.createCollisionShape(
+                pb.GEOM_BOX, halfExtents=[o.size_x_m / 2, o.size_y_m / 2, o.height_m / 2],
+                physicsClientId=cid,
+            )
+            vis = pb.createVisualShape(
+                pb.GEOM_BOX, halfExtents=[o.size_x_m / 2, o.size_y_m / 2, o.height_m / 2],
+                rgbaColor=_rgba(o.colour), physicsClientId=cid,
+            )
+        else:
+            col = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=o.radius_m,
+                                          height=o.height_m, physicsClientId=cid)
+            vis = pb.createVisualShape(pb.GEOM_CYLINDER, radius=o.radius_m, length=o.height_m,
+                                       rgbaColor=_rgba(o.colour), physicsClientId=cid)
+        static.append(pb.createMultiBody(
+            0.0, col, vis, [o.pose.x, o.pose.y, o.height_m / 2], _quat_yaw(o.pose.yaw),
+            physicsClientId=cid,
+        ))
+
+    boxes: dict[str, int] = {}
+    for b in spec.boxes:
+        half = [b.size_x_m / 2, b.size_y_m / 2, b.size_z_m / 2]
+        col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=cid)
+        vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=_rgba(b.colour),
+                                   physicsClientId=cid)
+        bid = pb.createMultiBody(b.mass_kg, col, vis, [b.pose.x, b.pose.y, half[2]],
+                                 _quat_yaw(b.pose.yaw), physicsClientId=cid)
+        pb.changeDynamics(bid, -1, lateralFriction=b.friction,
+                          activationState=pb.ACTIVATION_STATE_ENABLE_SLEEPING,
+                          physicsClientId=cid)
+        boxes[b.name] = bid
+
+    objects: dict[str, int] = {}
+    for o in spec.objects:
+        col = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=o.radius_m, height=o.height_m,
+                                      physicsClientId=cid)
+        vis = pb.createVisualShape(pb.GEOM_CYLINDER, radius=o.radius_m, length=o.height_m,
+                                   rgbaColor=_rgba(o.colour), physicsClientId=cid)
+        oid = pb.createMultiBody(o.mass_kg, col, vis, [o.pose.x, o.pose.y, o.height_m / 2],
+                                 _quat_yaw(o.pose.yaw), physicsClientId=cid)
+        # Upright cylinders slide rather than topple (keeps their footprint a circle).
+        inertia = o.mass_kg * 1e3
+        pb.changeDynamics(oid, -1, lateralFriction=0.5,
+                          localInertiaDiagonal=[inertia, inertia,
+                                                0.5 * o.mass_kg * o.radius_m ** 2],
+                          activationState=pb.ACTIVATION_STATE_ENABLE_SLEEPING,
+                          physicsClientId=cid)
+        objects[o.name] = oid
+
+    markers: dict[str, int] = {}
+    for m in spec.markers:
+        vis = pb.createVisualShape(pb.GEOM_CYLINDER, radius=m.radius_m, length=m.height_m,
+                                   rgbaColor=_rgba(m.colour), physicsClientId=cid)
+        markers[m.name] = pb.createMultiBody(0.0, -1, vis, [m.x, m.y, m.height_m / 2],
+                                             physicsClientId=cid)
+
+    chargers: dict[str, int] = {}
+    for c in spec.chargers:
+        pad_h = 0.01
+        vis = pb.createVisualShape(pb.GEOM_CYLINDER, radius=c.radius_m, length=pad_h,
+                                   rgbaColor=_rgba(c.colour), physicsClientId=cid)
+        chargers[c.name] = pb.createMultiBody(0.0, -1, vis, [c.x, c.y, pad_h / 2],
+                                              physicsClientId=cid)
+
+    robots: dict[str, int] = {}
+    for r in spec.robots:
+        body = r.body
+        half = [body.length_m / 2, body.width_m / 2, body.height_m / 2]
+        col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=cid)
+        vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=_rgba(r.colour),
+                                   physicsClientId=cid)
+        c, s = math.cos(r.pose.yaw), math.sin(r.pose.yaw)
+        pos = [r.pose.x + body.offset_x_m * c, r.pose.y + body.offset_x_m * s, half[2] + 0.001]
+        rid = pb.createMultiBody(body.mass_kg, col, vis, pos, _quat_yaw(r.pose.yaw),
+                                 physicsClientId=cid)
+        # Robots do not touch the floor: the drive sets their velocity every substep, gravity
+        # compensated, so they glide at a constant height (floor contacts would dominate the
+        # cost of a physics step). Huge roll and pitch inertia keep them upright.
+        pb.setCollisionFilterPair(rid, floor, -1, -1, 0, physicsClientId=cid)
+        big = body.mass_kg * 1e3
+        izz = body.mass_kg * (body.length_m ** 2 + body.width_m ** 2) / 12.0
+        pb.changeDynamics(rid, -1, lateralFriction=0.3, spinningFriction=0.0,
+                          rollingFriction=0.0, localInertiaDiagonal=[big, big, izz],
+                          linearDamping=0.0, angularDamping=0.0, physicsClientId=cid)
+        robots[r.name] = rid
+
+    return BodyIds(floor, static, robots, boxes, objects, markers, chargers)

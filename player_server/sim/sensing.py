@@ -1,0 +1,147 @@
+"""Constant arrays derived once from a world spec for vectorised sensing (pure numpy).
+
+Index conventions: moving rectangles are the robots' bodies then the boxes; blob targets are
+robots, boxes, objects, markers, chargers in world-file order.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from player_server.sim.blobs import Cameras
+from player_server.sim.raycast import Circles, Faces, arena_faces, face_matrix, rectangle_faces
+from worlds import WorldSpec
+
+F64 = NDArray[np.float64]
+
+
+def _arr(values: list[float]) -> F64:
+    return np.array(values, dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class WorldArrays:
+    n_robots: int
+    n_boxes: int
+    n_objects: int
+    static_w: F64
+    static_top: F64
+    static_circles: Circles
+    rect_half_x: F64
+    rect_half_y: F64
+    rect_top: F64
+    obj_radius: F64
+    obj_top: F64
+    t_radius: F64
+    t_half_x: F64
+    t_half_y: F64
+    t_z_bottom: F64
+    t_z_top: F64
+    t_colour: NDArray[np.int64]
+    charger_xy: F64
+    channel: NDArray[np.int64]  # (n_robots, n_targets): blobfinder channel or -1
+    cam: F64  # (n_robots, 10): mount x, y, z, yaw, tilt, fov, width, height, range, min_area
+    channels: tuple[tuple[int, ...], ...]
+
+    @staticmethod
+    def from_spec(spec: WorldSpec) -> WorldArrays:
+        a = spec.arena
+        boxes_static = [o for o in a.obstacles if o.shape == "box"]
+        cyl_static = [o for o in a.obstacles if o.shape == "cylinder"]
+        static = Faces.concat([
+            arena_faces(a.half_x_m, a.half_y_m, a.wall_height_m),
+            rectangle_faces(
+                _arr([o.pose.x for o in boxes_static]),
+                _arr([o.pose.y for o in boxes_static]),
+                _arr([o.pose.yaw for o in boxes_static]),
+                _arr([o.size_x_m / 2 for o in boxes_static]),
+                _arr([o.size_y_m / 2 for o in boxes_static]),
+                _arr([o.height_m for o in boxes_static]),
+            ),
+        ])
+        robots, boxes, objects = spec.robots, spec.boxes, spec.objects
+        n_t = len(robots) + len(boxes) + len(objects) + len(spec.markers) + len(spec.chargers)
+        zeros = [0.0] * n_t
+        radius = (
+            [0.0] * (len(robots) + len(boxes)) + [o.radius_m for o in objects]
+            + [m.radius_m for m in spec.markers] + [c.radius_m for c in spec.chargers]
+        )
+        half_x = ([r.body.length_m / 2 for r in robots] + [b.size_x_m / 2 for b in boxes]
+                  + [0.0] * (n_t - len(robots) - len(boxes)))
+        half_y = ([r.body.width_m / 2 for r in robots] + [b.size_y_m / 2 for b in boxes]
+                  + [0.0] * (n_t - len(robots) - len(boxes)))
+        z_top = ([r.body.height_m for r in robots] + [b.size_z_m for b in boxes]
+                 + [o.height_m for o in objects] + [m.height_m for m in spec.markers]
+                 + [0.01 for _ in spec.chargers])
+        colour = ([r.colour for r in robots] + [b.colour for b in boxes]
+                  + [o.colour for o in objects] + [m.colour for m in spec.markers]
+                  + [c.colour for c in spec.chargers])
+        channel = np.full((len(robots), n_t), -1, dtype=np.int64)
+        cam = np.zeros((len(robots), 10))
+        channels: list[tuple[int, ...]] = []
+        for i, r in enumerate(robots):
+            bf, c = r.devices.blobfinder, r.devices.camera
+            channels.append(bf.channels if bf is not None else ())
+            if bf is not None:
+                first: dict[int, int] = {}
+                for ch, col in enumerate(bf.channels):
+                    first.setdefault(col, ch)
+                for t, col in enumerate(colour):
+                    if col in first and t != i:
+                        channel[i, t] = first[col]
+            if c is not None:
+                cam[i] = (c.pose.x, c.pose.y, c.pose.z, c.pose.yaw, c.tilt_rad, c.fov_h_rad,
+                          c.width_px, c.height_px, c.max_range_m,
+                          bf.min_area_px if bf is not None else 1)
+        return WorldArrays(
+            n_robots=len(robots),
+            n_boxes=len(boxes),
+            n_objects=len(objects),
+            static_w=face_matrix(static),
+            static_top=static.top,
+            static_circles=Circles(
+                _arr([o.pose.x for o in cyl_static]),
+                _arr([o.pose.y for o in cyl_static]),
+                _arr([o.radius_m for o in cyl_static]),
+                _arr([o.height_m for o in cyl_static]),
+            ),
+            rect_half_x=_arr([r.body.length_m / 2 for r in robots]
+                             + [b.size_x_m / 2 for b in boxes]),
+            rect_half_y=_arr([r.body.width_m / 2 for r in robots]
+                             + [b.size_y_m / 2 for b in boxes]),
+            rect_top=_arr([r.body.height_m for r in robots] + [b.size_z_m for b in boxes]),
+            obj_radius=_arr([o.radius_m for o in objects]),
+            obj_top=_arr([o.height_m for o in objects]),
+            t_radius=_arr(radius),
+            t_half_x=_arr(half_x),
+            t_half_y=_arr(half_y),
+            t_z_bottom=_arr(zeros),
+            t_z_top=_arr(z_top),
+            t_colour=np.array(colour, dtype=np.int64),
+            charger_xy=np.array([[c.x, c.y] for c in spec.chargers],
+                                dtype=np.float64).reshape(-1, 2),
+            channel=channel,
+            cam=cam,
+            channels=tuple(channels),
+        )
+
+    def cameras(self, idx: NDArray[np.int64], rx: F64, ry: F64, ryaw: F64,
+                pan: F64, tilt: F64, zoom: F64) -> Cameras:
+        """World poses of the cameras of robots ``idx`` (robot poses and PTZ per robot)."""
+        m = self.cam[idx]
+        c, s = np.cos(ryaw), np.sin(ryaw)
+        return Cameras(
+            x=rx + c * m[:, 0] - s * m[:, 1],
+            y=ry + s * m[:, 0] + c * m[:, 1],
+            z=m[:, 2],
+            yaw=ryaw + m[:, 3] + pan,
+            tilt=m[:, 4] + tilt,
+            fov_h=np.where(zoom > 0, zoom, m[:, 5]),
+            width=m[:, 6],
+            height=m[:, 7],
+            max_range=m[:, 8],
+            min_area=m[:, 9],
+        )

@@ -1,0 +1,77 @@
+"""A reactive wanderer (pure decision, seeded): cruise, veer away from near obstacles, turn on
+the spot when blocked. Used by the headless demo and the benchmark to keep robots moving."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from worlds import RobotSpec
+
+
+def range_bearings(robot: RobotSpec) -> tuple[str, NDArray[np.float64]] | None:
+    """The range device a wanderer should use (laser, else sonar, else ranger) and the bearing
+    of each of its readings in the robot frame."""
+    d = robot.devices
+    if d.laser is not None:
+        return "laser", np.array(d.laser.angles_rad()) + d.laser.pose.yaw
+    if d.sonar is not None:
+        return "sonar", np.array([m.yaw for m in d.sonar.poses])
+    if d.ranger is not None:
+        return "ranger", np.array(d.ranger.angles_rad()) + d.ranger.pose.yaw
+    return None
+
+
+@dataclass
+class Wanderer:
+    """Decides (v, w) from range readings; owns its random turn preference."""
+
+    rng: np.random.Generator
+    cruise_mps: float = 0.35
+    turn_radps: float = 0.9
+    stop_m: float = 0.55
+    slow_m: float = 1.2
+    _spin: float = 0.0
+    _drift: float = 0.0
+    _sector_key: int = -1
+    _sector_cache: tuple = ()  # type: ignore[type-arg]
+    _sector_bearings: object = None
+
+    def decide(self, bearings: NDArray[np.float64], ranges: NDArray[np.floating]) -> tuple[
+        float, float
+    ]:
+        front_i, left_i, right_i = self._sectors(bearings)
+        front_min = float(ranges[front_i].min()) if front_i.size else math.inf
+        left_min = float(ranges[left_i].min()) if left_i.size else math.inf
+        right_min = float(ranges[right_i].min()) if right_i.size else math.inf
+        if front_min < self.stop_m:
+            if self._spin == 0.0:
+                self._spin = 1.0 if left_min >= right_min else -1.0
+            return 0.0, self._spin * self.turn_radps
+        self._spin = 0.0
+        if self.rng.random() < 0.05:
+            self._drift = float(self.rng.uniform(-0.4, 0.4))
+        v = self.cruise_mps * min(1.0, max(0.2, (front_min - self.stop_m) /
+                                           (self.slow_m - self.stop_m)))
+        w = self._drift
+        if min(left_min, right_min) < self.slow_m:
+            w += 0.6 if left_min > right_min else -0.6
+        return v, max(-self.turn_radps, min(self.turn_radps, w))
+
+    def _sectors(self, bearings: NDArray[np.float64]) -> tuple[
+        NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]
+    ]:
+        key = id(bearings)
+        if self._sector_key != key:
+            b = np.arctan2(np.sin(bearings), np.cos(bearings))
+            self._sector_cache = (
+                np.nonzero(np.abs(b) <= math.radians(35))[0],
+                np.nonzero((b > math.radians(10)) & (b <= math.radians(100)))[0],
+                np.nonzero((b < -math.radians(10)) & (b >= -math.radians(100)))[0],
+            )
+            self._sector_key = key
+            self._sector_bearings = bearings  # keep the array (and so its id) alive
+        return self._sector_cache

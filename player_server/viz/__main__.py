@@ -1,0 +1,78 @@
+"""``python -m player_server.viz``: watch a world live in meshcat, robots wandering.
+
+    python -m player_server.viz [--world longterm] [--sim-seconds 600] [--speedup 1]
+                                [--web-port 0] [--seed 0]
+
+Starts the loopback-only viewer, prints its URL, and steps the simulation with every robot
+wandering (the simulator's demo driver); robots on a charging pad show as charging. Stops at
+the end of the simulated time or on Ctrl-C.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m player_server.viz", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--world", default="longterm", help="world name or .toml path")
+    parser.add_argument("--sim-seconds", type=float, default=600.0)
+    parser.add_argument("--speedup", type=float, default=1.0, help="0 = as fast as possible")
+    parser.add_argument("--web-port", type=int, default=0, help="0 = any free port")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--rate-hz", type=float, default=10.0, help="viewer updates per second")
+    args = parser.parse_args(argv)
+
+    from pathlib import Path
+
+    import numpy as np
+
+    from player_server.sim import Simulation
+    from player_server.sim.demo import WanderDriver
+    from player_server.sim.pacing import Pacer
+    from player_server.viz.live import LiveView
+    from player_server.viz.scene import CHARGING, IDLE, layout_from_world
+    from player_server.viz.server import ViewerProcess, ZmqChannel
+    from worlds import load_world, world_path
+
+    world = Path(args.world)
+    spec = load_world(world if world.suffix == ".toml" else world_path(args.world))
+    sim = Simulation(spec, seed=args.seed)
+    driver = WanderDriver(sim, np.random.default_rng(args.seed))
+    layout = layout_from_world(spec)
+    robots = [r.name for r in layout.robots]
+    has_power = {r.name: r.devices.power is not None for r in spec.robots}
+    pacer = Pacer(sim.interval_s, args.speedup, time.monotonic, time.sleep)
+    with ViewerProcess(web_port=args.web_port) as viewer:
+        channel = ZmqChannel(viewer.urls.zmq_url)
+        view = LiveView(layout, channel, max_rate_hz=args.rate_hz)
+        print(f"meshcat live view: {viewer.urls.web_url}", flush=True)
+        view.start()
+        next_offer = 0.0
+        period = 1.0 / args.rate_hz
+        try:
+            while sim.time_s < args.sim_seconds:
+                driver.tick()
+                pacer.wait(sim.tick)
+                now = time.monotonic()
+                if now >= next_offer:
+                    next_offer = now + period
+                    view.offer(sim.snapshot())
+                    for r in robots:
+                        charging = has_power[r] and sim.power(r).charging
+                        view.set_robot(r, CHARGING if charging else IDLE)
+        except KeyboardInterrupt:
+            pass
+        finally:
+            view.stop()
+            channel.close()
+            sim.close()
+    print(f"stopped at simulated time {sim.time_s:.1f} s", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,104 @@
+"""meshcat's web/ZeroMQ bridge, listening on loopback only.
+
+Stock meshcat 0.3.2 (``meshcat.servers.zmqserver``) binds its ZeroMQ socket to the host it is
+given but calls tornado's ``Application.listen(port)`` without an address, so the web viewer
+(port 7000 and up) listens on every interface. Here the tornado application binds its sockets
+on 127.0.0.1 explicitly, both ports may be 0 (the OS picks free ones), and the URLs printed are
+the real ones.
+
+Run as a process: ``python -m player_server.viz.bridge [--web-port P] [--zmq-port Q]``; it
+prints ``zmq_url=...`` and ``web_url=...`` on two lines, then serves until killed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import sys
+import warnings
+from typing import Any
+
+import tornado.httpserver
+import tornado.netutil
+import tornado.web
+import zmq
+from zmq.eventloop.zmqstream import ZMQStream
+
+with warnings.catch_warnings():
+    # meshcat 0.3.2 imports pyzmq's deprecated zmq.eventloop.ioloop shim
+    warnings.simplefilter("ignore", DeprecationWarning)
+    from meshcat.servers.zmqserver import (
+        VIEWER_HTML,
+        VIEWER_ROOT,
+        StaticFileHandlerNoCache,
+        WebSocketHandler,
+        ZMQWebSocketBridge,
+    )
+
+LOOPBACK = "127.0.0.1"
+
+
+class LoopbackApplication(tornado.web.Application):
+    """A tornado application whose `listen` only ever binds 127.0.0.1."""
+
+    bound_port: int = 0
+
+    def listen(  # type: ignore[override]
+        self, port: int, address: str | None = None, **kwargs: Any
+    ) -> tornado.httpserver.HTTPServer:
+        if address not in (None, "", LOOPBACK):
+            raise ValueError(f"the viewer only listens on {LOOPBACK}, not {address!r}")
+        sockets = tornado.netutil.bind_sockets(port, address=LOOPBACK)
+        server = tornado.httpserver.HTTPServer(self, **kwargs)
+        server.add_sockets(sockets)
+        self.bound_port = sockets[0].getsockname()[1]
+        return server
+
+
+class LoopbackBridge(ZMQWebSocketBridge):  # type: ignore[misc]
+    """meshcat's bridge with both of its sockets on 127.0.0.1 and OS-chosen ports allowed."""
+
+    def __init__(self, web_port: int = 0, zmq_port: int = 0) -> None:
+        zmq_url = f"tcp://{LOOPBACK}:{zmq_port or '*'}"
+        super().__init__(zmq_url=zmq_url, host=LOOPBACK, port=web_port)
+        self.fileserver_port = self.app.bound_port
+        self.web_url = f"http://{LOOPBACK}:{self.fileserver_port}/static/"
+
+    def make_app(self) -> LoopbackApplication:
+        return LoopbackApplication(
+            [
+                (
+                    r"/static/(.*)",
+                    StaticFileHandlerNoCache,
+                    {"path": VIEWER_ROOT, "default_filename": VIEWER_HTML},
+                ),
+                (r"/", WebSocketHandler, {"bridge": self}),
+            ]
+        )
+
+    def setup_zmq(self, url: str) -> tuple[Any, ZMQStream, str]:
+        if not url.startswith(f"tcp://{LOOPBACK}:"):
+            raise ValueError(f"the viewer's ZeroMQ socket only binds {LOOPBACK}, not {url!r}")
+        sock = self.context.socket(zmq.REP)
+        sock.bind(url)
+        endpoint = sock.getsockopt(zmq.LAST_ENDPOINT).decode("ascii")
+        stream = ZMQStream(sock)
+        stream.on_recv(self.handle_zmq)
+        return sock, stream, endpoint
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="meshcat viewer server on 127.0.0.1 only")
+    parser.add_argument("--web-port", type=int, default=0, help="0 = any free port")
+    parser.add_argument("--zmq-port", type=int, default=0, help="0 = any free port")
+    args = parser.parse_args(argv)
+    bridge = LoopbackBridge(web_port=args.web_port, zmq_port=args.zmq_port)
+    sys.stdout.write(f"zmq_url={bridge.zmq_url}\nweb_url={bridge.web_url}\n")
+    sys.stdout.flush()
+    with contextlib.suppress(KeyboardInterrupt):
+        bridge.run()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

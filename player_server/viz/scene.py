@@ -1,0 +1,410 @@
+"""The meshcat scene of a world, as plain command dictionaries.
+
+Pure: nothing here talks to a socket or a browser. Every function returns meshcat viewer
+commands (dicts with ``type`` and ``path``, ready for msgpack) that the live view sends over
+its ZeroMQ channel and the offline replay embeds in an HTML file.
+
+Scene tree (all under ``/murdoch``)::
+
+    floor, walls/<i>, obstacles/<i>, posts/<i>, chargers/<name>   static
+    boxes/<name>, objects/<name>, markers/<name>                  posed from snapshots
+    robots/<name>                                             posed from snapshots
+    robots/<name>/body/<state>                                one coloured body per state,
+                                                              exactly one visible
+    robots/<name>/nose                                        heading marker
+    robots/<name>/label                                       task label (live view)
+    robots/<name>/labels/<k>                                  task labels (replay)
+
+Robot states and their colours are fixed here (`STATE_COLOURS`) so that the live view, the
+replay and the tests agree on them.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from worlds import WorldSpec
+
+Command = dict[str, Any]
+
+ROOT = "/murdoch"
+
+IDLE = "idle"
+WORKING = "working"
+CHARGING = "charging"
+FAILED = "failed"
+ROBOT_STATES: tuple[str, ...] = (IDLE, WORKING, CHARGING, FAILED)
+
+STATE_COLOURS: dict[str, int] = {
+    IDLE: 0x2F6FE0,  # blue
+    WORKING: 0xF08C00,  # orange
+    CHARGING: 0x1FB84A,  # green
+    FAILED: 0x7A7A7A,  # grey
+}
+FLOOR_COLOUR = 0xE4E0D4
+WALL_COLOUR = 0x4A4A52
+OBSTACLE_COLOUR = 0x6B5B4B
+CHARGER_COLOUR = 0xF5D000
+NOSE_COLOUR = 0x111111
+
+ROBOT_HEIGHT_M = 0.24
+LABEL_HEIGHT_M = 0.75
+LABEL_SCALE_M = 2.0
+
+
+@dataclass(frozen=True, slots=True)
+class Block:
+    """A box-shaped thing: centre, yaw and full sizes in metres."""
+
+    name: str
+    x_m: float
+    y_m: float
+    yaw_rad: float
+    size_x_m: float
+    size_y_m: float
+    size_z_m: float
+    colour: int
+
+
+@dataclass(frozen=True, slots=True)
+class Disc:
+    """A flat round marker (charging station) or a round object."""
+
+    name: str
+    x_m: float
+    y_m: float
+    radius_m: float
+    height_m: float
+    colour: int
+
+
+@dataclass(frozen=True, slots=True)
+class RobotShape:
+    name: str
+    length_m: float
+    width_m: float
+    x_m: float
+    y_m: float
+    yaw_rad: float
+    offset_x_m: float = 0.0  # body centre ahead of the robot's origin
+
+
+@dataclass(frozen=True, slots=True)
+class SceneLayout:
+    """Everything drawn, with initial poses; dynamic bodies are moved by name later."""
+
+    x_min_m: float
+    y_min_m: float
+    x_max_m: float
+    y_max_m: float
+    floor_colour: int = FLOOR_COLOUR
+    walls: tuple[Block, ...] = ()
+    obstacles: tuple[Block, ...] = ()
+    posts: tuple[Disc, ...] = ()  # static upright cylinders (round obstacles)
+    markers: tuple[Disc, ...] = ()  # visual-only posts, which may be moved
+    chargers: tuple[Disc, ...] = ()
+    boxes: tuple[Block, ...] = ()
+    objects: tuple[Disc, ...] = ()
+    robots: tuple[RobotShape, ...] = ()
+
+    @property
+    def centre(self) -> tuple[float, float]:
+        return ((self.x_min_m + self.x_max_m) / 2.0, (self.y_min_m + self.y_max_m) / 2.0)
+
+    @property
+    def extent_m(self) -> float:
+        return max(self.x_max_m - self.x_min_m, self.y_max_m - self.y_min_m)
+
+    def body_paths(self) -> dict[str, str]:
+        """Scene path of every body that moves, keyed by its simulation name."""
+        paths = {b.name: f"{ROOT}/boxes/{b.name}" for b in self.boxes}
+        paths.update({o.name: f"{ROOT}/objects/{o.name}" for o in self.objects})
+        paths.update({m.name: f"{ROOT}/markers/{m.name}" for m in self.markers})
+        paths.update({r.name: robot_path(r.name) for r in self.robots})
+        return paths
+
+
+def robot_path(name: str) -> str:
+    return f"{ROOT}/robots/{name}"
+
+
+def colour_rgb(colour: int) -> tuple[float, float, float]:
+    r, g, b = (colour >> 16) & 0xFF, (colour >> 8) & 0xFF, colour & 0xFF
+    return (r / 255.0, g / 255.0, b / 255.0)
+
+
+def pose_matrix(x_m: float, y_m: float, z_m: float, yaw_rad: float) -> list[float]:
+    """A 4x4 transform (rotation about z, then translation) in meshcat's column-major list."""
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    return [c, s, 0.0, 0.0, -s, c, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, x_m, y_m, z_m, 1.0]
+
+
+def yaw_quaternion_xyzw(yaw_rad: float) -> list[float]:
+    return [0.0, 0.0, math.sin(yaw_rad / 2.0), math.cos(yaw_rad / 2.0)]
+
+
+class IdSource:
+    """Deterministic uuids so that the same scene gives the same bytes."""
+
+    def __init__(self, prefix: str) -> None:
+        self._prefix = prefix
+        self._n = 0
+
+    def next(self) -> str:
+        self._n += 1
+        return f"{self._prefix}-{self._n:08d}"
+
+
+def _mesh(
+    ids: IdSource,
+    geometry: dict[str, Any],
+    colour: int,
+    *,
+    lit: bool = True,
+    opacity: float = 1.0,
+    matrix: Sequence[float] | None = None,
+) -> dict[str, Any]:
+    gid, mid, oid = ids.next(), ids.next(), ids.next()
+    material = {
+        "uuid": mid,
+        "type": "MeshLambertMaterial" if lit else "MeshBasicMaterial",
+        "color": colour,
+        "side": 2,
+        "transparent": opacity < 1.0,
+        "opacity": opacity,
+    }
+    return {
+        "metadata": {"version": 4.5, "type": "Object"},
+        "geometries": [dict(geometry, uuid=gid)],
+        "materials": [material],
+        "object": {
+            "uuid": oid,
+            "type": "Mesh",
+            "geometry": gid,
+            "material": mid,
+            "matrix": list(matrix) if matrix is not None else pose_matrix(0, 0, 0, 0),
+        },
+    }
+
+
+def _box_geometry(sx: float, sy: float, sz: float) -> dict[str, Any]:
+    return {"type": "BoxGeometry", "width": sx, "height": sy, "depth": sz}
+
+
+def _cylinder_geometry(radius_m: float, height_m: float) -> dict[str, Any]:
+    # three.js cylinders stand along y; the object matrix turns them to stand along z
+    return {
+        "type": "CylinderGeometry",
+        "radiusTop": radius_m,
+        "radiusBottom": radius_m,
+        "height": height_m,
+        "radialSegments": 24,
+    }
+
+
+_CYLINDER_UPRIGHT = [1.0, 0, 0, 0, 0, 0, 1.0, 0, 0, -1.0, 0, 0, 0, 0, 0, 1.0]
+
+
+def set_object(path: str, obj: dict[str, Any]) -> Command:
+    return {"type": "set_object", "path": path, "object": obj}
+
+
+def set_transform(path: str, matrix: Sequence[float]) -> Command:
+    return {"type": "set_transform", "path": path, "matrix": list(matrix)}
+
+
+def set_property(path: str, prop: str, value: Any) -> Command:
+    return {"type": "set_property", "path": path, "property": prop, "value": value}
+
+
+def delete(path: str) -> Command:
+    return {"type": "delete", "path": path}
+
+
+def label_object(ids: IdSource, text: str) -> dict[str, Any]:
+    """A camera-facing sprite showing `text` (drawn by the viewer on a canvas)."""
+    tid, mid, oid = ids.next(), ids.next(), ids.next()
+    s = LABEL_SCALE_M
+    return {
+        "metadata": {"version": 4.5, "type": "Object"},
+        "geometries": [],
+        "textures": [
+            {"uuid": tid, "type": "_text", "text": text, "font_size": 48, "font_face": "sans-serif"}
+        ],
+        "materials": [
+            {"uuid": mid, "type": "SpriteMaterial", "map": tid, "transparent": True,
+             "depthTest": False}
+        ],
+        "object": {
+            "uuid": oid,
+            "type": "Sprite",
+            "material": mid,
+            "matrix": [s, 0, 0, 0, 0, s, 0, 0, 0, 0, s, 0, 0, 0, LABEL_HEIGHT_M, 1],
+        },
+    }
+
+
+def camera_commands(layout: SceneLayout) -> list[Command]:
+    """Look down on the arena, slightly from the south, framing all of it."""
+    cx, cy = layout.centre
+    distance = max(layout.extent_m, 1.0) * 0.8
+    return [
+        # the orbit target is the origin of /Cameras/default: move it to the arena centre
+        set_transform("/Cameras/default", pose_matrix(cx, cy, 0.0, 0.0)),
+        # the camera sits in a y-up frame: (x, up, -north)
+        set_property(
+            "/Cameras/default/rotated/<object>", "position", [0.0, distance, distance * 0.35]
+        ),
+        set_property("/Grid", "visible", False),
+        set_property("/Axes", "visible", False),
+    ]
+
+
+def static_scene(layout: SceneLayout, *, id_prefix: str = "s") -> list[Command]:
+    """Commands that draw the whole scene at its initial poses, all robots idle."""
+    ids = IdSource(id_prefix)
+    cmds: list[Command] = [delete(ROOT)]
+    cx, cy = layout.centre
+    sx, sy = layout.x_max_m - layout.x_min_m, layout.y_max_m - layout.y_min_m
+    cmds.append(
+        set_object(
+            f"{ROOT}/floor", _mesh(ids, _box_geometry(sx, sy, 0.02), layout.floor_colour, lit=False)
+        )
+    )
+    cmds.append(set_transform(f"{ROOT}/floor", pose_matrix(cx, cy, -0.011, 0.0)))
+    for group, blocks, default_colour in (
+        ("walls", layout.walls, WALL_COLOUR),
+        ("obstacles", layout.obstacles, OBSTACLE_COLOUR),
+    ):
+        for i, b in enumerate(blocks):
+            path = f"{ROOT}/{group}/{i}"
+            geom = _box_geometry(b.size_x_m, b.size_y_m, b.size_z_m)
+            cmds.append(set_object(path, _mesh(ids, geom, b.colour or default_colour)))
+            cmds.append(set_transform(path, pose_matrix(b.x_m, b.y_m, b.size_z_m / 2, b.yaw_rad)))
+    for i, p in enumerate(layout.posts):
+        path = f"{ROOT}/posts/{i}"
+        upright = list(_CYLINDER_UPRIGHT)
+        upright[14] = p.height_m / 2
+        geom = _cylinder_geometry(p.radius_m, p.height_m)
+        cmds.append(set_object(path, _mesh(ids, geom, p.colour, matrix=upright)))
+        cmds.append(set_transform(path, pose_matrix(p.x_m, p.y_m, 0.0, 0.0)))
+    for c in layout.chargers:
+        path = f"{ROOT}/chargers/{c.name}"
+        geom = _cylinder_geometry(c.radius_m, max(c.height_m, 0.005))
+        pad = _mesh(ids, geom, c.colour, lit=False, matrix=_CYLINDER_UPRIGHT)
+        cmds.append(set_object(path, pad))
+        cmds.append(set_transform(path, pose_matrix(c.x_m, c.y_m, 0.003, 0.0)))
+    for b in layout.boxes:
+        path = f"{ROOT}/boxes/{b.name}"
+        # the box's own matrix lifts it so that its pose frame sits on the floor
+        lift = pose_matrix(0.0, 0.0, b.size_z_m / 2, 0.0)
+        geom = _box_geometry(b.size_x_m, b.size_y_m, b.size_z_m)
+        cmds.append(set_object(f"{path}/shape", _mesh(ids, geom, b.colour, matrix=lift)))
+        cmds.append(set_transform(path, pose_matrix(b.x_m, b.y_m, 0.0, b.yaw_rad)))
+    for group, discs in (("objects", layout.objects), ("markers", layout.markers)):
+        for o in discs:
+            cmds.extend(_upright_disc(ids, f"{ROOT}/{group}/{o.name}", o))
+    for r in layout.robots:
+        cmds.extend(robot_commands(ids, r))
+    cmds.extend(camera_commands(layout))
+    return cmds
+
+
+def _upright_disc(ids: IdSource, path: str, o: Disc) -> list[Command]:
+    lift = list(_CYLINDER_UPRIGHT)
+    lift[14] = o.height_m / 2
+    geom = _cylinder_geometry(o.radius_m, o.height_m)
+    return [
+        set_object(f"{path}/shape", _mesh(ids, geom, o.colour, matrix=lift)),
+        set_transform(path, pose_matrix(o.x_m, o.y_m, 0.0, 0.0)),
+    ]
+
+
+def robot_commands(ids: IdSource, r: RobotShape) -> list[Command]:
+    path = robot_path(r.name)
+    lift = pose_matrix(r.offset_x_m, 0.0, ROBOT_HEIGHT_M / 2, 0.0)
+    geom = _box_geometry(r.length_m, r.width_m, ROBOT_HEIGHT_M)
+    cmds: list[Command] = []
+    for state in ROBOT_STATES:
+        body = f"{path}/body/{state}"
+        cmds.append(set_object(body, _mesh(ids, geom, STATE_COLOURS[state], matrix=lift)))
+        cmds.append(set_property(body, "visible", state == IDLE))
+    nose = pose_matrix(r.offset_x_m + r.length_m * 0.3, 0.0, ROBOT_HEIGHT_M + 0.01, 0.0)
+    nose_geom = _box_geometry(r.length_m * 0.3, r.width_m * 0.25, 0.02)
+    cmds.append(set_object(f"{path}/nose", _mesh(ids, nose_geom, NOSE_COLOUR, matrix=nose)))
+    cmds.append(set_transform(path, pose_matrix(r.x_m, r.y_m, 0.0, r.yaw_rad)))
+    return cmds
+
+
+def state_change(robot: str, old: str | None, new: str) -> list[Command]:
+    """Show the body of `new` and hide the others (all of them when `old` is unknown)."""
+    if new not in STATE_COLOURS:
+        raise ValueError(f"unknown robot state {new!r}; expected one of {ROBOT_STATES}")
+    states: Iterable[str] = ROBOT_STATES if old is None else (old,)
+    cmds = [
+        set_property(f"{robot_path(robot)}/body/{s}", "visible", False) for s in states if s != new
+    ]
+    cmds.append(set_property(f"{robot_path(robot)}/body/{new}", "visible", True))
+    return cmds
+
+
+def label_change(ids: IdSource, robot: str, text: str) -> list[Command]:
+    path = f"{robot_path(robot)}/label"
+    if not text:
+        return [delete(path)]
+    return [set_object(path, label_object(ids, text))]
+
+
+def layout_from_world(spec: WorldSpec) -> SceneLayout:
+    """The scene of a world file (`worlds.load_world`): arena centred on the origin."""
+    arena = spec.arena
+    hx, hy, th, wh = arena.half_x_m, arena.half_y_m, arena.wall_thickness_m, arena.wall_height_m
+    wc = arena.wall_colour
+    walls = (
+        Block("north", 0.0, hy + th / 2, 0.0, arena.size_x_m + 2 * th, th, wh, wc),
+        Block("south", 0.0, -hy - th / 2, 0.0, arena.size_x_m + 2 * th, th, wh, wc),
+        Block("east", hx + th / 2, 0.0, 0.0, th, arena.size_y_m, wh, wc),
+        Block("west", -hx - th / 2, 0.0, 0.0, th, arena.size_y_m, wh, wc),
+    )
+    obstacles = tuple(
+        Block(o.name, o.pose.x, o.pose.y, o.pose.yaw, o.size_x_m, o.size_y_m, o.height_m, o.colour)
+        for o in arena.obstacles
+        if o.shape == "box"
+    )
+    posts = tuple(
+        Disc(o.name, o.pose.x, o.pose.y, o.radius_m, o.height_m, o.colour)
+        for o in arena.obstacles
+        if o.shape != "box"
+    )
+    markers = tuple(Disc(m.name, m.x, m.y, m.radius_m, m.height_m, m.colour) for m in spec.markers)
+    return SceneLayout(
+        x_min_m=-hx,
+        y_min_m=-hy,
+        x_max_m=hx,
+        y_max_m=hy,
+        floor_colour=arena.floor_colour,
+        walls=walls,
+        obstacles=obstacles,
+        posts=posts,
+        markers=markers,
+        chargers=tuple(Disc(c.name, c.x, c.y, c.radius_m, 0.006, c.colour) for c in spec.chargers),
+        boxes=tuple(
+            Block(b.name, b.pose.x, b.pose.y, b.pose.yaw, b.size_x_m, b.size_y_m, b.size_z_m,
+                  b.colour)
+            for b in spec.boxes
+        ),
+        objects=tuple(
+            Disc(o.name, o.pose.x, o.pose.y, o.radius_m, o.height_m, o.colour)
+            for o in spec.objects
+        ),
+        robots=tuple(
+            RobotShape(r.name, r.body.length_m, r.body.width_m, r.pose.x, r.pose.y, r.pose.yaw,
+                       r.body.offset_x_m)
+            for r in spec.robots
+            if r.mobile
+        ),
+    )

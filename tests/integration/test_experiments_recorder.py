@@ -1,0 +1,84 @@
+"""A recorded run over the real simulation: run directory, live view, report and replay."""
+
+from __future__ import annotations
+
+import io
+import json
+import time
+from datetime import datetime
+from pathlib import Path
+
+import pytest
+
+from experiments import events as ev
+from experiments.recorder import RunRecorder, parse_proc_status, read_process_memory
+from player_server.sim import Simulation
+from worlds import load_world, world_path
+
+pytestmark = pytest.mark.timeout(120)
+
+
+def test_parse_proc_status() -> None:
+    text = "Name:\tpython\nVmHWM:\t  20480 kB\nVmRSS:\t  10240 kB\n"
+    assert parse_proc_status(text) == {"rss_bytes": 10240 * 1024, "peak_rss_bytes": 20480 * 1024}
+    import os
+
+    mem = read_process_memory(os.getpid())
+    assert mem is not None and 0 < mem["rss_bytes"] <= mem["peak_rss_bytes"]
+    assert read_process_memory(2**22 + 12345) is None
+
+
+def test_recorded_run_with_live_view(tmp_path: Path) -> None:
+    spec = load_world(world_path("simple"))
+    robot = spec.robots[0].name
+    out = io.StringIO()
+    wall = time.monotonic
+    rec = RunRecorder(
+        tmp_path / "runs", "simple", {"seed": 5, "world": "simple"}, world=spec,
+        started=datetime(2026, 5, 6, 7, 8, 9), wall_clock=wall, stream=out, terminal=False,
+        meshcat=True, progress_period_sim_s=20.0, live_rate_hz=50.0,
+    )
+    sim = Simulation(spec, seed=5)
+    try:
+        rec.start()
+        assert rec.viewer_url is not None and rec.viewer_url.startswith("http://127.0.0.1:")
+        observed = rec.observe(sim)
+        rec.event(sim.time_s, ev.TASK_INTRODUCED, task="t1", task_kind="goto-goal")
+        rec.event(sim.time_s, ev.AWARD, task="t1", robot=robot, latency_s=0.2)
+        sim.set_velocity(robot, 0.3, 0.2)
+        for _ in range(600):  # 60 simulated seconds
+            observed.step()
+            rec.advance(observed.time_s)
+            rec.tick()
+        rec.event(sim.time_s, ev.TASK_OUTCOME, task="t1", robot=robot, outcome=ev.COMPLETED)
+        rec.sample_processes(sim.time_s, {"runner": __import__("os").getpid()})
+        deadline = time.monotonic() + 5
+        while rec.live.stats().frames < 5 and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert rec.live.stats().viewer_errors == 0
+        final = sim.get_pose(robot)
+        report = rec.finish("completed")
+    finally:
+        sim.close()
+    run = report.run
+    assert f"meshcat live view: {rec.viewer_url}" in out.getvalue()
+    lines = [ln for ln in out.getvalue().splitlines() if ln.startswith("sim ")]
+    assert len(lines) >= 3  # one per 20 simulated seconds and a final one
+    config = json.loads(run.config.read_text())
+    assert config == {"experiment": "simple", "seed": 5, "world": "simple"}
+    poses = ev.read_events(run.poses)
+    assert 59 <= len(poses) <= 61
+    last = poses[-1]["bodies"][robot]
+    assert last[:2] == pytest.approx(list(final[:2]), abs=0.05)
+    kinds = [e["kind"] for e in ev.read_events(run.events)]
+    assert kinds[0] == ev.RUN_START and kinds[-1] == ev.RUN_END
+    s = report.summary
+    assert s["tasks"]["executed"] == 1 and s["invariant_terminal_states"]["holds"]
+    assert s["sim_time_s"] == pytest.approx(60.0, abs=0.2)
+    assert s["real_time_factor"] > 1.0
+    assert s["processes"]["runner"]["peak_rss_bytes"] > 0
+    assert report.replay is not None and report.replay.stat().st_size > 800_000
+    for name in ("tasks.png", "battery.png", "allocation.png"):
+        assert (run.plots / name).is_file()
+    with pytest.raises(RuntimeError, match="already finished"):
+        rec.finish("completed")

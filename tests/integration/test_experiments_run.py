@@ -1,0 +1,54 @@
+"""`murdoch run longterm` end to end: real server, robot processes, multicast auctions."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from experiments import events as ev
+from experiments.summary import terminal_state_problems
+
+pytestmark = pytest.mark.timeout(240)
+
+
+def _murdoch() -> list[str]:
+    exe = Path(sys.executable).parent / "murdoch"
+    return [str(exe)] if exe.exists() else [sys.executable, "-m", "experiments.cli"]
+
+
+def test_short_longterm_run_with_a_killed_winner(tmp_path: Path) -> None:
+    out = tmp_path / "runs"
+    proc = subprocess.run(
+        [*_murdoch(), "run", "longterm", "--until", "150s", "--task-interval", "25",
+         "--seed", "4", "--kill", "busy@45s", "--restart", "busy@100s", "--out", str(out)],
+        capture_output=True, text=True, timeout=220, check=False,
+    )
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    (run,) = out.iterdir()
+    for name in ("config.json", "events.jsonl", "poses.jsonl", "summary.json", "replay.html",
+                 "plots/tasks.png", "plots/battery.png", "plots/allocation.png"):
+        assert (run / name).is_file(), name
+    assert json.loads((run / "config.json").read_text())["seed"] == 4
+    events = ev.read_events(run / "events.jsonl")
+    # every task ends in exactly one terminal state
+    assert not any(terminal_state_problems(events).values())
+    summary = json.loads((run / "summary.json").read_text())
+    assert summary["sim_time_s"] >= 149.0
+    assert summary["tasks"]["introduced"] >= 5
+    assert summary["tasks"]["executed"] >= 1
+    assert {"announce", "bid", "award"} <= set(summary["messages"]["by_kind"])
+    # the robot holding a task was killed; its task went back to auction and to another robot
+    (failure,) = [e for e in events if e["kind"] == ev.ROBOT_FAILURE]
+    victim = failure["robot"]
+    realloc = [e for e in events if e["kind"] == ev.REALLOCATION]
+    assert realloc and realloc[0]["from_robot"] == victim
+    task = realloc[0]["task"]
+    awards = [e["robot"] for e in events if e["kind"] == ev.AWARD and e["task"] == task]
+    assert awards[0] == victim and any(r != victim for r in awards[1:])
+    assert [e["robot"] for e in events if e["kind"] == ev.ROBOT_RESTART] == [victim]
+    assert summary["processes"]["runner"]["peak_rss_bytes"] > 0
+    assert "sim 0:02:30" in proc.stdout  # the final progress line

@@ -1,0 +1,105 @@
+"""Lockstep: robot processes of different speeds see every tick; a seeded run repeats."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from player_server.client import PlayerClient, Position2dProxy, SonarProxy
+from player_server.server.assembly import world_endpoints
+from player_server.server.core import CoreConfig
+from player_server.server.runner import PlayerServer
+from player_server.sim import Simulation
+from worlds import load_world, world_path
+
+pytestmark = pytest.mark.timeout(120)
+
+TICKS = 40
+
+ROBOT = """
+import sys, time
+from player_server.client import PlayerClient, Position2dProxy, SonarProxy
+port, n, delay_s, out = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3]), sys.argv[4]
+cl = PlayerClient("127.0.0.1", port, read_timeout_s=30.0).connect()
+pos = cl.subscribe(Position2dProxy)
+sonar = cl.subscribe(SonarProxy)
+lines = []
+for i in range(n):
+    cl.read()
+    front = min(sonar.ranges[2:6])
+    lines.append(f"{pos.data_time_s:.3f} {pos.x:.9f} {pos.y:.9f} {pos.yaw:.9f} {front:.6f}")
+    v, w = (0.4, 0.05) if front > 0.7 else (0.0, 0.8)
+    pos.set_velocity(v, w)
+    if delay_s:
+        time.sleep(delay_s * (i % 3))
+cl.close()
+open(out, "w").write("\\n".join(lines) + "\\n")
+"""
+
+
+def run_once(tmp: Path, delays: tuple[float, float], tag: str) -> tuple[str, str, int]:
+    spec = load_world(world_path("boxpush"))
+    sim = Simulation(spec, seed=11)
+    server = PlayerServer(
+        sim, world_endpoints(spec, sim, 0), interval_s=sim.interval_s, clock=time.monotonic,
+        speedup=0.0,
+        config=CoreConfig(lockstep=True, lockstep_clients=2, lockstep_timeout_s=20.0),
+    )
+    server.start()
+    try:
+        # a monitor on the watcher port must neither hold nor advance the clock
+        with PlayerClient("127.0.0.1", server.ports["watcher"], lockstep=False) as monitor:
+            monitor.subscribe(SonarProxy)
+            outs = [tmp / f"{tag}_{name}.txt" for name in ("pusher1", "pusher2")]
+            procs = [
+                subprocess.Popen([sys.executable, "-c", ROBOT, str(server.ports[name]),
+                                  str(TICKS), str(delay), str(out)])
+                for name, delay, out in zip(("pusher1", "pusher2"), delays, outs, strict=True)
+            ]
+            monitor.read(timeout_s=10)
+            for p in procs:
+                assert p.wait(timeout=60) == 0
+            monitor.read(timeout_s=10)
+            assert not monitor.is_lockstep_participant()
+        ticks = server.ticks
+    finally:
+        server.stop()
+        sim.close()
+    return outs[0].read_text(), outs[1].read_text(), ticks
+
+
+def test_two_robot_processes_repeat_exactly(tmp_path: Path) -> None:
+    a1, b1, ticks1 = run_once(tmp_path, (0.0, 0.01), "first")
+    a2, b2, ticks2 = run_once(tmp_path, (0.01, 0.0), "second")
+    for text in (a1, b1):
+        stamps = [float(line.split()[0]) for line in text.splitlines()]
+        assert stamps == pytest.approx([0.1 * i for i in range(TICKS)])  # every tick, none twice
+    assert a1 == a2 and b1 == b2
+    assert a1 != b1
+    assert ticks1 == ticks2 == TICKS - 1
+
+
+def test_simulation_waits_for_the_expected_clients() -> None:
+    spec = load_world(world_path("boxpush"))
+    sim = Simulation(spec, seed=1)
+    server = PlayerServer(
+        sim, world_endpoints(spec, sim, 0), interval_s=sim.interval_s, clock=time.monotonic,
+        speedup=0.0, config=CoreConfig(lockstep=True, lockstep_clients=2))
+    server.start()
+    try:
+        with PlayerClient("127.0.0.1", server.ports["pusher1"]) as cl:
+            pos = cl.subscribe(Position2dProxy)
+            assert cl.is_lockstep_participant()
+            cl.read()
+            from player_server.client import PlayerTimeout
+
+            with pytest.raises(PlayerTimeout):
+                cl.read(timeout_s=0.5)  # the second robot is not there yet
+            assert pos.data_time_s == 0.0 and server.ticks == 0
+    finally:
+        server.stop()
+        sim.close()

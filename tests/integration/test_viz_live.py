@@ -1,0 +1,179 @@
+"""The live meshcat viewer process: loopback-only sockets, and the live view feeding it."""
+
+from __future__ import annotations
+
+import base64
+import os
+import re
+import threading
+import time
+from pathlib import Path
+
+import pytest
+import umsgpack
+import zmq
+
+from player_server.viz import scene
+from player_server.viz.live import LiveView
+from player_server.viz.server import ViewerProcess, ViewerUnavailable, ZmqChannel
+from worlds import load_world, world_path
+
+pytestmark = pytest.mark.timeout(60)
+
+
+def _listening_sockets(pid: int) -> list[tuple[str, str, int]]:
+    """(family, local address hex, port) of every listening TCP socket owned by `pid`."""
+    inodes = set()
+    for fd in Path(f"/proc/{pid}/fd").iterdir():
+        try:
+            target = os.readlink(fd)
+        except OSError:
+            continue
+        m = re.match(r"socket:\[(\d+)\]", target)
+        if m:
+            inodes.add(m.group(1))
+    found = []
+    for family in ("tcp", "tcp6"):
+        lines = Path(f"/proc/net/{family}").read_text().splitlines()[1:]
+        for line in lines:
+            cols = line.split()
+            local, state, inode = cols[1], cols[3], cols[9]
+            if state == "0A" and inode in inodes:  # 0A = LISTEN
+                addr, port_hex = local.split(":")
+                found.append((family, addr, int(port_hex, 16)))
+    return found
+
+
+def _port(url: str) -> int:
+    m = re.search(r":(\d+)(/|$)", url.split("//", 1)[1])
+    assert m, url
+    return int(m.group(1))
+
+
+def test_viewer_listens_on_loopback_only() -> None:
+    with ViewerProcess() as viewer:
+        assert viewer.urls.web_url.startswith("http://127.0.0.1:")
+        assert viewer.urls.zmq_url.startswith("tcp://127.0.0.1:")
+        web_port, zmq_port = _port(viewer.urls.web_url), _port(viewer.urls.zmq_url)
+        sockets = _listening_sockets(viewer.pid)
+        ports = {port for _, _, port in sockets}
+        assert {web_port, zmq_port} <= ports, sockets
+        for family, addr, port in sockets:
+            # 0100007F is 127.0.0.1 in /proc/net/tcp's little-endian hex
+            assert (family, addr) == ("tcp", "0100007F"), f"port {port} listens on {family} {addr}"
+
+
+def test_stock_meshcat_would_listen_everywhere() -> None:
+    """The reason for our own bridge: stock meshcat's tornado listen() has no address."""
+    import inspect
+
+    from meshcat.servers import zmqserver
+
+    source = inspect.getsource(zmqserver.ZMQWebSocketBridge.__init__)
+    assert "self.app.listen(port, **listen_kwargs)" in source
+
+
+def _scene_commands(zmq_url: str) -> list[dict]:
+    """Ask the viewer for its scene (meshcat's get_scene) and decode the embedded commands."""
+    ctx = zmq.Context()
+    sock = ctx.socket(zmq.REQ)
+    sock.setsockopt(zmq.RCVTIMEO, 5000)
+    sock.setsockopt(zmq.LINGER, 0)
+    try:
+        sock.connect(zmq_url)
+        sock.send(b"get_scene")
+        html = sock.recv().decode("utf-8")
+    finally:
+        sock.close()
+        ctx.term()
+    blobs = re.findall(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)", html)
+    return [umsgpack.unpackb(base64.b64decode(b)) for b in blobs]
+
+
+def test_live_view_mirrors_snapshots_and_states() -> None:
+    layout = scene.layout_from_world(load_world(world_path("longterm")))
+    robot = layout.robots[0].name
+    box = layout.boxes[0].name
+    with ViewerProcess() as viewer:
+        channel = ZmqChannel(viewer.urls.zmq_url, timeout_s=5.0)
+        view = LiveView(layout, channel, max_rate_hz=50.0)
+        try:
+            view.start()
+            view.offer({robot: (1.25, -0.5, 0.3), box: (2.0, 2.0, 0.0)})
+            view.set_robot(robot, scene.WORKING, "sentry-duty t7")
+            deadline = time.monotonic() + 10.0
+            while view.stats().frames < 3 and time.monotonic() < deadline:
+                time.sleep(0.05)
+            view.offer({robot: (1.5, -0.5, 0.3)})
+            target = view.stats().frames + 2
+            while view.stats().frames < target and time.monotonic() < deadline:
+                time.sleep(0.05)
+        finally:
+            view.stop()
+            channel.close()
+        assert view.stats().viewer_errors == 0
+        cmds = _scene_commands(viewer.urls.zmq_url)
+    rpath = scene.robot_path(robot)
+    transforms = {c["path"]: c["matrix"] for c in cmds if c["type"] == "set_transform"}
+    assert transforms[rpath][12:14] == pytest.approx([1.5, -0.5], abs=1e-3)
+    assert transforms[f"{scene.ROOT}/boxes/{box}"][12:14] == pytest.approx([2.0, 2.0], abs=1e-3)
+    visible = {
+        c["path"]: c["value"]
+        for c in cmds
+        if c["type"] == "set_property" and c["property"] == "visible"
+    }
+    assert visible[f"{rpath}/body/working"] is True
+    assert visible[f"{rpath}/body/idle"] is False
+    labels = [c for c in cmds if c["type"] == "set_object" and c["path"] == f"{rpath}/label"]
+    assert labels and labels[-1]["object"]["textures"][0]["text"] == "sentry-duty t7"
+
+
+def test_live_view_never_blocks_the_offering_thread_and_survives_a_dead_viewer() -> None:
+    layout = scene.layout_from_world(load_world(world_path("simple")))
+    robot = layout.robots[0].name
+    viewer = ViewerProcess()
+    channel = ZmqChannel(viewer.urls.zmq_url, timeout_s=0.3)
+    view = LiveView(layout, channel, max_rate_hz=20.0, retry_period_s=0.1)
+    view.start()
+    try:
+        viewer.stop()  # the viewer goes away under the view
+        offered = 0
+        t0 = time.monotonic()
+        for i in range(20000):  # a fast simulation loop
+            view.offer({robot: (0.001 * i, 0.0, 0.0)})
+            offered += 1
+        elapsed = time.monotonic() - t0
+        deadline = time.monotonic() + 5.0
+        while view.stats().viewer_errors < 1 and time.monotonic() < deadline:
+            time.sleep(0.05)
+    finally:
+        view.stop()
+        channel.close()
+    stats = view.stats()
+    assert stats.snapshots_offered == offered
+    assert elapsed < 2.0  # offering is a lock and an assignment, never a network wait
+    assert stats.viewer_errors >= 1
+    assert threading.active_count() < 50
+
+
+def test_channel_refuses_remote_addresses() -> None:
+    with pytest.raises(ValueError, match="off this host"):
+        ZmqChannel("tcp://10.0.0.1:6000")
+
+
+def test_channel_times_out_without_a_viewer() -> None:
+    ctx = zmq.Context()
+    # a bound REP socket that never answers
+    rep = ctx.socket(zmq.REP)
+    rep.setsockopt(zmq.LINGER, 0)
+    port = rep.bind_to_random_port("tcp://127.0.0.1")
+    channel = ZmqChannel(f"tcp://127.0.0.1:{port}", timeout_s=0.2)
+    try:
+        t0 = time.monotonic()
+        with pytest.raises(ViewerUnavailable):
+            channel.send(scene.delete("/murdoch"))
+        assert time.monotonic() - t0 < 2.0
+    finally:
+        channel.close()
+        rep.close()
+        ctx.term()

@@ -1,0 +1,171 @@
+"""What each basis behaviour does in small hand-made scenes."""
+
+from __future__ import annotations
+
+import math
+
+from behaviors import basis
+from behaviors.basis.boxwatch import find_face
+from behaviors.snapshot import (
+    Blob,
+    BlobView,
+    Bumpers,
+    Mark,
+    Odometry,
+    Pose2D,
+    Power,
+    RangeScan,
+    Snapshot,
+)
+
+T = 10.0
+RED = 0xFF0000
+BEARINGS = tuple(-math.pi / 2 + i * math.pi / 180 for i in range(181))
+
+
+def odo(x: float = 0.0, y: float = 0.0, yaw: float = 0.0, stall: bool = False) -> Odometry:
+    return Odometry(Pose2D(x, y, yaw), 0.0, 0.0, stall, T)
+
+
+def laser(ranges: list[float]) -> RangeScan:
+    return RangeScan(tuple(ranges), BEARINGS, 8.0, T)
+
+
+def view(*blobs: Blob) -> BlobView:
+    return BlobView(160, 120, blobs, math.radians(60), T)
+
+
+def blob(left: int, right: int, range_m: float = 2.0, colour: int = RED) -> Blob:
+    return Blob(colour, (right - left) * 20, (left + right) / 2, 60, left, right, 50, 70, range_m)
+
+
+def test_avoid_turns_away_from_obstacle_on_the_right() -> None:
+    ranges = [5.0] * 181
+    for i in range(60, 90):  # right of centre (negative bearings)
+        ranges[i] = 0.3
+    p = basis.AvoidWithLaser(safe_range_m=0.5).decide(Snapshot(T, laser=laser(ranges)), T)
+    assert p.active and p.vyaw_radps > 0 and p.signal == "obstacle"
+    clear = basis.AvoidWithLaser().decide(Snapshot(T, laser=laser([5.0] * 181)), T)
+    assert not clear.active
+
+
+def test_avoid_ignores_blind_cone() -> None:
+    ranges = [5.0] * 181
+    ranges[90] = 0.2  # straight ahead only
+    b = basis.AvoidWithLaser(ignore_half_angle_rad=math.radians(10))
+    assert not b.decide(Snapshot(T, laser=laser(ranges)), T).active
+
+
+def test_servo_to_location_turns_towards_goal_and_stops_there() -> None:
+    s = basis.ServoToLocation(0.0, 3.0)
+    p = s.decide(Snapshot(T, odometry=odo()), T)
+    assert p.vyaw_radps > 0 and p.vx_mps == 0.0  # goal at 90 deg left: turn in place
+    ahead = s.decide(Snapshot(T, odometry=odo(yaw=math.pi / 2)), T)
+    assert ahead.vx_mps > 0 and abs(ahead.vyaw_radps) < 1e-9
+    there = s.decide(Snapshot(T, odometry=odo(0.0, 2.9)), T)
+    assert there.signal == "at-goal" and there.vx_mps == 0.0
+
+
+def test_wander_is_a_function_of_seed_and_time() -> None:
+    a = basis.Wander(seed=1, straight_fraction=0.0)
+    turns = {a.decide(Snapshot(0.0), t * 2.0 + 0.5).vyaw_radps for t in range(20)}
+    assert len(turns) > 5
+    b = basis.Wander(seed=2, straight_fraction=0.0)
+    assert [a.decide(Snapshot(0.0), t).vyaw_radps for t in range(0, 40, 2)] != [
+        b.decide(Snapshot(0.0), t).vyaw_radps for t in range(0, 40, 2)
+    ]
+
+
+def test_visual_servo_aims_at_the_chosen_end() -> None:
+    centred = view(blob(40, 120))
+    left = basis.VisualServoToColour(RED, aim_fraction=0.2).decide(Snapshot(T, camera=centred), T)
+    right = basis.VisualServoToColour(RED, aim_fraction=0.8).decide(Snapshot(T, camera=centred), T)
+    assert left.vyaw_radps > 0 > right.vyaw_radps
+    near = basis.VisualServoToColour(RED, stop_range_m=1.0).decide(
+        Snapshot(T, camera=view(blob(70, 90, range_m=0.8))), T
+    )
+    assert near.signal == "reached" and near.vx_mps == 0.0
+    unseen = basis.VisualServoToColour(0x00FF00).decide(Snapshot(T, camera=centred), T)
+    assert not unseen.active
+
+
+def test_keep_distance_backs_off_when_too_close() -> None:
+    b = basis.KeepDistanceToColour(RED, distance_m=1.5)
+    close = b.decide(Snapshot(T, camera=view(blob(70, 90, range_m=0.5))), T)
+    far = b.decide(Snapshot(T, camera=view(blob(70, 90, range_m=3.0))), T)
+    assert close.vx_mps < 0 < far.vx_mps
+
+
+def test_push_with_bumpers_only_on_contact_and_blocked_when_stalled() -> None:
+    b = basis.PushWithBumpers()
+    assert not b.decide(Snapshot(T, bumpers=Bumpers((False,) * 5, T)), T).active
+    pressed = Bumpers((False, True, False), T)
+    assert b.decide(Snapshot(T, bumpers=pressed, odometry=odo()), T).signal == "contact"
+    assert b.decide(Snapshot(T, bumpers=pressed, odometry=odo(stall=True)), T).signal == "blocked"
+
+
+def test_watch_for_motion_compares_with_the_stage_start_scan() -> None:
+    reference = laser([4.0] * 181)
+    quiet = Snapshot(T, laser=laser([4.0] * 181), mark=Mark(0.0, None, reference))
+    w = basis.WatchForMotionWithLaser()
+    assert w.decide(quiet, T).signal == ""
+    changed = [4.0] * 181
+    for i in range(80, 86):
+        changed[i] = 1.5
+    alarm = w.decide(Snapshot(T, laser=laser(changed), mark=Mark(0.0, None, reference)), T)
+    assert alarm.signal == "motion" and alarm.value == 6.0 and alarm.vx_mps == 0.0
+
+
+def test_dock_drives_to_the_charger_and_reports_charging() -> None:
+    d = basis.DockAtCharger(2.0, 0.0)
+    going = d.decide(Snapshot(T, odometry=odo(), power=Power(20.0, 11.0, 0, T)), T)
+    assert going.vx_mps > 0 and going.signal == ""
+    docked = d.decide(Snapshot(T, odometry=odo(2.0), power=Power(20.0, 11.0, 1, T)), T)
+    assert docked.signal == "docked" and docked.vx_mps == 0.0
+
+
+def _face_scan(tilt_rad: float, distance_m: float = 1.5, half_width_m: float = 0.6) -> RangeScan:
+    """A flat face crossing the x axis at `distance_m`, its normal turned by `tilt_rad`."""
+    nx, ny = math.cos(tilt_rad), math.sin(tilt_rad)
+    ranges = []
+    for b in BEARINGS:
+        dx, dy = math.cos(b), math.sin(b)
+        denom = dx * nx + dy * ny
+        r = distance_m * nx / denom if denom > 1e-6 else 8.0
+        # Points of the face beyond its half width are not part of it.
+        px, py = r * dx, r * dy
+        along = -px * ny + py * nx + distance_m * ny
+        ranges.append(r if 0 < r < 8.0 and abs(along) <= half_width_m else 8.0)
+    return RangeScan(tuple(ranges), BEARINGS, 8.0, T)
+
+
+def test_find_face_recovers_the_tilt_of_a_flat_face() -> None:
+    for tilt in (-0.3, 0.0, 0.25):
+        face = find_face(_face_scan(tilt), 0.0, math.radians(45), 3.0)
+        assert face is not None
+        assert abs(face.normal_rad - tilt) < 0.02
+        assert abs(face.width_m - 1.2) < 0.15
+    p = basis.BoxAlignmentFromLaser().decide(Snapshot(T, laser=_face_scan(0.2)), T)
+    assert not p.active and p.signal == "box" and abs(p.value - 0.2) < 0.05
+
+
+def test_goal_from_camera_reports_bearing_of_marker() -> None:
+    g = basis.GoalFromCamera(0x00FF00)
+    p = g.decide(Snapshot(T, camera=view(blob(10, 20, 5.0, 0x00FF00))), T)
+    assert p.signal == "goal" and p.value > 0 and p.vyaw_radps > 0
+
+
+def test_turn_about_uses_the_stage_start_heading() -> None:
+    t = basis.TurnAbout(math.pi)
+    mark = Mark(0.0, Pose2D(0, 0, 0.0), None)
+    start = t.decide(Snapshot(T, odometry=odo(yaw=0.0), mark=mark), T)
+    assert start.vyaw_radps > 0
+    done = t.decide(Snapshot(T, odometry=odo(yaw=math.pi - 0.05), mark=mark), T)
+    assert done.signal == "turned"
+
+
+def test_back_off_reverses_then_stops() -> None:
+    b = basis.BackOff(duration_s=1.0)
+    mark = Mark(T, None, None)
+    assert b.decide(Snapshot(T, mark=mark), T + 0.5).vx_mps < 0
+    assert b.decide(Snapshot(T, mark=mark), T + 1.0).signal == "backed-off"

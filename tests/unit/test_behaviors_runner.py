@@ -1,0 +1,84 @@
+"""The behaviour runner: one thread per behaviour, owner sees results and failures."""
+
+from __future__ import annotations
+
+import dataclasses
+import threading
+
+import pytest
+
+from behaviors.basis import Hold, Wander
+from behaviors.proposal import Proposal
+from behaviors.runner import BehaviourFailed, BehaviourRunner, BehaviourStalled
+from behaviors.snapshot import Snapshot
+
+
+@dataclasses.dataclass(frozen=True)
+class Echo:
+    """Proposes the tick time as speed, and records the thread it ran on."""
+
+    name: str
+    seen: list = dataclasses.field(default_factory=list, compare=False)
+    max_speed_mps: float = 1e9
+    max_turn_radps: float = 0.0
+
+    def decide(self, snapshot: Snapshot, now: float) -> Proposal:
+        self.seen.append(threading.current_thread().name)
+        if now < 0:
+            raise ValueError("negative time")
+        return Proposal(True, now, 0.0)
+
+
+def test_each_behaviour_runs_once_per_tick_on_its_own_thread() -> None:
+    a, b = Echo("a"), Echo("b")
+    with BehaviourRunner("r") as runner:
+        runner.set_behaviours([a, b])
+        assert runner.thread_count == 2
+        for t in range(1, 6):
+            proposals = runner.tick(Snapshot(float(t)), float(t))
+            assert [p.vx_mps for p in proposals] == [t, t]
+        assert len(a.seen) == 5 and set(a.seen) == {"r:a"} and set(b.seen) == {"r:b"}
+        runner.set_behaviours([Hold(), Wander()])
+        assert runner.thread_count == 2 and runner.tick(Snapshot(1.0), 1.0)[0].active
+    assert runner.thread_count == 0
+
+
+def test_exceptions_reach_the_owner() -> None:
+    with BehaviourRunner("r") as runner:
+        runner.set_behaviours([Hold(), Echo("bad")])
+        with pytest.raises(BehaviourFailed, match="negative time") as info:
+            runner.tick(Snapshot(0.0), -1.0)
+        assert isinstance(info.value.error, ValueError) and info.value.behaviour == "bad"
+        # The runner is still usable afterwards.
+        assert [p.vx_mps for p in runner.tick(Snapshot(2.0), 2.0)] == [0.0, 2.0]
+
+
+@dataclasses.dataclass(frozen=True)
+class Sleepy:
+    gate: threading.Event
+    name: str = "sleepy"
+    max_speed_mps: float = 0.0
+    max_turn_radps: float = 0.0
+
+    def decide(self, snapshot: Snapshot, now: float) -> Proposal:
+        self.gate.wait(5.0)
+        return Proposal(False, weight=0.0)
+
+
+def test_stalled_behaviour_is_reported() -> None:
+    gate = threading.Event()
+    runner = BehaviourRunner("r", stall_timeout_s=0.2)
+    runner.set_behaviours([Sleepy(gate)])
+    with pytest.raises(BehaviourStalled, match="sleepy"):
+        runner.tick(Snapshot(1.0), 1.0)
+    gate.set()
+    runner.close()
+    assert runner.thread_count == 0
+
+
+def test_no_behaviours_no_threads() -> None:
+    runner = BehaviourRunner()
+    runner.set_behaviours([])
+    assert runner.tick(Snapshot(1.0), 1.0) == []
+    runner.close()
+    runner.close()

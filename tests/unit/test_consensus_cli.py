@@ -1,0 +1,51 @@
+"""`murdoch allocate` and `murdoch sweep` through click."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from click.testing import CliRunner
+
+from experiments.cli import main
+
+
+def test_allocate_prints_the_result(worlds_dir: Path) -> None:
+    f = worlds_dir / "scenarios" / "consensus-groups.json"
+    r = CliRunner().invoke(main, ["allocate", str(f), "--algorithm", "cbga"])
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.output)
+    for key in ("assignment", "start_times", "total_score", "unassigned", "conflict_free",
+                "comm_steps", "messages", "bytes"):
+        assert key in out
+    assert out["conflict_free"] is True
+    assert set(out["assignment"]) == {"a1", "a2", "a3", "a4", "a5"}
+
+
+def test_allocate_cbba_refuses_group_tasks(worlds_dir: Path) -> None:
+    f = worlds_dir / "scenarios" / "consensus-groups.json"
+    r = CliRunner().invoke(main, ["allocate", str(f), "--algorithm", "cbba"])
+    assert r.exit_code != 0
+    assert "single-agent" in r.output
+
+
+def test_allocate_reports_bad_files(tmp_path: Path) -> None:
+    f = tmp_path / "bad.json"
+    f.write_text(json.dumps({"agents": [{"id": "a", "pos": [0]}], "tasks": []}))
+    r = CliRunner().invoke(main, ["allocate", str(f)])
+    assert r.exit_code != 0
+    assert "agents[0].pos" in r.output and "bad.json" in r.output
+
+
+def test_sweep_writes_table_and_figures(tmp_path: Path) -> None:
+    out = tmp_path / "sweep"
+    r = CliRunner().invoke(main, ["sweep", "--experiment", "fig5", "--agents", "1-2",
+                                  "--runs", "2", "--seed", "4", "--jobs", "1",
+                                  "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    table = (out / "results.md").read_text()
+    assert "CBBA single-agent" in table and "CBGA two-agent" in table and " ± " in table
+    summary = json.loads((out / "summary.json").read_text())
+    assert len(summary["rows"]) == 6  # 3 variants x 2 agent counts
+    assert (out / "fig5.png").stat().st_size > 1000
+    assert len((out / "runs.csv").read_text().splitlines()) == 1 + 12

@@ -1,0 +1,89 @@
+"""Observing a simulation at bounded rates; following robot event files."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from experiments import events as ev
+from experiments.observe import JsonlTail, ObservedSim, robot_event_to_run_events
+
+
+class CountingSim:
+    """Pure stand-in with the Steppable + snapshot shape (counts snapshot calls)."""
+
+    def __init__(self) -> None:
+        self.tick = 0
+        self.snapshots = 0
+
+    @property
+    def time_s(self) -> float:
+        return self.tick * 0.1
+
+    @property
+    def paused(self) -> bool:
+        return False
+
+    def step(self, n: int = 1) -> None:
+        self.tick += n
+
+    def snapshot(self) -> object:
+        self.snapshots += 1
+
+        class Snap:
+            bodies = (("p1", "robot", self.tick * 0.01, 0.0, 0.0),)
+
+        return Snap()
+
+    def robot_names(self) -> tuple[str, ...]:
+        return ("p1",)
+
+
+def test_snapshots_only_when_wanted(tmp_path: Path) -> None:
+    sim = CountingSim()
+    wall = [0.0]
+    offered = []
+    with ev.EventWriter(tmp_path / "poses.jsonl", clock=lambda: 0.0) as w:
+        obs = ObservedSim(sim, wall_clock=lambda: wall[0], pose_sampler=ev.PoseSampler(w),
+                          live_offer=offered.append, live_period_s=0.1)
+        for _ in range(600):  # 60 simulated seconds in 0.6 wall seconds
+            obs.step()
+            wall[0] += 0.001
+    poses = ev.read_events(tmp_path / "poses.jsonl")
+    assert len(poses) == 60  # one per simulated second
+    assert 6 <= len(offered) <= 7  # one per 0.1 wall second
+    assert sim.snapshots <= len(poses) + len(offered)
+    assert obs.robot_names() == ("p1",)  # the rest of the simulation shows through
+
+
+def test_no_observers_no_snapshots() -> None:
+    sim = CountingSim()
+    obs = ObservedSim(sim, wall_clock=lambda: 0.0)
+    for _ in range(100):
+        obs.step()
+    assert sim.snapshots == 0 and obs.time_s == sim.time_s
+
+
+def test_tail_follows_appends_and_partial_lines(tmp_path: Path) -> None:
+    path = tmp_path / "r1.jsonl"
+    tail = JsonlTail(path)
+    assert list(tail.read_new()) == []  # no file yet
+    path.write_text('{"a": 1}\n{"b": ')
+    assert list(tail.read_new()) == [{"a": 1}]
+    with path.open("a") as f:
+        f.write('2}\nnot json\n[1]\n')
+    assert list(tail.read_new()) == [{"b": 2}]
+    assert tail.malformed == 2
+
+
+def test_robot_events_translate() -> None:
+    base = {"time_s": 12.0, "robot": "p2", "task": "", "task_id": ""}
+    (e,) = robot_event_to_run_events({**base, "kind": "charge-start", "percent": 24.0})
+    assert e == {"t": 12.0, "kind": "charge_start", "robot": "p2", "percent": 24.0}
+    (e,) = robot_event_to_run_events(
+        {**base, "kind": "task-done", "task": "cleanup", "task_id": "t4"})
+    assert (e["kind"], e["phase"], e["task"], e["task_kind"]) == ("robot_task", "done", "t4",
+                                                                   "cleanup")
+    assert robot_event_to_run_events({**base, "kind": "observation"}) == []
+    assert robot_event_to_run_events({"kind": "charge-start"}) == []
+    assert json.dumps(robot_event_to_run_events({**base, "kind": "alarm"}))

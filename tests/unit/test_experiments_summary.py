@@ -1,0 +1,178 @@
+"""Summary counts, robot timelines, progress figures and plots from a hand-written event log."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import pytest
+
+from experiments import events as ev
+from experiments import timeline
+from experiments.plots import PLOT_FILES, write_plots
+from experiments.progress import ProgressDisplay, ProgressTracker, format_line
+from experiments.summary import summarize, terminal_state_problems
+
+E = ev.make_event
+
+
+def run_events() -> list[dict]:
+    return [
+        E(0.0, ev.RUN_START, experiment="longterm", seed=3),
+        E(0.0, ev.PROCESS, name="server", pid=10, rss_bytes=100, peak_rss_bytes=120),
+        E(1.0, ev.TASK_INTRODUCED, task="t1", task_kind="sentry-duty"),
+        E(1.0, ev.MESSAGE, msg_kind="announce", sender="user", task="t1", bytes=200),
+        E(1.1, ev.MESSAGE, msg_kind="bid", sender="p1", task="t1", bytes=150),
+        E(1.2, ev.MESSAGE, msg_kind="bid", sender="p2", task="t1", bytes=150),
+        E(1.5, ev.AWARD, task="t1", robot="p1"),
+        E(2.0, ev.TASK_INTRODUCED, task="t2", task_kind="cleanup"),
+        E(2.0, ev.AWARD, task="t2", robot="p2", latency_s=0.25),
+        E(3.0, ev.BATTERY, percent={"p1": 80.0, "p2": 60.0}),
+        E(4.0, ev.ROBOT_FAILURE, robot="p2"),
+        E(4.0, ev.REALLOCATION, task="t2", from_robot="p2", reason="killed"),
+        E(4.5, ev.AWARD, task="t2", robot="p3", latency_s=0.5),
+        E(5.0, ev.TASK_OUTCOME, task="t1", robot="p1", outcome=ev.COMPLETED),
+        E(5.5, ev.CHARGE_START, robot="p1"),
+        E(6.0, ev.BATTERY, percent={"p1": 20.0, "p3": 70.0}),
+        E(7.0, ev.TASK_INTRODUCED, task="t3", task_kind="object-tracking"),
+        E(8.0, ev.TASK_OUTCOME, task="t3", outcome=ev.UNACHIEVABLE, reason="no bids"),
+        E(9.0, ev.CHARGE_END, robot="p1"),
+        E(9.5, ev.ROBOT_RESTART, robot="p2"),
+        E(10.0, ev.TASK_OUTCOME, task="t2", robot="p3", outcome=ev.COMPLETED),
+        E(10.0, ev.PROCESS, name="server", pid=10, rss_bytes=110, peak_rss_bytes=130),
+        E(10.0, ev.RUN_END, wall_s=0.5, reason="completed"),
+    ]
+
+
+def test_summary_counts() -> None:
+    s = summarize(run_events())
+    assert s["experiment"] == "longterm" and s["seed"] == 3
+    assert s["tasks"]["introduced"] == 3
+    assert s["tasks"]["allocated"] == 2
+    assert s["tasks"]["executed"] == 2
+    assert s["tasks"]["unachievable"] == 1
+    assert s["tasks"]["failed"] == 0
+    assert s["tasks"]["reallocations"] == 1
+    assert s["tasks"]["by_kind"]["cleanup"] == {"completed": 1, "introduced": 1}
+    assert s["charging_trips"] == 1
+    assert s["robot_failures"] == 1 and s["robot_restarts"] == 1
+    assert s["messages"]["by_kind"] == {
+        "announce": {"count": 1, "bytes": 200},
+        "bid": {"count": 2, "bytes": 300},
+    }
+    assert s["messages"]["total_bytes"] == 500
+    lat = s["auction_latency_s"]
+    assert lat["count"] == 3  # 0.5 (announce -> award), 0.25, 0.5
+    assert lat["median"] == pytest.approx(0.5)
+    assert lat["max"] == pytest.approx(0.5)
+    assert s["real_time_factor"] == pytest.approx(20.0)
+    assert s["lowest_battery_percent"] == 20.0
+    assert s["processes"]["server"]["peak_rss_bytes"] == 130
+    assert s["processes"]["server"]["rss_first_bytes"] == 100
+    assert s["processes"]["server"]["rss_last_bytes"] == 110
+    assert s["robots"]["p1"] == {"awards": 1, "charging_trips": 1, "tasks_completed": 1}
+    assert s["invariant_terminal_states"]["holds"] is True
+
+
+def test_terminal_state_problems_are_reported() -> None:
+    evs = [
+        *run_events(),
+        E(11.0, ev.TASK_INTRODUCED, task="t4", task_kind="cleanup"),
+        E(12.0, ev.TASK_OUTCOME, task="t1", outcome=ev.FAILED),
+        E(12.0, ev.TASK_OUTCOME, task="t9", outcome=ev.FAILED),
+    ]
+    problems = terminal_state_problems(evs)
+    assert problems == {
+        "without_outcome": ["t4"],
+        "several_outcomes": ["t1"],
+        "never_introduced": ["t9"],
+    }
+    assert summarize(evs)["invariant_terminal_states"]["holds"] is False
+
+
+def test_robot_intervals() -> None:
+    ivs = timeline.robot_intervals(run_events(), robots=("p1", "p2", "p3", "p4"))
+    p1 = [(i.start_s, i.end_s, i.state, i.label) for i in ivs["p1"]]
+    assert p1 == [
+        (0.0, 1.5, "idle", ""),
+        (1.5, 5.0, "working", "sentry-duty t1"),
+        (5.0, 5.5, "idle", ""),
+        (5.5, 9.0, "charging", ""),
+        (9.0, 10.0, "idle", ""),
+    ]
+    p2 = [(i.start_s, i.end_s, i.state) for i in ivs["p2"]]
+    assert p2 == [(0.0, 2.0, "idle"), (2.0, 4.0, "working"), (4.0, 9.5, "failed"),
+                  (9.5, 10.0, "idle")]
+    assert [i.state for i in ivs["p4"]] == ["idle"]
+
+
+def test_tracker_reports_only_changes() -> None:
+    tr = timeline.RobotStateTracker()
+    tr.apply(E(0, ev.TASK_INTRODUCED, task="t1", task_kind="cleanup"))
+    changed = tr.apply(E(1, ev.AWARD, task="t1", robot="p1"))
+    assert changed == {"p1": timeline.RobotState("working", "cleanup t1", "t1")}
+    # an award of the same task to another robot takes it from the first
+    changed = tr.apply(E(2, ev.AWARD, task="t1", robot="p2"))
+    assert changed["p1"].state == "idle" and changed["p2"].state == "working"
+    assert tr.apply(E(3, ev.BATTERY, percent={"p1": 50})) == {}
+    # charging wins over working; the task comes back after charging
+    tr.apply(E(4, ev.CHARGE_START, robot="p2"))
+    assert tr.state_of("p2").state == "charging"
+    tr.apply(E(5, ev.CHARGE_END, robot="p2"))
+    assert tr.state_of("p2").state == "working"
+
+
+def test_progress_figures_and_plain_lines() -> None:
+    tracker = ProgressTracker(robots=("p1", "p2", "p3"))
+    wall = [0.0]
+    out = io.StringIO()
+    display = ProgressDisplay(tracker, wall_clock=lambda: wall[0], stream=out, terminal=False,
+                              line_period_sim_s=300.0)
+    display.start()
+    for e in run_events()[:16]:  # up to the second battery sample, p1 charging
+        tracker.apply(e)
+    wall[0] = 2.0
+    p = display.snapshot()
+    assert (p.introduced, p.allocated, p.completed, p.unachievable) == (2, 2, 1, 0)
+    assert p.charging == 1 and p.failed_robots == 1 and p.lowest_battery_percent == 20.0
+    assert p.real_time_factor == pytest.approx(3.0)
+    display.tick()
+    assert out.getvalue() == ""  # not yet five simulated minutes
+    tracker.advance(301.0)
+    display.tick()
+    display.tick()
+    tracker.advance(1000.0)  # several periods at once give one line
+    display.tick()
+    last = display.stop()
+    lines = out.getvalue().splitlines()
+    assert len(lines) == 3
+    assert lines[0].startswith("sim 0:05:01 | wall 0:00:02 | rtf 150.5 | tasks introduced 2")
+    assert "charging 1 | lowest battery 20%" in lines[0]
+    assert lines[-1] == format_line(last)
+
+
+def test_progress_live_table_on_a_terminal() -> None:
+    tracker = ProgressTracker()
+    out = io.StringIO()
+    display = ProgressDisplay(tracker, wall_clock=lambda: 1.0, stream=out, terminal=True,
+                              refresh_per_second=20)
+    assert display.terminal
+    with display:
+        for e in run_events():
+            tracker.apply(e)
+        display.tick()
+    text = out.getvalue()
+    assert "tasks introduced" in text and "lowest battery" in text and "20%" in text
+
+
+def test_plots_are_written(tmp_path: Path) -> None:
+    paths = write_plots(run_events(), tmp_path / "plots", robots=("p1", "p2", "p3", "p4"))
+    assert [p.name for p in paths] == list(PLOT_FILES)
+    for p in paths:
+        data = p.read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
+
+
+def test_plots_of_an_empty_run(tmp_path: Path) -> None:
+    paths = write_plots([], tmp_path, robots=("p1",))
+    assert all(p.stat().st_size > 1000 for p in paths)

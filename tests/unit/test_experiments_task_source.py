@@ -1,0 +1,51 @@
+"""The long-term task generator and the runner's option parsing (pure)."""
+
+from __future__ import annotations
+
+import itertools
+import random
+
+import click
+import pytest
+
+from experiments.run_cli import parse_at, parse_duration_s
+from experiments.task_source import LONGTERM_KINDS, longterm_tasks
+from worlds import load_world, world_path
+
+
+def test_generator_is_seeded_and_ordered() -> None:
+    world = load_world(world_path("longterm"))
+    a = list(itertools.islice(longterm_tasks(world, random.Random(3)), 200))
+    b = list(itertools.islice(longterm_tasks(world, random.Random(3)), 200))
+    c = list(itertools.islice(longterm_tasks(world, random.Random(4)), 200))
+    assert a == b and a != c
+    assert all(x.t_s <= y.t_s for x, y in itertools.pairwise(a))
+    assert {t.kind for t in a} == set(LONGTERM_KINDS)
+    object_colours = {f"#{o.colour:06x}" for o in world.objects}
+    box_colours = {f"#{b.colour:06x}" for b in world.boxes}
+    for t in a:
+        assert 60.0 <= t.params["duration_s"] <= 240.0
+        if t.kind in ("object-tracking", "sentry-duty"):
+            assert t.params["colour"] in object_colours
+        elif t.kind == "cleanup":
+            assert t.params["colour"] in box_colours
+    mean_gap = (a[-1].t_s - a[0].t_s) / (len(a) - 1)
+    assert 150.0 < mean_gap < 350.0  # mean interval 240 s
+
+
+def test_generator_skips_monitoring_without_an_overhead_camera() -> None:
+    world = load_world(world_path("boxpush"))
+    kinds = {t.kind for t in itertools.islice(longterm_tasks(world, random.Random(1)), 100)}
+    assert "monitor-object" not in kinds
+
+
+def test_durations_and_times() -> None:
+    assert parse_duration_s("90m") == 5400.0
+    assert parse_duration_s("2h") == 7200.0
+    assert parse_duration_s("45") == 45.0
+    assert parse_at("p3@30m") == ("p3", 1800.0)
+    for bad in ("soon", "5d", ""):
+        with pytest.raises(click.BadParameter):
+            parse_duration_s(bad)
+    with pytest.raises(click.BadParameter):
+        parse_at("p3")

@@ -1,0 +1,134 @@
+from __future__ import annotations
+
+import random
+
+import pytest
+
+from murdoch.auction import Announce, AuctionEvent, Contract, Outcome, TaskSpec
+from murdoch.memory_bus import MemoryBus
+from murdoch.node import Node
+from murdoch.wire import WireError
+
+
+class FakeClock:
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def quick(name: str, subjects: set[str], duration_s: float = 1.0, **kw: object) -> TaskSpec:
+    return TaskSpec(name, frozenset(subjects), duration_s=duration_s, bid_window_s=0.2,
+                    renew_period_s=0.5, contract_timeout_s=1.5, abandon_after_s=1.5, **kw)
+
+
+class Setup:
+    def __init__(self) -> None:
+        self.clock = FakeClock()
+        self.bus = MemoryBus(self.clock, random.Random(0))
+        self.events: list[AuctionEvent] = []
+        self.outcomes: list[Outcome] = []
+        self.user = Node(self.bus.endpoint("user"), self.clock, observer=self.events.append,
+                         on_outcome=self.outcomes.append)
+        self.nodes = [self.user]
+
+    def robot(self, name: str, subjects: set[str], score: float, on_start=None) -> Node:
+        node = Node(self.bus.endpoint(name), self.clock, subjects=subjects,
+                    metric=lambda ann: score, on_start=on_start,
+                    observer=self.events.append, on_outcome=self.outcomes.append)
+        self.nodes.append(node)
+        return node
+
+    def run(self, seconds: float) -> None:
+        for _ in range(round(seconds / 0.05)):
+            self.clock.now = round(self.clock.now + 0.05, 6)
+            for node in self.nodes:
+                node.step()
+
+
+def test_whole_task_life_is_observable_in_order() -> None:
+    s = Setup()
+    started: list[Contract] = []
+    robot = s.robot("r1", {"camera", "mobile"}, 1.0, on_start=started.append)
+    task_id = s.user.announce(quick("track", {"camera"}))
+    s.run(1.0)
+    assert started and robot.busy
+    robot.progress(task_id, 0.5, "half")
+    s.run(1.0)
+    robot.complete(task_id, "done")
+    s.run(0.2)
+    kinds = [e.kind for e in s.events if e.agent == "user"]
+    assert kinds[:4] == ["announce", "bid", "close", "award"]
+    assert "renew" in kinds and "progress" in kinds and kinds[-1] == "outcome"
+    assert [e.kind for e in s.events if e.agent == "r1"] == ["bid", "start", "completed"]
+    (outcome,) = s.outcomes
+    assert (outcome.status, outcome.winner, outcome.reason) == ("completed", "r1", "done")
+    assert s.events[-1].to_dict()["status"] == "completed"
+
+
+def test_busy_or_unsubscribed_robots_hear_no_announcements() -> None:
+    s = Setup()
+    robot = s.robot("r1", {"camera"}, 1.0)
+    assert robot.listening == {"camera", "idle"}
+    first = s.user.announce(quick("a", {"camera"}, duration_s=5.0))
+    s.run(0.5)
+    assert robot.busy and robot.bidder and robot.bidder.contract
+    assert robot.bidder.contract.task_id == first
+    assert robot.listening == {"camera", f"task.{first}"}
+    s.user.announce(quick("b", {"camera"}))
+    s.run(0.5)
+    assert s.outcomes[-1].status == "unachievable"  # the only camera robot is busy
+    robot.fail(first, "gave up")
+    robot.set_subjects(())  # going to charge
+    assert robot.listening == frozenset()
+    s.user.announce(quick("c", {"camera"}))
+    s.run(0.5)
+    assert [o.status for o in s.outcomes] == ["unachievable", "failed", "unachievable"]
+    robot.set_subjects({"camera"})
+    s.user.announce(quick("d", {"camera"}, duration_s=0.0))
+    s.run(0.5)
+    assert robot.busy
+
+
+def test_a_running_task_can_announce_sub_tasks() -> None:
+    s = Setup()
+    pushers: list[Contract] = []
+    watcher_ref: list[Node] = []
+
+    def watch(contract: Contract) -> None:
+        watcher_ref[0].announce(quick("push-left", {"bumper"}, parent=contract.task_id))
+
+    watcher_ref.append(s.robot("watcher", {"laser", "camera"}, 1.0, on_start=watch))
+    s.robot("pusher", {"bumper", "camera"}, 1.0, on_start=pushers.append)
+    top = s.user.announce(quick("box-pushing", {"laser", "camera"}, duration_s=10.0))
+    s.run(1.0)
+    (contract,) = pushers
+    assert contract.name == "push-left" and contract.announce.parent == top
+    s.nodes[2].complete(contract.task_id)
+    s.run(0.3)
+    (sub_outcome,) = [o for o in s.outcomes if o.parent == top]
+    assert sub_outcome.status == "completed" and sub_outcome.winner == "pusher"
+
+
+def test_an_announcement_too_big_for_a_datagram_is_refused_and_not_left_open() -> None:
+    s = Setup()
+    with pytest.raises(WireError, match="too_large"):
+        s.user.announce(quick("huge", {"camera"}, params={"blob": "x" * 2000}))
+    assert s.user.auctioneer.open_tasks() == ()
+
+
+def test_metric_sees_the_announcement_and_scores_decide() -> None:
+    s = Setup()
+    seen: list[Announce] = []
+
+    def metric(ann: Announce) -> float:
+        seen.append(ann)
+        return -abs(ann.params["x"] - 3.0)
+
+    s.nodes.append(Node(s.bus.endpoint("near"), s.clock, subjects={"mobile"}, metric=metric))
+    s.robot("far", {"mobile"}, -10.0)
+    s.user.announce(quick("goto", {"mobile"}, params={"x": 2.5}, metrics=(("distance", 1.0),)))
+    s.run(0.5)
+    assert seen[0].metric_weights == {"distance": 1.0}
+    assert [e.detail["winner"] for e in s.events if e.kind == "award"] == ["near"]

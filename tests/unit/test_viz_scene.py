@@ -1,0 +1,125 @@
+"""The meshcat scene as plain commands: paths, matrices, state bodies, labels, world layout."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+import umsgpack
+
+from player_server.viz import scene
+from player_server.viz.live import LiveView, body_poses
+from worlds import load_world, world_path
+
+
+def test_pose_matrix_is_column_major_rotation_then_translation() -> None:
+    m = scene.pose_matrix(1.0, 2.0, 0.5, math.pi / 2)
+    # x axis maps to +y, translation in the last column
+    assert m[0:3] == pytest.approx([0.0, 1.0, 0.0], abs=1e-12)
+    assert m[4:7] == pytest.approx([-1.0, 0.0, 0.0], abs=1e-12)
+    assert m[12:15] == [1.0, 2.0, 0.5]
+    q = scene.yaw_quaternion_xyzw(math.pi / 2)
+    assert q == pytest.approx([0, 0, math.sqrt(0.5), math.sqrt(0.5)])
+
+
+def test_layout_of_every_shipped_world() -> None:
+    for name in ("simple", "boxpush", "longterm"):
+        spec = load_world(world_path(name))
+        layout = scene.layout_from_world(spec)
+        assert len(layout.walls) == 4
+        assert {r.name for r in layout.robots} == {r.name for r in spec.robots if r.mobile}
+        assert {c.name for c in layout.chargers} == {c.name for c in spec.chargers}
+        assert layout.floor_colour == spec.arena.floor_colour
+        paths = layout.body_paths()
+        for b in spec.boxes:
+            assert paths[b.name] == f"/murdoch/boxes/{b.name}"
+
+
+def test_static_scene_draws_every_thing_once_with_idle_robots() -> None:
+    layout = scene.layout_from_world(load_world(world_path("longterm")))
+    cmds = scene.static_scene(layout)
+    objects = [c["path"] for c in cmds if c["type"] == "set_object"]
+    assert len(objects) == len(set(objects))
+    for r in layout.robots:
+        for state in scene.ROBOT_STATES:
+            assert f"/murdoch/robots/{r.name}/body/{state}" in objects
+    visible = {c["path"]: c["value"] for c in cmds if c.get("property") == "visible"}
+    r0 = scene.robot_path(layout.robots[0].name)
+    assert visible[f"{r0}/body/idle"] is True and visible[f"{r0}/body/working"] is False
+    for c in layout.chargers:
+        assert f"/murdoch/chargers/{c.name}" in objects
+    # the same scene gives the same bytes (deterministic ids), and it packs as msgpack
+    again = scene.static_scene(layout)
+    assert umsgpack.packb(cmds) == umsgpack.packb(again)
+
+
+def test_state_change_and_labels() -> None:
+    cmds = scene.state_change("p1", "idle", "charging")
+    assert [(c["path"].rsplit("/", 1)[1], c["value"]) for c in cmds] == [
+        ("idle", False),
+        ("charging", True),
+    ]
+    assert len(scene.state_change("p1", None, "working")) == len(scene.ROBOT_STATES)
+    with pytest.raises(ValueError, match="unknown robot state"):
+        scene.state_change("p1", "idle", "dancing")
+    ids = scene.IdSource("x")
+    (label,) = scene.label_change(ids, "p1", "cleanup t3")
+    assert label["object"]["object"]["type"] == "Sprite"
+    assert label["object"]["textures"][0] == {
+        "uuid": label["object"]["materials"][0]["map"],
+        "type": "_text",
+        "text": "cleanup t3",
+        "font_size": 48,
+        "font_face": "sans-serif",
+    }
+    assert scene.label_change(ids, "p1", "") == [scene.delete("/murdoch/robots/p1/label")]
+
+
+class RecordingSink:
+    def __init__(self) -> None:
+        self.commands: list[dict] = []
+
+    def send(self, command: dict) -> None:
+        self.commands.append(command)
+
+
+def test_live_view_sends_only_what_changed() -> None:
+    layout = scene.layout_from_world(load_world(world_path("simple")))
+    robot = layout.robots[0].name
+    sink = RecordingSink()
+    view = LiveView(layout, sink)
+    first = view.publish_once()
+    assert first == len(scene.static_scene(layout))
+    assert view.publish_once() == 0  # nothing new
+    view.offer({robot: (1.0, 1.0, 0.0)})
+    view.offer({robot: (1.0, 2.0, 0.0)})  # replaces the unsent one
+    sink.commands.clear()
+    assert view.publish_once() == 1
+    assert sink.commands[0]["matrix"][12:14] == [1.0, 2.0]
+    view.offer({robot: (1.0005, 2.0, 0.0)})  # below the move threshold
+    assert view.publish_once() == 0
+    view.set_robot(robot, scene.WORKING, "goto t1")
+    sink.commands.clear()
+    view.publish_once()
+    kinds = [(c["type"], c["path"].rsplit("/", 1)[-1]) for c in sink.commands]
+    assert kinds == [("set_property", "idle"), ("set_property", "working"), ("set_object", "label")]
+    view.set_robot("ghost", scene.IDLE)  # not in the scene: ignored
+    assert view.publish_once() == 0
+    with pytest.raises(ValueError):
+        view.set_robot(robot, "asleep")
+    assert view.stats().snapshots_replaced == 1
+
+
+def test_body_poses_accepts_snapshot_shapes() -> None:
+    class Snap:
+        bodies = (("p1", "robot", 1.0, 2.0, 0.5),)
+
+    assert body_poses(Snap()) == {"p1": (1.0, 2.0, 0.5)}
+
+    class Body:
+        name, x, y, yaw = "b", 3.0, 4.0, 0.0
+
+    class Snap2:
+        bodies = (Body(),)
+
+    assert body_poses(Snap2()) == {"b": (3.0, 4.0, 0.0)}

@@ -1,0 +1,410 @@
+"""Frozen dataclasses describing a world: arena, bodies, chargers, robots and their devices.
+
+Conventions: SI units (metres, seconds, kilograms, watts, joules); angles in radians; colours
+as 0xRRGGBB integers. The arena is centred on the origin: x in [-size_x/2, size_x/2], y
+likewise. Robot-relative poses use Player's frame: x forward, y left, yaw anticlockwise from x.
+A robot's origin is the centre of its drive axle; its body box may be offset from it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal, NamedTuple
+
+Fidelity = Literal["fast", "render"]
+FIDELITIES: tuple[str, ...] = ("fast", "render")
+
+
+class Pose(NamedTuple):
+    """A planar pose: metres and radians."""
+
+    x: float
+    y: float
+    yaw: float
+
+
+class Mount(NamedTuple):
+    """Where a sensor sits on its robot: metres forward, left and up, yaw in radians."""
+
+    x: float
+    y: float
+    z: float
+    yaw: float
+
+
+@dataclass(frozen=True)
+class ObstacleSpec:
+    """A static obstacle: an upright box (size_x by size_y) or cylinder (radius)."""
+
+    name: str
+    pose: Pose
+    shape: Literal["box", "cylinder"]
+    size_x_m: float
+    size_y_m: float
+    height_m: float
+    colour: int
+
+    @property
+    def radius_m(self) -> float:
+        return self.size_x_m / 2.0
+
+
+@dataclass(frozen=True)
+class ArenaSpec:
+    """The room: a rectangle of walls around the origin plus static obstacles."""
+
+    size_x_m: float
+    size_y_m: float
+    wall_thickness_m: float
+    wall_height_m: float
+    wall_colour: int
+    floor_colour: int
+    obstacles: tuple[ObstacleSpec, ...] = ()
+
+    @property
+    def half_x_m(self) -> float:
+        return self.size_x_m / 2.0
+
+    @property
+    def half_y_m(self) -> float:
+        return self.size_y_m / 2.0
+
+
+@dataclass(frozen=True)
+class BoxSpec:
+    """A movable box (pushed through contact physics)."""
+
+    name: str
+    pose: Pose
+    size_x_m: float
+    size_y_m: float
+    size_z_m: float
+    mass_kg: float
+    colour: int
+    friction: float = 0.5
+
+
+@dataclass(frozen=True)
+class ObjectSpec:
+    """A small movable coloured cylinder; grippable when it fits the gripper."""
+
+    name: str
+    pose: Pose
+    radius_m: float
+    height_m: float
+    mass_kg: float
+    colour: int
+    fiducial_id: int = 0
+
+
+@dataclass(frozen=True)
+class MarkerSpec:
+    """A visual-only coloured post (e.g. a goal beacon): seen by cameras, not by rangers."""
+
+    name: str
+    x: float
+    y: float
+    radius_m: float
+    height_m: float
+    colour: int
+
+
+@dataclass(frozen=True)
+class ChargerSpec:
+    """A charging pad on the floor: a robot whose origin is within radius_m charges."""
+
+    name: str
+    x: float
+    y: float
+    radius_m: float
+    colour: int
+    rate_w: float
+    beacon_height_m: float = 0.5
+
+
+@dataclass(frozen=True)
+class OverheadCameraSpec:
+    """A ceiling camera looking straight down, reporting coloured things and robots."""
+
+    name: str
+    x: float
+    y: float
+    height_m: float
+    view_size_x_m: float
+    view_size_y_m: float
+    width_px: int
+    height_px: int
+    position_noise_m: float = 0.0
+
+
+@dataclass(frozen=True)
+class SimSpec:
+    """Simulation settings (Stage-style names)."""
+
+    interval_sim_s: float = 0.1
+    speedup: float = 1.0
+    quit_time_s: float = 0.0
+    seed: int = 0
+    fidelity: Fidelity = "fast"
+    physics_substeps: int = 2
+
+
+@dataclass(frozen=True)
+class BodySpec:
+    """A robot's body box, relative to the robot origin (Pioneer 2-DX by default)."""
+
+    length_m: float = 0.445
+    width_m: float = 0.40
+    height_m: float = 0.30
+    offset_x_m: float = -0.04
+    mass_kg: float = 9.0
+
+
+@dataclass(frozen=True)
+class Position2dSpec:
+    """Differential drive limits and odometry noise (fractions of distance / angle moved)."""
+
+    max_speed_mps: float = 0.5
+    max_yaw_rate_radps: float = math.radians(100.0)
+    accel_mps2: float = 0.5
+    yaw_accel_radps2: float = math.radians(200.0)
+    odom_noise_fraction: float = 0.0
+    odom_yaw_noise_fraction: float = 0.0
+
+
+@dataclass(frozen=True)
+class SonarSpec:
+    """A ring of sonar transducers; each reports the nearest range within its cone."""
+
+    poses: tuple[Mount, ...]
+    min_range_m: float = 0.1
+    max_range_m: float = 5.0
+    cone_rad: float = math.radians(15.0)
+    rays_per_transducer: int = 1
+
+
+@dataclass(frozen=True)
+class LaserSpec:
+    """A scanning range finder (SICK LMS200 by default: 181 readings over 180 deg, 8 m)."""
+
+    pose: Mount
+    min_angle_rad: float = -math.pi / 2
+    max_angle_rad: float = math.pi / 2
+    samples: int = 181
+    min_range_m: float = 0.0
+    max_range_m: float = 8.0
+    range_res_m: float = 0.001
+    frequency_hz: float = 10.0
+
+    @property
+    def resolution_rad(self) -> float:
+        if self.samples < 2:
+            return 0.0
+        return (self.max_angle_rad - self.min_angle_rad) / (self.samples - 1)
+
+    def angles_rad(self) -> tuple[float, ...]:
+        return tuple(
+            self.min_angle_rad + i * self.resolution_rad for i in range(self.samples)
+        )
+
+
+@dataclass(frozen=True)
+class RangerSpec:
+    """A generic scanning ranger (Player ranger interface); same geometry as a laser."""
+
+    pose: Mount
+    min_angle_rad: float = -math.pi / 2
+    max_angle_rad: float = math.pi / 2
+    samples: int = 181
+    min_range_m: float = 0.0
+    max_range_m: float = 8.0
+    range_res_m: float = 0.001
+    frequency_hz: float = 10.0
+
+    @property
+    def resolution_rad(self) -> float:
+        if self.samples < 2:
+            return 0.0
+        return (self.max_angle_rad - self.min_angle_rad) / (self.samples - 1)
+
+    def angles_rad(self) -> tuple[float, ...]:
+        return tuple(
+            self.min_angle_rad + i * self.resolution_rad for i in range(self.samples)
+        )
+
+
+@dataclass(frozen=True)
+class CameraSpec:
+    """A forward colour camera (pinhole): horizontal field of view and resolution."""
+
+    pose: Mount
+    tilt_rad: float = 0.0
+    fov_h_rad: float = math.radians(60.0)
+    width_px: int = 160
+    height_px: int = 120
+    max_range_m: float = 8.0
+
+    @property
+    def fov_v_rad(self) -> float:
+        return 2.0 * math.atan(math.tan(self.fov_h_rad / 2.0) * self.height_px / self.width_px)
+
+    @property
+    def focal_px(self) -> float:
+        return (self.width_px / 2.0) / math.tan(self.fov_h_rad / 2.0)
+
+
+@dataclass(frozen=True)
+class BlobfinderSpec:
+    """Colour channels tracked by the blobfinder (uses the robot's camera geometry)."""
+
+    channels: tuple[int, ...]
+    min_area_px: int = 4
+    colour_tolerance: int = 60
+
+
+@dataclass(frozen=True)
+class BumperSegment:
+    """One bumper panel: midpoint and outward normal yaw relative to the robot, and length."""
+
+    x: float
+    y: float
+    yaw: float
+    length_m: float
+    radius_m: float = 0.0
+
+
+@dataclass(frozen=True)
+class BumperSpec:
+    segments: tuple[BumperSegment, ...]
+
+
+@dataclass(frozen=True)
+class GripperSpec:
+    """Pioneer paddle gripper: paddles at pose.x ahead of the origin, opening width_m."""
+
+    pose: Mount
+    width_m: float = 0.2
+    depth_m: float = 0.12
+    max_object_radius_m: float = 0.09
+    capacity: int = 1
+    move_time_s: float = 1.0
+
+
+@dataclass(frozen=True)
+class PtzSpec:
+    """Pan-tilt-zoom camera head (Sony EVI-D30 limits); zoom is the horizontal FOV."""
+
+    pan_min_rad: float = math.radians(-100.0)
+    pan_max_rad: float = math.radians(100.0)
+    tilt_min_rad: float = math.radians(-25.0)
+    tilt_max_rad: float = math.radians(25.0)
+    zoom_min_rad: float = math.radians(4.4)
+    zoom_max_rad: float = math.radians(60.0)
+    pan_speed_radps: float = math.radians(80.0)
+    tilt_speed_radps: float = math.radians(50.0)
+    zoom_speed_radps: float = math.radians(30.0)
+
+
+@dataclass(frozen=True)
+class PowerSpec:
+    """Battery: capacity and draws. Volts map linearly from volts_empty to volts_full.
+
+    Draw (W) = idle_w + moving_w * (|v|/vmax + |w|/wmax)/2 (up to 1) + sensor_w.
+    At or below flat_fraction of capacity the motors stop until resume_fraction is regained.
+    """
+
+    capacity_j: float = 180_000.0
+    initial_fraction: float = 1.0
+    volts_full: float = 13.0
+    volts_empty: float = 10.5
+    idle_w: float = 10.0
+    moving_w: float = 20.0
+    sensor_w: float = 5.0
+    flat_fraction: float = 0.0
+    resume_fraction: float = 0.05
+
+
+@dataclass(frozen=True)
+class FiducialSpec:
+    """Fiducial detector (e.g. a laser beacon reader): sees fiducial ids within a fan."""
+
+    pose: Mount
+    min_range_m: float = 0.0
+    max_range_m: float = 5.0
+    fov_rad: float = math.pi
+
+
+@dataclass(frozen=True)
+class DeviceSet:
+    """A robot's devices; None when absent."""
+
+    position2d: Position2dSpec | None = None
+    sonar: SonarSpec | None = None
+    laser: LaserSpec | None = None
+    ranger: RangerSpec | None = None
+    camera: CameraSpec | None = None
+    blobfinder: BlobfinderSpec | None = None
+    bumper: BumperSpec | None = None
+    gripper: GripperSpec | None = None
+    ptz: PtzSpec | None = None
+    power: PowerSpec | None = None
+    fiducial: FiducialSpec | None = None
+
+    def names(self) -> tuple[str, ...]:
+        """Names of the devices present, in declaration order."""
+        return tuple(n for n in DEVICE_NAMES if getattr(self, n) is not None)
+
+
+DEVICE_NAMES: tuple[str, ...] = (
+    "position2d",
+    "sonar",
+    "laser",
+    "ranger",
+    "camera",
+    "blobfinder",
+    "bumper",
+    "gripper",
+    "ptz",
+    "power",
+    "fiducial",
+)
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    name: str
+    pose: Pose
+    colour: int
+    body: BodySpec
+    devices: DeviceSet
+    fiducial_id: int = 0
+
+    @property
+    def mobile(self) -> bool:
+        return self.devices.position2d is not None
+
+
+@dataclass(frozen=True)
+class WorldSpec:
+    name: str
+    source: Path
+    arena: ArenaSpec
+    sim: SimSpec
+    robots: tuple[RobotSpec, ...]
+    boxes: tuple[BoxSpec, ...] = ()
+    objects: tuple[ObjectSpec, ...] = ()
+    markers: tuple[MarkerSpec, ...] = ()
+    chargers: tuple[ChargerSpec, ...] = ()
+    overhead_camera: OverheadCameraSpec | None = None
+    description: str = ""
+
+    def robot(self, name: str) -> RobotSpec:
+        for r in self.robots:
+            if r.name == name:
+                return r
+        raise KeyError(f"world {self.name!r} has no robot {name!r}")
+
+    def robot_names(self) -> tuple[str, ...]:
+        return tuple(r.name for r in self.robots)
