@@ -20,7 +20,7 @@ import collections
 import logging
 import math
 import threading
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal, Protocol
 
@@ -135,12 +135,22 @@ class RobotAgent:
             return False
         return spec.subjects <= self.subjects()
 
-    def evaluate(self, task: str, params: Mapping[str, object]) -> float | None:
-        """Score this robot for a task instance from its latest snapshot (higher is better)."""
+    def evaluate(
+        self,
+        task: str,
+        params: Mapping[str, object],
+        metrics: Sequence[tuple[str, float]] | None = None,
+    ) -> float | None:
+        """Score this robot for a task instance from its latest snapshot (higher is better).
+
+        None when it cannot bid (lacks a subject, is charging, or a metric cannot be
+        evaluated, e.g. the colour is not in view). `metrics` optionally names the metrics
+        and weights to sum, as an announcement does; the default is the task's own.
+        """
         spec = task_spec(task)
         if not spec.subjects <= self.subjects():
             return None
-        return spec.score(self._snapshot, params, self.profile)
+        return spec.score(self._snapshot, params, self.profile, metrics)
 
     def start_task(self, task: str, params: Mapping[str, object], task_id: str = "") -> None:
         """Start `task` at the next tick, replacing any task that is running.
@@ -339,7 +349,11 @@ class RobotAgent:
         )
 
     def close(self) -> None:
-        """Stop the robot and the behaviour threads. Idempotent."""
+        """Stop the robot, join the behaviour threads, close the I/O. Idempotent.
+
+        Closing the connection promptly matters in lockstep: a robot that stops asking for
+        data would otherwise hold the simulation clock for everyone else.
+        """
         if self._closed:
             return
         self._closed = True
@@ -348,3 +362,7 @@ class RobotAgent:
             self._io.command(0.0, 0.0)
         except Exception as exc:  # the connection may already be gone; nothing else to do
             logger.warning("%s: could not send the final stop command: %s", self.name, exc)
+        try:
+            self._io.close()
+        except Exception as exc:
+            logger.warning("%s: could not close its connection: %s", self.name, exc)

@@ -8,7 +8,7 @@ weighted metrics that score this robot's fitness for a task instance (higher is 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -75,11 +75,34 @@ class TaskSpec:
     def build(self, params: Params, profile: RobotProfile) -> TaskPlan:
         return self.build_plan(self.resolve(params), profile)
 
-    def score(self, snapshot: Snapshot, params: Params, profile: RobotProfile) -> float | None:
-        """Weighted sum of this task's metrics, or None if this robot cannot do it now."""
+    def metric_names(self) -> tuple[str, ...]:
+        return tuple(m.name for m in self.metrics)
+
+    def score(
+        self,
+        snapshot: Snapshot,
+        params: Params,
+        profile: RobotProfile,
+        weights: Sequence[tuple[str, float]] | None = None,
+    ) -> float | None:
+        """Weighted sum of this task's metrics, or None if this robot cannot do it now.
+
+        `weights` (metric name, weight) pairs, as an announcement names them, replace the
+        task's default weights; naming a metric the task does not have is a `ParamError`.
+        """
         if not self.subjects <= profile.subjects:
             return None
-        return weighted_sum(self.metrics, snapshot, self.resolve(params), profile)
+        metrics = self.metrics
+        if weights:
+            by_name = {m.name: m for m in self.metrics}
+            unknown = [n for n, _ in weights if n not in by_name]
+            if unknown:
+                raise ParamError(
+                    f"task {self.name!r} has no metric {', '.join(unknown)}; "
+                    f"known: {', '.join(by_name)}"
+                )
+            metrics = tuple(WeightedMetric(n, by_name[n].fn, w) for n, w in weights)
+        return weighted_sum(metrics, snapshot, self.resolve(params), profile)
 
 
 def _avoid(profile: RobotProfile, safe_range_m: float, ignore_half_angle_rad: float = 0.0,
@@ -139,16 +162,16 @@ def _push_builder(name: str, aim: float) -> Builder:
     def build(p: Params, profile: RobotProfile) -> TaskPlan:
         colour = colour_of(p["colour"])
         duration = number(p, "duration_s")
-        servo = VisualServoToColour(colour, aim_fraction=aim, speed_mps=number(p, "speed_mps"))
+        speed = number(p, "speed_mps")
+        backoff = number(p, "backoff_s")
         layers: tuple[Layer, ...] = (
             # The box is straight ahead while pushing: avoid only what is off to the sides.
             *_avoid(profile, 0.3, ignore_half_angle_rad=math.radians(50.0)),
-            Layer(servo, 1),
+            Layer(VisualServoToColour(colour, aim_fraction=aim, speed_mps=speed), 1),
             Layer(_search(profile), 0),
         )
         if profile.has("bumper"):
-            layers = (*layers, Layer(PushWithBumpers(speed_mps=number(p, "speed_mps")), 1))
-        backoff = number(p, "backoff_s")
+            layers = (*layers, Layer(PushWithBumpers(speed_mps=speed), 1))
         return TaskPlan(
             name,
             (
@@ -298,14 +321,20 @@ def build_cleanup(p: Params, profile: RobotProfile) -> TaskPlan:
         *_avoid(profile, 0.35, ignore_half_angle_rad=math.radians(25.0)),
         Layer(VisualServoToColour(colour, speed_mps=0.25), 1),
         Layer(_search(profile, 0.05), 0),
-        Layer(PushWithBumpers(speed_mps=0.2), 3),  # raises "contact": the push stage begins
+        # Sensing only (gain 0, lowest priority): it raises "contact" when a bumper touches.
+        Layer(PushWithBumpers(speed_mps=0.2), -1, gain=0.0),
     )
+
+    def touching_box(view: TickView) -> bool:
+        # In contact, with the colour right in front (not, say, a wall).
+        return "contact" in view.signals and view.signals.get("seen", math.inf) < 0.6
+
     push = (
         Layer(PushWithBumpers(speed_mps=0.2), 2),
         Layer(VisualServoToColour(colour, speed_mps=0.2), 1),
     )
     stages = (
-        Stage("seek", seek, until=signal("contact"), timeout_s=number(p, "search_s"),
+        Stage("seek", seek, until=touching_box, timeout_s=number(p, "search_s"),
               on_timeout="done"),
         Stage("push", push, until=signal("blocked", held_s=1.0),
               timeout_s=number(p, "push_s"), on_timeout="next"),
@@ -363,8 +392,9 @@ def build_monitor(p: Params, profile: RobotProfile) -> TaskPlan:
 def build_dock(p: Params, profile: RobotProfile) -> TaskPlan:
     x, y = number(p, "x"), number(p, "y")
     dock = DockAtCharger(x, y, tolerance_m=number(p, "tolerance_m"))
-    layers = (*_avoid(profile, 0.3), Layer(dock, 3))
-    # Docking wins over avoidance once close: the charger pad is not an obstacle.
+    # The pad itself is flat (rangers do not see it), so avoidance only steers around
+    # whatever stands between the robot and the pad.
+    layers = (*_avoid(profile, 0.3), Layer(dock, 1))
     return TaskPlan(
         "dock",
         (Stage("dock", layers, until=signal("docked", held_s=0.5)),),

@@ -11,6 +11,7 @@ import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TypeVar
 
 from behaviors.snapshot import (
     Blob,
@@ -43,6 +44,7 @@ from player_server.client import (
 from player_server.protocol.constants import interface_name
 
 logger = logging.getLogger(__name__)
+T = TypeVar("T")
 
 # Raw camera images are large and nothing in the behaviours looks at pixels (the blobfinder
 # carries what they need), so they are only subscribed on request.
@@ -115,7 +117,7 @@ class PlayerRobotIO:
         logger.info("devices: %s; subscribed: %s", sorted(found), sorted(self.proxies))
         return self.interfaces
 
-    def _geometry(self, fetch: Callable[[], object], what: str) -> object | None:
+    def _geometry(self, fetch: Callable[[], T], what: str) -> T | None:
         try:
             return fetch()
         except (PlayerNack, PlayerTimeout) as exc:
@@ -127,31 +129,28 @@ class PlayerRobotIO:
         if isinstance(sonar, SonarProxy):
             poses = self._geometry(lambda: sonar.get_geometry(self._timeout_s), "sonar")
             if poses:
-                bearings = tuple(wrap_angle(p.pyaw) for p in poses)  # type: ignore[attr-defined]
-                offsets = tuple(
-                    p.px * math.cos(p.pyaw) + p.py * math.sin(p.pyaw)  # type: ignore[attr-defined]
-                    for p in poses  # type: ignore[attr-defined]
-                )
+                bearings = tuple(wrap_angle(p.pyaw) for p in poses)
+                offsets = tuple(p.px * math.cos(p.pyaw) + p.py * math.sin(p.pyaw) for p in poses)
                 self._sonar_geometry = (bearings, offsets)
         laser = self.proxies.get("laser")
         if isinstance(laser, LaserProxy):
             geom = self._geometry(lambda: laser.get_geometry(self._timeout_s), "laser")
             if geom is not None:
-                pose = geom.pose  # type: ignore[attr-defined]
+                pose = geom.pose
                 self._laser_pose = (pose.px, pose.py, pose.pyaw)
         ranger = self.proxies.get("ranger")
         if isinstance(ranger, RangerProxy) and "laser" not in self.proxies:
             self._geometry(lambda: ranger.get_config(self._timeout_s), "ranger")
-            geom = self._geometry(lambda: ranger.get_geometry(self._timeout_s), "ranger")
-            if geom is not None:
-                pose = geom.pose  # type: ignore[attr-defined]
+            rgeom = self._geometry(lambda: ranger.get_geometry(self._timeout_s), "ranger")
+            if rgeom is not None:
+                pose = rgeom.pose
                 self._laser_pose = (pose.px, pose.py, pose.pyaw)
         bumper = self.proxies.get("bumper")
         if isinstance(bumper, BumperProxy):
-            geom = self._geometry(lambda: bumper.get_geometry(self._timeout_s), "bumper")
-            if geom is not None:
+            bgeom = self._geometry(lambda: bumper.get_geometry(self._timeout_s), "bumper")
+            if bgeom is not None:
                 self._bumper_front = tuple(
-                    d.pose.px > 0.0 for d in geom.bumper_def  # type: ignore[attr-defined]
+                    d.pose.px > 0.0 for d in bgeom.bumper_def
                 )
 
     # -- per tick ----------------------------------------------------------------------------

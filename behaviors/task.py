@@ -148,6 +148,7 @@ class TaskExecution:
         )
         self.outcome: Outcome = "running"
         self.reason = ""
+        self._spare_signals: dict[str, float] = {}
         self._mark = Mark(
             started_s,
             None if snapshot is None else snapshot.pose,
@@ -196,21 +197,23 @@ class TaskExecution:
         view.snapshot = snapshot
         view.now = now
         stage = self.stage
-        signals = view.signals
-        previous = set(signals)
+        # Swap this tick's and last tick's signal tables (no allocation per tick).
+        previous, signals = view.signals, self._spare_signals
+        self._spare_signals = previous
         signals.clear()
+        view.signals = signals
         for p in proposals:
             if p.signal:
                 signals[p.signal] = p.value
         since = view.signal_since
-        for name in list(since):
-            if name not in signals:
+        if len(since) != len(signals) or any(name not in signals for name in since):
+            for name in [n for n in since if n not in signals]:
                 del since[name]
         events: list[tuple[str, tuple[tuple[str, Any], ...]]] = []
         for name, value in signals.items():
             if name not in since:
                 since[name] = now
-            if name not in previous:
+            if name not in previous and stage.alarms:
                 for sig, kind in stage.alarms:
                     if sig == name:
                         events.append((kind, (("signal", name), ("value", value))))

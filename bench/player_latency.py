@@ -31,10 +31,10 @@ from player_server.client import (
 )
 
 
-def start_server(world: str) -> tuple[subprocess.Popen[str], int]:
+def start_server(world: str, *mode: str) -> tuple[subprocess.Popen[str], int]:
     proc = subprocess.Popen(
         [sys.executable, "-m", "player_server.server", world, "-p", "0", "--speedup", "0",
-         "--paused", "-q"],
+         "-q", *(mode or ("--paused",))],
         stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     assert proc.stdout is not None
     deadline = time.monotonic() + 60
@@ -56,6 +56,27 @@ def timed(fn: object, n: int) -> list[float]:
         fn()  # type: ignore[operator]
         out.append(time.perf_counter() - t0)
     return out
+
+
+def lockstep_rounds(world: str, runs: int, n: int) -> float:
+    """Median read() of a lockstep participant: includes stepping the simulation."""
+    proc, port = start_server(world, "--lockstep")
+    try:
+        cl = PlayerClient("127.0.0.1", port).connect()
+        for p in (Position2dProxy, SonarProxy, LaserProxy, RangerProxy, BumperProxy,
+                  PowerProxy):
+            cl.subscribe(p)
+        for _ in range(20):
+            cl.read()
+        result = statistics.median(statistics.median(timed(cl.read, n)) for _ in range(runs))
+        cl.close()
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+    return result * 1e6
 
 
 def main() -> int:
@@ -94,6 +115,9 @@ def main() -> int:
             proc.wait(10)
         except subprocess.TimeoutExpired:
             proc.kill()
+    lockstep = lockstep_rounds(args.world, args.runs, max(args.n // 4, 50))
+    print(f"for information: a lockstep tick (physics step + round, one robot process) "
+          f"takes {lockstep:.1f} us median")
     r, p, m = statistics.median(req), statistics.median(pull), statistics.median(rate)
     print(f"targets: req_rtt <= 100 us ({r / 100:.2f}x), pull_round <= 300 us ({p / 300:.2f}x)")
     print(f"req_rtt_us_median={r:.1f} pull_round_us_median={p:.1f} msgs_per_s={m:.0f}")

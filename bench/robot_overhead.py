@@ -3,9 +3,10 @@
 Starts `player-server` (world `longterm`, lockstep, speedup 0, 10 Hz sensing) and one
 `murdoch-robot` process for robot p1 (position2d, sonar, laser, blobfinder, power: the
 longterm experiment's robots) running `object-tracking` (avoid-obstacles +
-keep-distance-to-colour + wander, one thread each) for a fixed number of ticks, and takes the robot process's CPU
-time (user + system) from the kernel when it exits. Two tick counts are run so that start-up
-cost cancels: per tick = (cpu(long) - cpu(short)) / (ticks(long) - ticks(short)).
+keep-distance-to-colour + wander, one thread each) for a fixed number of ticks, and takes
+the robot process's CPU time (user + system) from the kernel when it exits. Two tick counts
+are run so that start-up cost cancels: per tick = (cpu(long) - cpu(short)) / (ticks(long) -
+ticks(short)).
 
 Prints one line per run and, last, `robot_cpu_us_per_tick_median=<x>`.
 """
@@ -46,12 +47,14 @@ def start_server(world: str) -> tuple[subprocess.Popen[str], int]:
     raise SystemExit(f"player-server did not report {ROBOT}'s port")
 
 
-def robot_cpu_s(port: int, ticks: int) -> float:
+TASK = ("--task", "object-tracking", "--param", "colour=red", "--param", "duration_s=100000")
+
+
+def robot_cpu_s(port: int, ticks: int, task: bool = True) -> float:
     """Run one robot process for `ticks` ticks; return its CPU seconds (user + system)."""
     proc = subprocess.Popen(
         [str(BIN / "murdoch-robot"), "-p", str(port), "--name", ROBOT, "--world", WORLD,
-         "--task", "object-tracking", "--param", "colour=red", "--param", "duration_s=100000",
-         "--no-battery", "--max-ticks", str(ticks)],
+         *(TASK if task else ()), "--no-battery", "--max-ticks", str(ticks)],
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
     )
     _, status, usage = os.wait4(proc.pid, 0)
@@ -69,14 +72,19 @@ def main() -> int:
     args = parser.parse_args()
     server, port = start_server(WORLD)
     per_tick_us: list[float] = []
+    idle_us: list[float] = []
+    span = args.long - args.short
     try:
         for run in range(args.runs):
             short = robot_cpu_s(port, args.short)
             long = robot_cpu_s(port, args.long)
-            us = (long - short) / (args.long - args.short) * 1e6
+            us = (long - short) / span * 1e6
             per_tick_us.append(us)
-            print(f"run {run + 1}: short {short:.3f} s, long {long:.3f} s -> {us:.1f} us/tick",
-                  flush=True)
+            # The same robot with no task: reading a data round and sending a stop command.
+            idle = (robot_cpu_s(port, args.long, False) - robot_cpu_s(port, args.short, False))
+            idle_us.append(idle / span * 1e6)
+            print(f"run {run + 1}: short {short:.3f} s, long {long:.3f} s -> {us:.1f} us/tick "
+                  f"(no task: {idle_us[-1]:.1f} us/tick)", flush=True)
     finally:
         server.send_signal(signal.SIGTERM)
         try:
@@ -84,6 +92,9 @@ def main() -> int:
         except subprocess.TimeoutExpired:
             server.kill()
     median = statistics.median(per_tick_us)
+    idle_median = statistics.median(idle_us)
+    print(f"no task (Player I/O and snapshots only): {idle_median:.1f} us/tick; "
+          f"three behaviour threads, arbitration and task: {median - idle_median:.1f} us/tick")
     print(f"target <= {TARGET_US:.0f} us/tick; ratio {median / TARGET_US:.2f}")
     print(f"robot_cpu_us_per_tick_median={median:.1f}")
     return 0

@@ -28,7 +28,7 @@ import click
 
 log = logging.getLogger("murdoch.run")
 
-EXPERIMENT_WORLDS = {"longterm": "longterm"}
+EXPERIMENT_WORLDS = {"longterm": "longterm", "boxpush": "boxpush"}
 _DURATION_RE = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*([smh]?)\s*$")
 
 
@@ -130,7 +130,7 @@ def run_experiment(
     from experiments.observe import JsonlTail, robot_event_to_run_events
     from experiments.recorder import RunRecorder
     from experiments.summary import terminal_state_problems
-    from experiments.task_source import longterm_tasks
+    from experiments.task_source import boxpush_task, longterm_tasks
     from murdoch.auction.messages import TaskSpec
     from murdoch.multicast import MulticastConfig, MulticastTransport
     from murdoch.node import Node
@@ -167,6 +167,9 @@ def run_experiment(
     )
     robots: dict[str, RobotProcess] = {}
     tails: dict[str, JsonlTail] = {}
+    introduced_tasks: set[str] = set()
+    finished_tasks: set[str] = set()
+    auction_tails: dict[str, JsonlTail] = {}
     stop_requested = [False]
 
     def on_signal(signum: int, frame: object) -> None:
@@ -175,6 +178,7 @@ def run_experiment(
     old_int = signal.signal(signal.SIGINT, on_signal)
     old_term = signal.signal(signal.SIGTERM, on_signal)
     transport = node = None
+    drain_tails: Any = None
     reason = "completed"
     try:
         rec.start()
@@ -185,17 +189,30 @@ def run_experiment(
             return [sys.executable, "-m", "experiments.robot_node", "-p", str(ports[name]),
                     "--name", name, "--world", str(spec.source), "--mcast-port",
                     str(mcast_port), "--seed", str(seed),
-                    "--events", str(rec.run.logs / f"{name}.events.jsonl")]
+                    "--events", str(rec.run.logs / f"{name}.events.jsonl"),
+                    "--auction-log", str(rec.run.logs / f"{name}.auction.jsonl")]
 
         for ep in endpoints:
             rp = RobotProcess(ep.name, ports[ep.name])
             _start_robot(rp, robot_args(ep.name), rec.run.log_file(f"robot-{ep.name}"))
             robots[ep.name] = rp
             tails[ep.name] = JsonlTail(rec.run.logs / f"{ep.name}.events.jsonl")
+            auction_tails[ep.name] = JsonlTail(rec.run.logs / f"{ep.name}.auction.jsonl")
+
+        def drain_tails() -> None:
+            for tail in tails.values():
+                for d in tail.read_new():
+                    for e in robot_event_to_run_events(d):
+                        rec.event(e.pop("t"), e.pop("kind"), **e)
+            for tail in auction_tails.values():
+                for d in tail.read_new():
+                    if "time_s" in d and "kind" in d:
+                        on_auction_event(d)
 
         sim_now = lambda: float(sim.time_s)  # noqa: E731 - a float read across threads
         transport = MulticastTransport("user", sim_now, MulticastConfig(port=mcast_port))
         announced_at: dict[str, float] = {}
+        finished_tasks.clear()
 
         def on_message(envelope: Any) -> None:
             msg = envelope.message
@@ -205,34 +222,49 @@ def run_experiment(
 
         monitor = transport.subscribe(None, on_message)
 
+        def on_auction_event(d: dict[str, Any]) -> None:
+            """An auctioneer's event (the runner's own or a robot's) as run events."""
+            kind, task_id, t = d.get("kind"), str(d.get("task_id")), float(d["time_s"])
+            if kind == "announce":
+                if task_id not in announced_at and d.get("agent") != "user":
+                    rec.event(t, ev.TASK_INTRODUCED, task=task_id, task_kind=d.get("name", ""),
+                              source=d.get("agent"))
+                    introduced_tasks.add(task_id)
+                announced_at[task_id] = t
+            elif kind == "award":
+                latency = t - announced_at.get(task_id, t)
+                rec.event(t, ev.AWARD, task=task_id, robot=d.get("winner"),
+                          bid=d.get("score"), latency_s=round(latency, 4))
+            elif kind == "reallocation":
+                rec.event(t, ev.REALLOCATION, task=task_id, from_robot=d.get("winner"),
+                          reason=d.get("reason", ""))
+            elif kind == "outcome" and task_id not in finished_tasks:
+                rec.event(t, ev.TASK_OUTCOME, task=task_id, outcome=d.get("status"),
+                          robot=d.get("winner"), reason=d.get("reason", ""))
+                finished_tasks.add(task_id)
+
         def observer(e: Any) -> None:
-            if e.kind == "announce":
-                announced_at[e.task_id] = e.time_s
-            elif e.kind == "award":
-                latency = e.time_s - announced_at.get(e.task_id, e.time_s)
-                rec.event(e.time_s, ev.AWARD, task=e.task_id, robot=e.detail.get("winner"),
-                          bid=e.detail.get("score"), latency_s=round(latency, 4))
-            elif e.kind == "reallocation":
-                rec.event(e.time_s, ev.REALLOCATION, task=e.task_id,
-                          from_robot=e.detail.get("winner"), reason=e.detail.get("reason", ""))
-            elif e.kind == "outcome":
-                rec.event(e.time_s, ev.TASK_OUTCOME, task=e.task_id,
-                          outcome=e.detail.get("status"), robot=e.detail.get("winner"),
-                          reason=e.detail.get("reason", ""))
+            on_auction_event(e.to_dict())
 
         node = Node(transport, sim_now, agent_id="user", observer=observer,
                     backoff=RandomizedBackoff(random.Random(seed), base_s=5.0, cap_s=60.0))
-        planned = longterm_tasks(spec, random.Random(seed + 1), mean_interval_s=task_interval_s)
+        if experiment == "boxpush":
+            planned = iter([boxpush_task(spec, duration_s), None])
+        else:
+            planned = longterm_tasks(spec, random.Random(seed + 1),
+                                     mean_interval_s=task_interval_s)
         next_task = next(planned)
+        main_task: str | None = None
+        end_after_s: float | None = None
         schedule = sorted([(t, "kill", r) for r, t in kills]
                           + [(t, "restart", r) for r, t in restarts])
-        next_memory_t = 0.0
+        next_memory_t = 60.0  # first sample once every process is up and running
         busy_killed: list[str] = []
         next_tail_wall = 0.0
         mobile = {r.name for r in spec.robots if r.mobile}
         while not server.finished.is_set() and not stop_requested[0]:
             now = sim_now()
-            while next_task.t_s <= now and next_task.t_s < duration_s:
+            while next_task is not None and next_task.t_s <= now and next_task.t_s < duration_s:
                 kind = next_task.kind
                 task_spec = TaskSpec(kind, TASKS[kind].subjects, next_task.params,
                                      duration_s=float(next_task.params.get("duration_s", 0.0)),
@@ -241,8 +273,15 @@ def run_experiment(
                                      timeout_s=float(next_task.params["duration_s"]) + 600.0)
                 task_id = node.announce(task_spec, patience_s=300.0)
                 rec.event(now, ev.TASK_INTRODUCED, task=task_id, task_kind=kind,
-                          params=next_task.params, source="generator")
+                          params=next_task.params, source="user")
+                introduced_tasks.add(task_id)
+                main_task = main_task or task_id
                 next_task = next(planned)
+            if experiment == "boxpush" and main_task in finished_tasks:
+                # the box reached the goal (or could not): let the last reports arrive, then stop
+                end_after_s = end_after_s if end_after_s is not None else now + 3.0
+                if now >= end_after_s:
+                    break
             while schedule and schedule[0][0] <= now:
                 _, action, name = schedule.pop(0)
                 if name == "busy":  # the first robot (by name) that holds a task now
@@ -251,25 +290,22 @@ def run_experiment(
                                    if st == "working" and r in mobile]
                         busy_killed.append(working[0] if working else "")
                     name = busy_killed[-1] if busy_killed else ""
-                rp = robots.get(name)
-                if rp is None:
+                target = robots.get(name)
+                if target is None:
                     log.warning("no robot %s to %s", name, action)
                 elif action == "kill":
-                    pid = rp.proc.pid if rp.proc is not None else None
-                    _stop_robot(rp, kill=True)
+                    pid = target.proc.pid if target.proc is not None else None
+                    _stop_robot(target, kill=True)
                     rec.event(now, ev.ROBOT_FAILURE, robot=name, reason="killed", pid=pid)
                 else:
-                    _start_robot(rp, robot_args(name), rec.run.log_file(f"robot-{name}"))
-                    assert rp.proc is not None
-                    rec.event(now, ev.ROBOT_RESTART, robot=name, pid=rp.proc.pid)
+                    _start_robot(target, robot_args(name), rec.run.log_file(f"robot-{name}"))
+                    assert target.proc is not None
+                    rec.event(now, ev.ROBOT_RESTART, robot=name, pid=target.proc.pid)
             node.step(0.02)
             wall = time.monotonic()
             if wall >= next_tail_wall:  # robots' own events, a few times a second
                 next_tail_wall = wall + 0.25
-                for tail in tails.values():
-                    for d in tail.read_new():
-                        for e in robot_event_to_run_events(d):
-                            rec.event(e.pop("t"), e.pop("kind"), **e)
+                drain_tails()
             if now >= next_memory_t:
                 next_memory_t = now + 300.0
                 pids = {"runner": os.getpid()}
@@ -300,6 +336,16 @@ def run_experiment(
         signal.signal(signal.SIGTERM, old_term)
         for rp in robots.values():
             _stop_robot(rp)
+        if drain_tails is not None:
+            try:
+                drain_tails()  # what the robots wrote before they stopped
+            except Exception:
+                log.exception("reading the robots' last events")
+        # sub-tasks that robots were still auctioning when they stopped end here
+        end_t = float(sim.time_s)
+        for task_id in sorted(introduced_tasks - finished_tasks):
+            rec.event(end_t, ev.TASK_OUTCOME, task=task_id, outcome=ev.FAILED,
+                      reason="run ended")
         if node is not None:
             node.close()
         if transport is not None:

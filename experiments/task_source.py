@@ -55,3 +55,16 @@ def longterm_tasks(
             params["colour"] = _colour_name(rng.choice(box_colours))
         yield PlannedTask(round(t, 3), kind, params)
         t += rng.expovariate(1.0 / mean_interval_s)
+
+
+def boxpush_task(world: WorldSpec, duration_s: float, start_s: float = 1.0) -> PlannedTask:
+    """The box-pushing domain's one user task: watch (lead) the box to the goal marker."""
+    if not world.boxes or not world.markers:
+        raise ValueError(f"world {world.name!r} needs a box and a goal marker for boxpush")
+    box = max(world.boxes, key=lambda b: b.size_x_m * b.size_y_m)
+    goal = world.markers[0]
+    return PlannedTask(start_s, "watch-box", {
+        "colour": _colour_name(box.colour),
+        "goal_colour": _colour_name(goal.colour),
+        "duration_s": max(60.0, duration_s - start_s - 5.0),
+    })

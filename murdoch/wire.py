@@ -244,8 +244,7 @@ class Codec:
 
     def body_of(self, message: Any) -> dict[str, Any]:
         kind = getattr(message, "KIND", None)
-        cls = self._types.get(kind) if isinstance(kind, str) else None
-        if cls is None or not isinstance(message, cls):
+        if not isinstance(kind, str) or not isinstance(message, self._types.get(kind, ())):
             raise WireError("unknown_kind", f"{type(message).__name__} is not in this codec")
         return {name: _thaw(getattr(message, name)) for name in self._field_order[kind]}
 

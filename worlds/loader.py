@@ -318,7 +318,7 @@ def _robot(t: Table, index: int) -> RobotSpec:
     return RobotSpec(name, pose, colour, body, devices, fiducial_id)
 
 
-def _opt(t: Table, name: str, build):  # type: ignore[no-untyped-def]
+def _opt(t: Table, name: str, build):
     sub = t.optional_sub(name)
     if sub is None:
         return None
@@ -384,7 +384,7 @@ def _sonar(t: Table) -> SonarSpec:
     )
 
 
-def _scanner(t: Table, cls, mount: Mount):  # type: ignore[no-untyped-def]
+def _scanner(t: Table, cls, mount: Mount):
     d = cls(pose=mount)
     pose = t.mount("pose", mount)
     lo = t.angle("min_angle", d.min_angle_rad, min_rad=-math.pi, max_rad=math.pi)
@@ -536,7 +536,7 @@ def _fiducial(t: Table) -> FiducialSpec:
 # ---- cross-checks --------------------------------------------------------------------------
 
 
-def _check_unique_names(file: Path, arena, boxes, objects, markers, chargers, robots,  # type: ignore[no-untyped-def]
+def _check_unique_names(file: Path, arena, boxes, objects, markers, chargers, robots,
                         overhead) -> None:
     seen: dict[str, str] = {}
     groups = [

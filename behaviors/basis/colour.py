@@ -20,7 +20,7 @@ def aim_px(blob: Blob, fraction: float, width_px: int = 0) -> float:
         cut_left = blob.left_px <= 0
         cut_right = blob.right_px >= width_px - 1
         if cut_left and cut_right:
-            return (width_px - 1) / 2.0
+            return width_px / 2.0
         if cut_right and fraction > 0.5:
             return float(width_px - 1)
         if cut_left and fraction < 0.5:
@@ -50,13 +50,16 @@ class VisualServoToColour:
     """Steer at a colour blob and drive towards it; "reached" within `stop_range_m`.
 
     `aim_fraction` picks the point across the blob to steer at, so a pusher can aim at the
-    left end (0.2), the middle (0.5) or the right end (0.8) of a long box.
+    left end (0.2), the middle (0.5) or the right end (0.8) of a long box. Within the stop
+    range it only turns, and says "reached" once the aim point is within
+    `align_tolerance_rad` of straight ahead.
     """
 
     colour: int
     aim_fraction: float = 0.5
     speed_mps: float = 0.3
     stop_range_m: float = 0.0
+    align_tolerance_rad: float = math.pi
     max_turn_radps: float = 0.8
     turn_gain: float = 2.0
     max_age_s: float = 0.5
@@ -75,7 +78,9 @@ class VisualServoToColour:
         bearing = view.bearing_of_px(aim_px(blob, self.aim_fraction, view.width_px))
         turn = clamp(self.turn_gain * bearing, self.max_turn_radps)
         if blob.range_m <= self.stop_range_m:
-            return Proposal(True, 0.0, turn, self.weight, "reached", blob.range_m)
+            aligned = abs(bearing) <= self.align_tolerance_rad
+            return Proposal(True, 0.0, turn, self.weight, "reached" if aligned else "seen",
+                            blob.range_m)
         speed = self.speed_mps * max(0.0, math.cos(bearing))
         if abs(bearing) > math.radians(45.0):
             speed = 0.0

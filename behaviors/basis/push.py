@@ -13,7 +13,8 @@ class PushWithBumpers:
     """While a front bumper is pressed, drive straight ahead ("contact"); "blocked" when stalled.
 
     A stall while in contact means the object will not move further (e.g. it is against a
-    wall), which the cleanup task takes as "pushed to the edge".
+    wall), which the cleanup task takes as "pushed to the edge". A negative speed backs away
+    from whatever was bumped instead (to get room to manoeuvre).
     """
 
     speed_mps: float = 0.25
@@ -24,7 +25,7 @@ class PushWithBumpers:
 
     @property
     def max_speed_mps(self) -> float:
-        return self.speed_mps
+        return abs(self.speed_mps)
 
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
         bumpers = snapshot.bumpers

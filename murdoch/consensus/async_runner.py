@@ -43,8 +43,9 @@ DATAGRAM_BUDGET_BYTES = 1300  # under the wire's 1400-byte limit, with room for 
 
 @dataclass(frozen=True)
 class ConsensusChunk:
-    """Part of one agent's consensus state: its bids for tasks [first_task, first_task +
-    task_count) and its timestamps (None = never heard from that agent)."""
+    """Part of one agent's consensus state: its bids (and, on group tasks, the members'
+    planned times) for tasks [first_task, first_task + task_count), and its timestamps
+    (None = never heard from that agent)."""
 
     KIND: ClassVar[str] = "consensus-state"
     session: str
@@ -54,6 +55,7 @@ class ConsensusChunk:
     task_count: int
     entries: tuple[tuple[int, int, float], ...]
     stamps: tuple[float | None, ...]
+    starts: tuple[tuple[int, int, float], ...] = ()
 
 
 CONSENSUS_CODEC = Codec([ConsensusChunk])
@@ -69,21 +71,27 @@ def split_state(msg: ConsensusMessage, session: str, n_tasks: int,
     stamps = tuple(None if not np.isfinite(t) else float(t) for t in msg.stamps)
     fixed = 160 + len(session) + sum(len(repr(t)) + 1 for t in stamps)
     rows: dict[int, list[tuple[int, int, float]]] = {}
+    row_starts: dict[int, list[tuple[int, int, float]]] = {}
     for e in msg.entries:
         rows.setdefault(e[0], []).append(e)
+    for e in msg.starts:
+        row_starts.setdefault(e[0], []).append(e)
     chunks: list[ConsensusChunk] = []
-    first, size, entries = 0, fixed, []
+    first, size = 0, fixed
+    entries: list[tuple[int, int, float]] = []
+    starts: list[tuple[int, int, float]] = []
     for j in range(n_tasks):
-        row = rows.get(j, [])
-        row_size = sum(_entry_size(e) for e in row)
-        if entries and size + row_size > budget_bytes:
+        row, row_t = rows.get(j, []), row_starts.get(j, [])
+        row_size = sum(_entry_size(e) for e in row) + sum(_entry_size(e) for e in row_t)
+        if (entries or starts) and size + row_size > budget_bytes:
             chunks.append(ConsensusChunk(session, msg.sender, msg.time, first, j - first,
-                                         tuple(entries), stamps))
-            first, size, entries = j, fixed, []
+                                         tuple(entries), stamps, tuple(starts)))
+            first, size, entries, starts = j, fixed, [], []
         entries.extend(row)
+        starts.extend(row_t)
         size += row_size
     chunks.append(ConsensusChunk(session, msg.sender, msg.time, first, n_tasks - first,
-                                 tuple(entries), stamps))
+                                 tuple(entries), stamps, tuple(starts)))
     return chunks
 
 
@@ -95,7 +103,8 @@ def session_name(text: str) -> str:
 
 def chunk_message(chunk: ConsensusChunk, kind: int) -> ConsensusMessage:
     stamps = tuple(-np.inf if t is None else t for t in chunk.stamps)
-    return ConsensusMessage(kind, chunk.sender, chunk.time, chunk.entries, stamps)
+    return ConsensusMessage(kind, chunk.sender, chunk.time, chunk.entries, stamps,
+                            chunk.starts)
 
 
 Agent = CbbaAgent | CbgaAgent

@@ -8,17 +8,26 @@ CBGA gives CBBA's result.
 
 Group rows follow the paper's Algorithm 2. First the receiver refreshes the members it
 believes in from the sender when the sender heard from that member more recently (or is that
-member). Then it takes the sender's other members, strongest first: into a free place when the
-group can still cover its equipment, otherwise in place of the weakest member carrying the same
-equipment if the newcomer's bid is higher (equal bids: the higher agent index stays).
+member). Then it adds the sender's other members it has fresher news of, and keeps the group
+`select_group` picks: strongest bids first (equal bids: the higher agent index first), each
+taken while there is room and the group can still cover the task's equipment. For agents
+carrying one item each this is the paper's rule (a newcomer replaces only the weakest member
+with the same equipment, and only with a higher bid); being a function of the candidates, it
+also lets two views of the same candidates agree when agents carry several items.
 
-Bundle construction is Algorithm 1: a group task is a valid choice while its group has room
-for this agent's equipment, or when this agent outbids the weakest member with the same
-equipment. Options: task quitting (leave a group task that is still not complete `quit_after`
-rounds after joining it, and do not rejoin until more agents have joined) and team reward
-(a group-task bid adds ``team_reward * others / (L_j - 1)`` for the others already in it).
-Prerequisites must be on the agent's own path before the dependent task. Bids are warped
-as in CBBA (never above the bid of the task added before).
+Bundle construction is Algorithm 1: a group task is a valid choice when `select_group` would
+keep this agent in it (room left, or outbidding the weakest replaceable member).
+
+Group members wait for each other (the paper's eq. 8, with paths instead of straight lines):
+each agent also keeps T[j, m], the time member m can be at group task j on its own, sends it
+with its bids, and plans its own start on j no earlier than the latest of its partners'.
+A group task that can no longer start in its window after a partner's news is dropped.
+
+Options: task quitting (leave a group task still incomplete `quit_after` rounds after joining
+it, and do not rejoin until more agents have joined) and team reward (a group-task bid adds
+``team_reward * others / (L_j - 1)`` for the others already in it). Prerequisites must be on
+the agent's own path before the dependent task. Bids are warped as in CBBA (never above the
+bid of the task added before).
 """
 
 from __future__ import annotations
@@ -58,7 +67,7 @@ class CbgaAgent:
         self.options = options or CbgaOptions()
         self.x = np.zeros((problem.n_tasks, problem.n_agents)) if x is None else x
         self.s = new_timestamps(problem.n_agents) if s is None else s
-        # planned start of each believed member on each group task (0 = unknown)
+        # when each believed member can be at each group task on its own (0 = unknown)
         self.t = np.zeros((problem.n_tasks, problem.n_agents)) if t is None else t
         self.bundle: list[int] = []
         self.path: list[int] = []
@@ -148,14 +157,17 @@ class CbgaAgent:
         return {j: float(lb[j]) for j in path if not self.single[j] and lb[j] > 0}
 
     def _publish_times(self) -> None:
-        """Record this agent's planned starts on its group tasks (what partners wait for)."""
+        """Record when this agent can be at each of its group tasks on its own (what its
+        partners wait for); the group starts at the latest of its members' times."""
         if not self.group_idx.size:
             return
         i = self.index
+        ready: list[float] = []
+        path_times(self.problem, i, self.path, self._lower_bounds(self.path), ready)
         self.t[self.group_idx, i] = 0.0
-        for j, start in zip(self.path, self.times, strict=True):
+        for j, at in zip(self.path, ready, strict=True):
             if not self.single[j]:
-                self.t[j, i] = start
+                self.t[j, i] = at
 
     def refresh_times(self) -> bool:
         """Re-plan start times against the partners' latest plans; drop a group task that
@@ -394,7 +406,7 @@ class CbgaAgent:
         if not self.options.task_quitting or not self.active:
             return False
         p = self.problem
-        for n, j in enumerate(self.bundle):
+        for j in self.bundle:
             if self.single[j] or not np.isfinite(p.quit_after[j]):
                 continue
             if now - self.assigned_at[j] >= p.quit_after[j] and not self.complete(j):

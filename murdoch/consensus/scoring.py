@@ -133,11 +133,14 @@ def task_scores(p: Problem, tasks: np.ndarray, starts: np.ndarray) -> np.ndarray
 
 
 def path_times(p: Problem, agent: int, path: list[int],
-               lower_bounds: dict[int, float] | None = None) -> tuple[np.ndarray, bool]:
+               lower_bounds: dict[int, float] | None = None,
+               ready_out: list[float] | None = None) -> tuple[np.ndarray, bool]:
     """Earliest start times along a path and whether every start fits its window.
 
     `lower_bounds` optionally adds a not-before time per task (used for group tasks whose
     start waits for the whole group). Prerequisites must appear earlier on the path.
+    `ready_out`, when given, receives for each task the time this agent could start it on
+    its own (the start before any group lower bound).
     """
     lst = p.lists
     out: list[float] = []
@@ -151,13 +154,15 @@ def path_times(p: Problem, agent: int, path: list[int],
         ws = lst.window_start[j]
         if ws > start:
             start = ws
-        if lower_bounds is not None and j in lower_bounds:
-            start = max(start, lower_bounds[j])
         for q in p.prereqs[j]:
             if q not in finish:
                 ok = False
             elif finish[q] > start:
                 start = finish[q]
+        if ready_out is not None:
+            ready_out.append(start)
+        if lower_bounds is not None and j in lower_bounds:
+            start = max(start, lower_bounds[j])
         if start > lst.window_end[j] + _EPS:
             ok = False
         out.append(start)

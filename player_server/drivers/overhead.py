@@ -3,21 +3,24 @@
 Served on its own port as the devices of a non-mobile "robot". Blob centroids are pixel
 coordinates of the downward view (x to the right = world +x, y downward = world -y);
 fiducial poses are world-frame offsets from the point below the camera, with the id the
-world gives the thing (-1 if none) and the thing's yaw.
+world gives the thing (-1 if none) and the thing's yaw. The camera device draws the same
+view as an RGB image: the floor, and each tracked thing as a disc of its colour and size.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
+
 from player_server.drivers.base import Driver, Reply, Unsupported, ack
+from player_server.drivers.vision import encode_image
 from player_server.protocol import constants as c
 from player_server.protocol import sensor_msgs as sm
 from player_server.protocol.common import Bbox2d, Bbox3d, Pose3d
 from player_server.protocol.constants import Interface
-
-_BLOB_HALF_PX = 2
 
 
 def fiducial_ids(world: Any) -> dict[str, int]:
@@ -32,35 +35,55 @@ def fiducial_ids(world: Any) -> dict[str, int]:
     return ids
 
 
+def footprint_radii(world: Any) -> dict[str, float]:
+    """Name -> radius (m) of the disc drawn for each thing the overhead camera tracks."""
+    radii: dict[str, float] = {}
+    for r in world.robots:
+        radii[r.name] = max(r.body.width_m, r.body.length_m) / 2.0
+    for b in world.boxes:
+        radii[b.name] = max(b.size_x_m, b.size_y_m) / 2.0
+    for o in world.objects:
+        radii[o.name] = o.radius_m
+    for m in world.markers:
+        radii[m.name] = m.radius_m
+    return radii
+
+
 class OverheadBlobfinderDriver(Driver):
+    """One blob per tracked thing in view: centroid, box and area of its drawn disc."""
+
     interf = int(Interface.BLOBFINDER)
 
     def __init__(self, sim: Any, world: Any, index: int = 0) -> None:
         super().__init__(index, "sim_overhead_blobfinder")
         self.sim = sim
         self.cam = world.overhead_camera
+        self.radii = footprint_radii(world)
 
-    def to_pixels(self, x: float, y: float) -> tuple[int, int] | None:
+    def to_pixels(self, x: float, y: float) -> tuple[float, float]:
         cam = self.cam
         u = (x - cam.x) / cam.view_size_x_m * cam.width_px + cam.width_px / 2.0
         v = cam.height_px / 2.0 - (y - cam.y) / cam.view_size_y_m * cam.height_px
-        if 0 <= u < cam.width_px and 0 <= v < cam.height_px:
-            return int(u), int(v)
-        return None
+        return u, v
 
     def data(self) -> Sequence[tuple[int, Any]]:
+        cam = self.cam
         blobs = []
-        h = _BLOB_HALF_PX
         for i, t in enumerate(self.sim.overhead()):
-            px = self.to_pixels(t.x, t.y)
-            if px is None:
+            u, v = self.to_pixels(t.x, t.y)
+            if not (0 <= u < cam.width_px and 0 <= v < cam.height_px):
                 continue
-            u, v = px
-            blobs.append(sm.BlobfinderBlob(i, t.colour & 0xFFFFFF, (2 * h + 1) ** 2, u, v,
-                                           max(u - h, 0), u + h, max(v - h, 0), v + h,
-                                           float(self.cam.height_m)))
+            r_m = self.radii.get(t.name, 0.1)
+            ru = max(r_m / cam.view_size_x_m * cam.width_px, 0.5)
+            rv = max(r_m / cam.view_size_y_m * cam.height_px, 0.5)
+            area = max(int(math.pi * ru * rv), 1)
+            blobs.append(sm.BlobfinderBlob(
+                i, t.colour & 0xFFFFFF, area, int(u), int(v),
+                max(int(u - ru), 0), min(int(u + ru), cam.width_px - 1),
+                max(int(v - rv), 0), min(int(v + rv), cam.height_px - 1),
+                float(cam.height_m)))
         return ((c.PLAYER_BLOBFINDER_DATA_BLOBS, sm.BlobfinderData(
-            self.cam.width_px, self.cam.height_px, tuple(blobs))),)
+            cam.width_px, cam.height_px, tuple(blobs))),)
 
 
 class OverheadFiducialDriver(Driver):
@@ -94,3 +117,55 @@ class OverheadFiducialDriver(Driver):
             return ack(sm.FiducialFov(0.0, float(cam.height_m) * 2.0,
                                       float(max(cam.view_size_x_m, cam.view_size_y_m))))
         raise Unsupported(f"fiducial request {subtype}")
+
+
+class OverheadCameraDriver(Driver):
+    """A synthetic top-down RGB888 image (raw; the bool property ``jpeg`` compresses)."""
+
+    interf = int(Interface.CAMERA)
+    requests = frozenset({c.PLAYER_CAMERA_REQ_GET_IMAGE})
+
+    def __init__(self, sim: Any, world: Any, index: int = 0) -> None:
+        super().__init__(index, "sim_overhead_camera")
+        self.sim = sim
+        cam = world.overhead_camera
+        self.cam = cam
+        self.radii = footprint_radii(world)
+        floor = int(world.arena.floor_colour)
+        self.floor_rgb = np.array([(floor >> 16) & 255, (floor >> 8) & 255, floor & 255],
+                                  dtype=np.uint8)
+        self.m_per_px_x = cam.view_size_x_m / cam.width_px
+        self.m_per_px_y = cam.view_size_y_m / cam.height_px
+        self.properties = {"jpeg": False, "jpeg_quality": 80}
+
+    def render(self) -> Any:
+        cam = self.cam
+        img = np.empty((cam.height_px, cam.width_px, 3), dtype=np.uint8)
+        img[:, :] = self.floor_rgb
+        for t in self.sim.overhead():
+            r_m = self.radii.get(t.name, 0.1)
+            u = (t.x - cam.x) / self.m_per_px_x + cam.width_px / 2.0
+            v = cam.height_px / 2.0 - (t.y - cam.y) / self.m_per_px_y
+            ru, rv = r_m / self.m_per_px_x, r_m / self.m_per_px_y
+            u0, u1 = max(int(u - ru), 0), min(int(u + ru) + 1, cam.width_px)
+            v0, v1 = max(int(v - rv), 0), min(int(v + rv) + 1, cam.height_px)
+            if u0 >= u1 or v0 >= v1:
+                continue
+            uu, vv = np.meshgrid(np.arange(u0, u1) + 0.5, np.arange(v0, v1) + 0.5)
+            inside = ((uu - u) / max(ru, 1e-9)) ** 2 + ((vv - v) / max(rv, 1e-9)) ** 2 <= 1.0
+            colour = int(t.colour)
+            img[v0:v1, u0:u1][inside] = ((colour >> 16) & 255, (colour >> 8) & 255,
+                                         colour & 255)
+        return img
+
+    def image(self) -> sm.CameraData:
+        return encode_image(self.render(), bool(self.properties["jpeg"]),
+                            int(self.properties["jpeg_quality"]))
+
+    def data(self) -> Sequence[tuple[int, Any]]:
+        return ((c.PLAYER_CAMERA_DATA_STATE, self.image()),)
+
+    def handle_request(self, subtype: int, body: Any) -> Reply:
+        if subtype == c.PLAYER_CAMERA_REQ_GET_IMAGE:
+            return ack(self.image())
+        raise Unsupported(f"overhead camera request {subtype}")

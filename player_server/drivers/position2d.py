@@ -52,6 +52,7 @@ class Position2dDriver(Driver):
             "heading_tolerance_rad": 0.05,
         }
         self._goal: tuple[str, tuple[float, ...]] | None = None
+        self._geom = am.Position2dGeom(*body_geometry(robot))  # fixed by the world
 
     def data(self) -> Sequence[tuple[int, Any]]:
         o = self.sim.odometry(self.robot.name)
@@ -112,8 +113,7 @@ class Position2dDriver(Driver):
     def handle_request(self, subtype: int, body: Any) -> Reply:
         name = self.robot.name
         if subtype == c.PLAYER_POSITION2D_REQ_GET_GEOM:
-            pose, size = body_geometry(self.robot)
-            return ack(am.Position2dGeom(pose, size))
+            return ack(self._geom)
         if subtype == c.PLAYER_POSITION2D_REQ_MOTOR_POWER:
             self.sim.set_motor_power(name, bool(body.state))
             return ACK

@@ -35,6 +35,7 @@ class SonarDriver(Driver):
         self.spec = robot.devices.sonar
         self.powered = True
         self.properties = {"max_range": float(self.spec.max_range_m)}
+        self._geom = self.geometry()
 
     def data(self) -> Sequence[tuple[int, Any]]:
         return ((c.PLAYER_SONAR_DATA_RANGES, sm.SonarData(_ranges(self.sim.sonar(
@@ -45,7 +46,7 @@ class SonarDriver(Driver):
 
     def handle_request(self, subtype: int, body: Any) -> Reply:
         if subtype == c.PLAYER_SONAR_REQ_GET_GEOM:
-            return ack(self.geometry())
+            return ack(self._geom)
         if subtype == c.PLAYER_SONAR_REQ_POWER and body is not None:
             self.powered = bool(body.state)
             return ACK
@@ -64,6 +65,7 @@ class LaserDriver(Driver):
         self.serial_number = serial_number
         self.powered = True
         self.properties = {"max_range": float(self.spec.max_range_m)}
+        self._geom = sm.LaserGeom(mount_pose(self.spec.pose), LASER_SIZE)
 
     def config(self) -> sm.LaserConfig:
         s = self.spec
@@ -81,7 +83,7 @@ class LaserDriver(Driver):
 
     def handle_request(self, subtype: int, body: Any) -> Reply:
         if subtype == c.PLAYER_LASER_REQ_GET_GEOM:
-            return ack(sm.LaserGeom(mount_pose(self.spec.pose), LASER_SIZE))
+            return ack(self._geom)
         if subtype == c.PLAYER_LASER_REQ_GET_CONFIG:
             return ack(self.config())
         if subtype == c.PLAYER_LASER_REQ_SET_CONFIG and body is not None:
@@ -104,6 +106,7 @@ class RangerDriver(Driver):
         self.robot = robot
         self.spec = robot.devices.ranger
         self.properties = {"max_range": float(self.spec.max_range_m)}
+        self._geom = self.geometry()
 
     def config(self) -> sm.RangerConfig:
         s = self.spec
@@ -120,7 +123,7 @@ class RangerDriver(Driver):
 
     def handle_request(self, subtype: int, body: Any) -> Reply:
         if subtype == c.PLAYER_RANGER_REQ_GET_GEOM:
-            return ack(self.geometry())
+            return ack(self._geom)
         if subtype in (c.PLAYER_RANGER_REQ_GET_CONFIG, c.PLAYER_RANGER_REQ_SET_CONFIG):
             return ack(self.config())  # SET answers with the resulting (fixed) config
         if subtype in (c.PLAYER_RANGER_REQ_POWER, c.PLAYER_RANGER_REQ_INTNS) and body is not None:

@@ -6,7 +6,11 @@ from typing import Any
 
 from player_server.drivers.base import Driver
 from player_server.drivers.body import BumperDriver, GripperDriver, PowerDriver
-from player_server.drivers.overhead import OverheadBlobfinderDriver, OverheadFiducialDriver
+from player_server.drivers.overhead import (
+    OverheadBlobfinderDriver,
+    OverheadCameraDriver,
+    OverheadFiducialDriver,
+)
 from player_server.drivers.position2d import Position2dDriver
 from player_server.drivers.ranging import LaserDriver, RangerDriver, SonarDriver
 from player_server.drivers.simulation import SimulationDriver
@@ -51,6 +55,6 @@ def robot_drivers(sim: Any, robot: Any) -> dict[DeviceKey, Driver]:
 
 
 def overhead_drivers(sim: Any, world: Any) -> dict[DeviceKey, Driver]:
-    """Blobfinder:0, fiducial:0 and simulation:0 of the overhead camera."""
-    return _keyed([OverheadBlobfinderDriver(sim, world), OverheadFiducialDriver(sim, world),
-                   SimulationDriver(sim)])
+    """Camera:0, blobfinder:0, fiducial:0 and simulation:0 of the overhead camera."""
+    return _keyed([OverheadCameraDriver(sim, world), OverheadBlobfinderDriver(sim, world),
+                   OverheadFiducialDriver(sim, world), SimulationDriver(sim)])

@@ -18,7 +18,7 @@ from player_server.protocol.constants import HEADER_SIZE, MAX_MESSAGE_SIZE
 from player_server.protocol.errors import DecodeError, EncodeError, FrameError
 from player_server.protocol.header import HEADER_STRUCT, Header, Message
 from player_server.protocol.registry import UnknownMessage, lookup
-from player_server.protocol.xdr import decode_body, encode_body
+from player_server.protocol.xdr import decode_body
 
 _pack_header = HEADER_STRUCT.pack
 _unpack_header = HEADER_STRUCT.unpack_from
@@ -38,7 +38,14 @@ def encode_message(
     seq: int = 0,
 ) -> bytes:
     """Header + XDR body as one bytes object; ``size`` is the encoded body length."""
-    payload = encode_body(body)
+    if body is None:
+        payload = b""
+    else:
+        try:
+            encoder = type(body).xdr_encode
+        except AttributeError:
+            raise EncodeError(f"{type(body).__name__} is not a message body") from None
+        payload = encoder(body)
     try:
         head = _pack_header(
             host, robot, interf, index, msg_type, subtype, timestamp, seq, len(payload)
@@ -109,23 +116,29 @@ class Decoder:
 
     def next_event(self) -> Message | Undecodable | _NeedData:
         buf = self._buf
+        pos = self._pos
         header = self._header
         if header is None:
-            if len(buf) - self._pos < HEADER_SIZE:
+            if len(buf) - pos < HEADER_SIZE:
                 return NEED_DATA
-            header = _make_header(_unpack_header(buf, self._pos))
+            header = _make_header(_unpack_header(buf, pos))
             if header.size > self._max_size:
                 raise FrameError(
                     f"message size {header.size} exceeds the limit {self._max_size}"
                 )
-            self._pos += HEADER_SIZE
+            pos += HEADER_SIZE
+            self._pos = pos
             self._header = header
-        end = self._pos + header.size
+        size = header.size
+        end = pos + size
         if len(buf) < end:
             return NEED_DATA
-        body = bytes(buf[self._pos:end])
         self._pos = end
         self._header = None
+        if size == 0:
+            self.messages += 1
+            return Message(header, None)
+        body = bytes(buf[pos:end])
         try:
             msg = decode_message(header, body)
         except (DecodeError, UnknownMessage) as exc:

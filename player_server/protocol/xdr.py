@@ -164,7 +164,7 @@ def _fast_constructor(cls: type) -> Callable[..., Any]:
     decoder builds millions of bodies, and setting the slot descriptors directly is about
     three times faster while producing an equal, equally frozen object.
     """
-    names = [f.name for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
+    names = [f.name for f in dataclasses.fields(cls)]
     if "__slots__" not in cls.__dict__ or any(n not in cls.__dict__ for n in names):
         return cls
     ns: dict[str, Any] = {"_new": object.__new__, "_cls": cls}
@@ -175,7 +175,7 @@ def _fast_constructor(cls: type) -> Callable[..., Any]:
     args = ", ".join(f"a{i}" for i in range(len(names)))
     src = f"def make({args}):\n    o = _new(_cls)\n" + "\n".join(body) + "\n    return o"
     exec(src, ns)
-    return ns["make"]  # type: ignore[no-any-return]
+    return ns["make"]
 
 
 def _rebuild(spec: Any, values: str, start: int, ns: dict[str, Any]) -> tuple[str, int]:

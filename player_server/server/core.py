@@ -17,8 +17,9 @@ position2d subscription, unless it set the ``lockstep`` integer property of the
 ``player`` device (1 = always a participant, 0 = never, -1 = automatic). The simulation
 may step only when at least ``lockstep_clients`` participants have been seen since start
 and every current participant has consumed the current round and asked for the next
-one. A participant that holds the gate for longer than ``lockstep_timeout_s`` is
-demoted to a monitor (logged). Monitors never hold the gate.
+one. A participant that holds the gate for longer than ``lockstep_timeout_s`` (four
+times that before its first round) is demoted to a monitor until its next REQ DATA
+(logged). Monitors never hold the gate.
 """
 
 from __future__ import annotations
@@ -51,6 +52,8 @@ _PLAYER = int(Interface.PLAYER)
 _POSITION2D = int(Interface.POSITION2D)
 _SYNCH_OK = encode_message(_PLAYER, 0, int(MsgType.SYNCH), c.PLAYER_SYNCH_OK)
 LOCKSTEP_PROPERTY = "lockstep"
+_LOGGED_BAD = 10
+_FIRST_ROUND_GRACE = 4.0
 
 _PROP_TYPES: dict[int, type] = {
     c.PLAYER_GET_INTPROP_REQ: int, c.PLAYER_SET_INTPROP_REQ: int,
@@ -79,6 +82,7 @@ class SessionCounters:
     requests: int = 0
     commands: int = 0
     bad_messages: int = 0
+    replies: int = 0
     nacks: int = 0
     rounds: int = 0
 
@@ -98,6 +102,7 @@ class Session:
     round_pending: bool = False
     last_round: int = -1
     lockstep_override: bool | None = None
+    demoted: bool = False
     counted_as_participant: bool = False
     stalled_since: float | None = None
     closing: str | None = None
@@ -197,23 +202,28 @@ class ServerCore:
                                 ev.header.subtype, None, ack=False)
                 continue
             assert isinstance(ev, Message)
+            replies_before = session.counters.replies
             try:
                 self._dispatch(session, ev)
             except Exception:  # a driver bug must not take the server down
                 log.exception("error handling %s from %s", ev.header, session.peer)
                 self._bad(session, ev.header, "internal error")
-                if ev.type == _REQ:
+                if ev.type == _REQ and session.counters.replies == replies_before:
                     self._reply(session, ev.interf, ev.index, ev.subtype, None, ack=False)
 
     def _bad(self, session: Session, header: Any, reason: str) -> None:
         session.counters.bad_messages += 1
         self.counters.bad_messages += 1
-        log.warning("bad message from %s on %s (%s): %s", session.peer,
-                    session.endpoint.name, header, reason)
+        n = session.counters.bad_messages
+        # a client sending garbage must not flood the log: the first few, then 1 in 1000
+        level = logging.WARNING if n <= _LOGGED_BAD or n % 1000 == 0 else logging.DEBUG
+        log.log(level, "bad message #%d from %s on %s (%s): %s", n, session.peer,
+                session.endpoint.name, header, reason)
 
     def _reply(
         self, s: Session, interf: int, index: int, subtype: int, body: Any, *, ack: bool
     ) -> None:
+        s.counters.replies += 1
         if not ack:
             s.counters.nacks += 1
         try:
@@ -283,6 +293,10 @@ class ServerCore:
             if s.mode == c.PLAYER_DATAMODE_PULL:
                 s.round_pending = True
                 s.stalled_since = None
+                if s.demoted:
+                    s.demoted = False
+                    log.info("lockstep: client %s on %s holds the clock again", s.peer,
+                             s.endpoint.name)
                 self._try_round(s)
         elif st == c.PLAYER_REQ_DEV and isinstance(body, pm.DeviceReq):
             self._dev_request(s, msg.index, body)
@@ -453,7 +467,7 @@ class ServerCore:
 
     # -- lockstep ---------------------------------------------------------------------------
     def is_participant(self, s: Session) -> bool:
-        if not self.config.lockstep or s.closing is not None:
+        if not self.config.lockstep or s.closing is not None or s.demoted:
             return False
         if s.lockstep_override is not None:
             return s.lockstep_override
@@ -481,13 +495,17 @@ class ServerCore:
         timeout = self.config.lockstep_timeout_s
         if timeout > 0:
             for s in laggards:
+                # a client still setting up (no round yet) gets a longer grace
+                limit = timeout if s.last_round >= 0 else _FIRST_ROUND_GRACE * timeout
                 if s.stalled_since is None:
                     s.stalled_since = now_s
-                elif now_s - s.stalled_since > timeout:
+                elif now_s - s.stalled_since > limit:
                     log.warning("lockstep: client %s on %s kept the simulation waiting "
-                                "for %.1f s; it no longer holds the clock", s.peer,
-                                s.endpoint.name, now_s - s.stalled_since)
-                    s.lockstep_override = False
+                                "for %.1f s; it no longer holds the clock until it asks "
+                                "for data again", s.peer, s.endpoint.name,
+                                now_s - s.stalled_since)
+                    s.demoted = True
+                    s.stalled_since = None
                     self.counters.demoted += 1
         return False
 

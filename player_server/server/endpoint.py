@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from player_server.drivers.base import Driver
 from player_server.protocol.constants import interface_name
@@ -21,7 +21,6 @@ class Endpoint:
     requested_port: int = 0
     port: int = 0
     mobile: bool = True
-    meta: dict[str, str] = field(default_factory=dict)
 
     def device_names(self) -> list[str]:
-        return [f"{interface_name(i)}:{x}" for (i, x) in sorted(self.drivers)]
+        return [f"{interface_name(i)}:{x}" for (i, x) in self.drivers]

@@ -14,7 +14,6 @@ from collections.abc import Callable, Sequence
 from typing import Protocol
 
 from player_server.drivers.base import Driver
-from player_server.protocol.constants import interface_name
 from player_server.server.core import CoreConfig, ServerCore
 from player_server.server.endpoint import Endpoint
 from player_server.server.tcp import TcpFrontEnd
@@ -87,6 +86,8 @@ class PlayerServer:
             if self._thread.is_alive():
                 raise RuntimeError("the server thread did not stop")
             self._thread = None
+        else:
+            self.tcp.close()  # never started: release the wake-up sockets
         if self.error is not None:
             err, self.error = self.error, None
             raise RuntimeError("the server thread failed") from err
@@ -105,8 +106,7 @@ class PlayerServer:
         """The start-up table: robot -> port -> devices."""
         rows = [("robot", "port", "devices")]
         for ep in self.endpoints:
-            devs = ", ".join(f"{interface_name(i)}:{x}" for (i, x) in ep.drivers)
-            rows.append((ep.name, str(ep.port), devs))
+            rows.append((ep.name, str(ep.port), ", ".join(ep.device_names())))
         w0 = max(len(r[0]) for r in rows)
         w1 = max(len(r[1]) for r in rows)
         return "\n".join(f"{a:<{w0}}  {b:>{w1}}  {d}" for a, b, d in rows)

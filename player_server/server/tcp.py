@@ -46,6 +46,7 @@ class TcpFrontEnd:
         self._wake_w.setblocking(False)
         self._sel.register(self._wake_r, selectors.EVENT_READ, ("wake", None))
         self.closed_connections = 0
+        self._closed = False
 
     # -- set-up / tear-down ------------------------------------------------------------------
     def bind(self, endpoints: list[Endpoint]) -> None:
@@ -65,6 +66,10 @@ class TcpFrontEnd:
             raise
 
     def close(self) -> None:
+        """Close every socket (idempotent)."""
+        if self._closed:
+            return
+        self._closed = True
         for conn in list(self._conns.values()):
             self._drop(conn, "server stopping")
         for ls in self._listeners:

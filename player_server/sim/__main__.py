@@ -1,7 +1,8 @@
 """Headless demo: ``python -m player_server.sim WORLD.toml --sim-hours 1``.
 
-Every robot wanders on its own range readings; progress lines and a summary (simulated time,
-wall time, real-time factor, battery levels) are printed.
+Every robot wanders on its own range readings and drives to the nearest charger when its
+battery runs low; progress lines and a summary (simulated time, wall time, real-time factor,
+battery levels) are printed.
 """
 
 from __future__ import annotations
@@ -76,7 +77,8 @@ def main(world: str, sim_hours: float | None, sim_seconds: float | None, seed: i
     click.echo(f"  real-time factor {sim.time_s / max(wall, 1e-9):.1f}")
     for name, p in _battery(sim).items():
         click.echo(f"  {name:10s} battery {p:5.1f}%  min {st.min_percent.get(name, p):5.1f}%  "
-                   f"charging {st.charging_s.get(name, 0.0):6.0f} s  "
+                   f"charging {st.charging_s.get(name, 0.0):6.0f} s "
+                   f"({st.charge_trips.get(name, 0)} trips)  "
                    f"travelled {st.distance_m.get(name, 0.0):7.1f} m")
     sim.close()
 

@@ -62,12 +62,13 @@ def detect(
 ) -> tuple[Blob, ...]:
     """Find blobs of each channel colour in an RGB image (CMVision-like colour thresholds)."""
     blobs: list[Blob] = []
-    img = rgb.astype(np.int16)
+    img = np.ascontiguousarray(rgb)
     for ch, colour in enumerate(channels):
-        target = np.array([(colour >> 16) & 0xFF, (colour >> 8) & 0xFF, colour & 0xFF],
-                          dtype=np.int16)
-        mask = (np.abs(img - target).max(axis=2) <= tolerance).astype(np.uint8)
-        if not mask.any():
+        target = np.array([(colour >> 16) & 0xFF, (colour >> 8) & 0xFF, colour & 0xFF])
+        lower = np.clip(target - tolerance, 0, 255).astype(np.uint8)
+        upper = np.clip(target + tolerance, 0, 255).astype(np.uint8)
+        mask = cv2.inRange(img, lower, upper)
+        if cv2.countNonZero(mask) == 0:
             continue
         n, labels, stats, centroids = cv2.connectedComponentsWithStats(mask, connectivity=8)
         found = []

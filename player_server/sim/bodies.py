@@ -70,23 +70,23 @@ def build_world(spec: WorldSpec, client: int) -> BodyIds:
                                    rgbaColor=_rgba(arena.wall_colour), physicsClientId=cid)
         static.append(pb.createMultiBody(0.0, col, vis, [cx, cy, h / 2], physicsClientId=cid))
 
-    for o in arena.obstacles:
-        if o.shape == "box":
+    for ob in arena.obstacles:
+        if ob.shape == "box":
             col = pb.createCollisionShape(
-                pb.GEOM_BOX, halfExtents=[o.size_x_m / 2, o.size_y_m / 2, o.height_m / 2],
+                pb.GEOM_BOX, halfExtents=[ob.size_x_m / 2, ob.size_y_m / 2, ob.height_m / 2],
                 physicsClientId=cid,
             )
             vis = pb.createVisualShape(
-                pb.GEOM_BOX, halfExtents=[o.size_x_m / 2, o.size_y_m / 2, o.height_m / 2],
-                rgbaColor=_rgba(o.colour), physicsClientId=cid,
+                pb.GEOM_BOX, halfExtents=[ob.size_x_m / 2, ob.size_y_m / 2, ob.height_m / 2],
+                rgbaColor=_rgba(ob.colour), physicsClientId=cid,
             )
         else:
-            col = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=o.radius_m,
-                                          height=o.height_m, physicsClientId=cid)
-            vis = pb.createVisualShape(pb.GEOM_CYLINDER, radius=o.radius_m, length=o.height_m,
-                                       rgbaColor=_rgba(o.colour), physicsClientId=cid)
+            col = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=ob.radius_m,
+                                          height=ob.height_m, physicsClientId=cid)
+            vis = pb.createVisualShape(pb.GEOM_CYLINDER, radius=ob.radius_m, length=ob.height_m,
+                                       rgbaColor=_rgba(ob.colour), physicsClientId=cid)
         static.append(pb.createMultiBody(
-            0.0, col, vis, [o.pose.x, o.pose.y, o.height_m / 2], _quat_yaw(o.pose.yaw),
+            0.0, col, vis, [ob.pose.x, ob.pose.y, ob.height_m / 2], _quat_yaw(ob.pose.yaw),
             physicsClientId=cid,
         ))
 
@@ -128,12 +128,12 @@ def build_world(spec: WorldSpec, client: int) -> BodyIds:
                                              physicsClientId=cid)
 
     chargers: dict[str, int] = {}
-    for c in spec.chargers:
+    for ch in spec.chargers:
         pad_h = 0.01
-        vis = pb.createVisualShape(pb.GEOM_CYLINDER, radius=c.radius_m, length=pad_h,
-                                   rgbaColor=_rgba(c.colour), physicsClientId=cid)
-        chargers[c.name] = pb.createMultiBody(0.0, -1, vis, [c.x, c.y, pad_h / 2],
-                                              physicsClientId=cid)
+        vis = pb.createVisualShape(pb.GEOM_CYLINDER, radius=ch.radius_m, length=pad_h,
+                                   rgbaColor=_rgba(ch.colour), physicsClientId=cid)
+        chargers[ch.name] = pb.createMultiBody(0.0, -1, vis, [ch.x, ch.y, pad_h / 2],
+                                               physicsClientId=cid)
 
     robots: dict[str, int] = {}
     for r in spec.robots:

@@ -18,17 +18,40 @@ class WanderStats:
     distance_m: dict[str, float] = field(default_factory=dict)
     charging_s: dict[str, float] = field(default_factory=dict)
     min_percent: dict[str, float] = field(default_factory=dict)
+    charge_trips: dict[str, int] = field(default_factory=dict)
+
+
+# Devices read every tick with ``sense_all`` (besides odometry): device -> Simulation method.
+_READ_ALL = (("sonar", "sonar"), ("laser", "laser"), ("ranger", "ranger"),
+             ("blobfinder", "blobs"), ("bumper", "bumpers"), ("gripper", "gripper"),
+             ("ptz", "ptz"))
+
+
+@dataclass(frozen=True)
+class _Driven:
+    name: str
+    ranges: Callable[[str], np.ndarray]
+    bearings: np.ndarray
+    wanderer: Wanderer
+    readers: tuple[Callable[[str], object], ...]
+    has_power: bool
 
 
 class WanderDriver:
     """Each tick: every mobile robot reads its ranges (and, with ``sense_all``, every other
-    device it has), decides with its own Wanderer, and commands its drive."""
+    device it has), decides with its own Wanderer, and commands its drive. A robot whose
+    battery falls below ``low_percent`` drives to the nearest charger (by ground truth) and
+    waits there until ``full_percent``."""
 
-    def __init__(self, sim: Simulation, rng: np.random.Generator, sense_all: bool = False):
+    def __init__(self, sim: Simulation, rng: np.random.Generator, sense_all: bool = False,
+                 low_percent: float = 25.0, full_percent: float = 95.0):
         self.sim = sim
         self.sense_all = sense_all
+        self.low_percent = low_percent
+        self.full_percent = full_percent
+        self._seeking: dict[str, tuple[float, float]] = {}
         self.stats = WanderStats()
-        self._robots: list[tuple[str, str, np.ndarray, Wanderer]] = []
+        self._robots: list[_Driven] = []
         for spec in sim.spec.robots:
             if spec.devices.position2d is None:
                 continue
@@ -37,52 +60,70 @@ class WanderDriver:
                 continue
             kind, bearings = rb
             wander_rng = np.random.default_rng(rng.integers(0, 2**63))
-            self._robots.append((spec.name, kind, bearings, Wanderer(wander_rng)))
+            d = spec.devices
+            readers = [getattr(sim, meth) for dev, meth in _READ_ALL
+                       if getattr(d, dev) is not None]
+            readers.append(sim.odometry)
+            self._robots.append(_Driven(spec.name, getattr(sim, kind), bearings,
+                                        Wanderer(wander_rng), tuple(readers),
+                                        d.power is not None))
             self.stats.distance_m[spec.name] = 0.0
             self.stats.charging_s[spec.name] = 0.0
             self.stats.min_percent[spec.name] = 100.0
-        self._last = {n: sim.get_pose(n)[:2] for n, *_ in self._robots}
-
-    def _sense_everything(self, name: str) -> None:
-        sim = self.sim
-        d = sim.spec.robot(name).devices
-        if d.sonar is not None:
-            sim.sonar(name)
-        if d.laser is not None:
-            sim.laser(name)
-        if d.ranger is not None:
-            sim.ranger(name)
-        if d.blobfinder is not None:
-            sim.blobs(name)
-        if d.bumper is not None:
-            sim.bumpers(name)
-        if d.gripper is not None:
-            sim.gripper(name)
-        if d.ptz is not None:
-            sim.ptz(name)
-        sim.odometry(name)
+            self.stats.charge_trips[spec.name] = 0
+        self._last = {r.name: sim.get_pose(r.name)[:2] for r in self._robots}
 
     def tick(self) -> None:
         sim = self.sim
-        for name, kind, bearings, wanderer in self._robots:
+        percent: dict[str, float] = {}
+        for r in self._robots:
+            name = r.name
             if self.sense_all:
-                self._sense_everything(name)
-            ranges = getattr(sim, kind)(name)
-            v, w = wanderer.decide(bearings, ranges)
+                for read in r.readers:
+                    read(name)
+            ranges = r.ranges(name)
+            if r.has_power:
+                percent[name] = sim.power(name).percent
+            goal = self._charger_goal(name, percent.get(name))
+            if goal is None:
+                v, w = r.wanderer.decide(r.bearings, ranges)
+            else:
+                x, y, yaw = sim.get_pose(name)
+                gx, gy = goal
+                bearing = math.atan2(gy - y, gx - x) - yaw
+                bearing = math.atan2(math.sin(bearing), math.cos(bearing))
+                v, w = r.wanderer.toward(bearing, math.hypot(gx - x, gy - y), r.bearings,
+                                         ranges)
             sim.set_velocity(name, v, w)
         sim.step()
         st = self.stats
         st.ticks += 1
-        for name, *_ in self._robots:
+        for r in self._robots:
+            name = r.name
             x, y, _ = sim.get_pose(name)
             lx, ly = self._last[name]
             st.distance_m[name] += math.hypot(x - lx, y - ly)
             self._last[name] = (x, y)
-            if sim.spec.robot(name).devices.power is not None:
+            if r.has_power:
                 p = sim.power(name)
                 if p.charging:
                     st.charging_s[name] += sim.interval_s
                 st.min_percent[name] = min(st.min_percent[name], p.percent)
+
+    def _charger_goal(self, name: str, percent: float | None) -> tuple[float, float] | None:
+        chargers = self.sim.spec.chargers
+        if not chargers or percent is None:
+            return None
+        goal = self._seeking.get(name)
+        if goal is not None and percent >= self.full_percent:
+            del self._seeking[name]
+            return None
+        if goal is None and percent < self.low_percent:
+            x, y, _ = self.sim.get_pose(name)
+            c = min(chargers, key=lambda c: math.hypot(c.x - x, c.y - y))
+            goal = self._seeking[name] = (c.x, c.y)
+            self.stats.charge_trips[name] += 1
+        return goal
 
     def run(self, ticks: int, on_progress: Callable[[int], None] | None = None,
             progress_every: int = 0) -> WanderStats:

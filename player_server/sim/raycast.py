@@ -305,18 +305,17 @@ class RayCaster:
         rows = n + k
         lam = self._buf("lam", (rows, n_rays), np.float32)
         miss = self._buf("miss", (rows, n_rays), np.bool_)
-        tmp = self._buf("tmp", (rows, n_rays), np.bool_)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             if n:
                 s = self._buf("s", (n, n_rays), np.float32)
-                np.divide(m[:n], m[n:2 * n], out=lam[:n])
+                # Faces the ray is not closing on (edge-on, or seen from behind) get a closing
+                # speed of 0: their distance becomes +-inf or nan, which sort last below.
+                np.maximum(m[n:2 * n], _ZERO32, out=lam[:n])
+                np.divide(m[:n], lam[:n], out=lam[:n])
                 np.multiply(lam[:n], m[3 * n:4 * n], out=s)
                 np.add(s, m[2 * n:3 * n], out=s)
                 np.abs(s, out=s)
-                # A miss: the hit point lies off the face, or the ray is not closing on the
-                # face's front (edge-on or from behind).
-                np.greater(s, _ONE32, out=miss[:n])
-                np.less_equal(m[n:2 * n], _ZERO32, out=tmp[:n])
+                np.greater(s, _ONE32, out=miss[:n])  # the hit point lies off the face
             if k:
                 o = 4 * n
                 od = x[0] * x[3] + x[1] * x[4]
@@ -326,15 +325,13 @@ class RayCaster:
                 disc -= m[o:o + k]
                 disc -= oo
                 disc += (c.r * c.r).astype(np.float32)[:, None]  # r^2 - distance^2 to line
-                np.less(disc, _ZERO32, out=miss[n:])
+                np.less(disc, _ZERO32, out=miss[n:])  # the line passes the circle by
                 np.maximum(disc, _ZERO32, out=disc)
                 np.sqrt(disc, out=disc)
                 np.subtract(b, disc, out=lam[n:])  # distance to the near intersection
-                np.less_equal(lam[n:], _ZERO32, out=tmp[n:])
-        np.logical_or(miss, tmp, out=miss)
         # Misses get their sign bit set; then, read as unsigned integers, float32 bit
         # patterns order non-negative distances correctly and put every negative value
-        # (misses, faces behind the origin) above them all; +-inf and nan sort high too.
+        # (misses, footprints behind the origin) above them all; +-inf and nan sort high too.
         # (Cheaper than a masked assignment, which takes a slow path in numpy.)
         bits = self._buf("bits", (rows, n_rays), np.uint32)
         lam_bits = lam.view(np.uint32)

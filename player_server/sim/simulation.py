@@ -213,6 +213,9 @@ class Simulation:
         self._held: set[str] = set()
         self._marker_pos = {m.name: (m.x, m.y, 0.0) for m in self.spec.markers}
         self._box_specs = list(self.spec.boxes)
+        log.debug("built world %s: %d robots, %d boxes, %d objects, seed %d, %s fidelity",
+                  self.spec.name, len(self._robots), len(self.spec.boxes),
+                  len(self.spec.objects), self.seed, self.fidelity)
         self._obj_specs = list(self.spec.objects)
 
     def reset(self, seed: int | None = None) -> None:
@@ -401,10 +404,10 @@ class Simulation:
             pb.resetBaseVelocity(bid, (0, 0, 0), (0, 0, 0), physicsClientId=cid)
         self._invalidate()
 
-    def _box_spec(self, name: str):  # type: ignore[no-untyped-def]
+    def _box_spec(self, name: str):
         return next(b for b in self.spec.boxes if b.name == name)
 
-    def _obj_spec(self, name: str):  # type: ignore[no-untyped-def]
+    def _obj_spec(self, name: str):
         return next(o for o in self.spec.objects if o.name == name)
 
     def _marker_spec_height(self, name: str) -> float:
@@ -504,7 +507,7 @@ class Simulation:
                                     pan, tilt, zoom)
 
     # ---- sensing batch ---------------------------------------------------------------------
-    def _sensed(self) -> dict[str, dict]:  # type: ignore[type-arg]
+    def _sensed(self) -> dict[str, dict]:
         """This tick's readings of every active range sensor and blobfinder, computed together
         (one ray cast) on first use."""
         cache = self._cached(("sensed", self.fidelity), lambda: {"ranges": {}, "blobs": {}})
@@ -550,7 +553,7 @@ class Simulation:
         return t_pos, t_head
 
     def _sense_fast(self, rkeys: tuple[tuple[int, str], ...], cams: list[int],
-                    cache: dict) -> None:  # type: ignore[type-arg]
+                    cache: dict) -> None:
         t0 = self._now()
         frame = self._frame()
         origins: list[np.ndarray] = []
@@ -587,12 +590,10 @@ class Simulation:
         if origins:
             o = np.concatenate(origins) if len(origins) > 1 else origins[0]
             d = np.concatenate(dirs) if len(dirs) > 1 else dirs[0]
-            hits = self._caster.cast_scene(
-                o.real, o.imag, d.real, d.imag,
-                np.concatenate(maxr) if len(maxr) > 1 else maxr[0],
-                np.concatenate(zs) if len(zs) > 1 else zs[0],
-                self._scene(),
-            )
+            args = (o.real, o.imag, d.real, d.imag,
+                    np.concatenate(maxr) if len(maxr) > 1 else maxr[0],
+                    np.concatenate(zs) if len(zs) > 1 else zs[0], self._scene())
+            hits = self._caster.cast_scene(*args)
         t2 = self._now()
         if plan is not None:
             cache["ranges"].update(plan.split(hits[:n_range]))
@@ -620,7 +621,7 @@ class Simulation:
         return self._zeros[:n]
 
     def _sense_render(self, rkeys: tuple[tuple[int, str], ...], cams: list[int],
-                      cache: dict) -> None:  # type: ignore[type-arg]
+                      cache: dict) -> None:
         t0 = self._now()
         if rkeys:
             plan = self._range_plan(rkeys)
@@ -677,8 +678,13 @@ class Simulation:
 
     def _ranges(self, robot: str, kind: str) -> np.ndarray:
         st = self._device(robot, kind)
-        self._active_ranges.add((st.index, kind))
-        return self._sensed()["ranges"][(st.index, kind)]  # type: ignore[no-any-return]
+        key = (st.index, kind)
+        if self._cache_tick == self.tick:
+            done = self._cache.get(("sensed", self.fidelity))
+            if done is not None and key in done["ranges"]:  # type: ignore[index]
+                return done["ranges"][key]  # type: ignore[index]
+        self._active_ranges.add(key)
+        return self._sensed()["ranges"][key]
 
     def sonar(self, robot: str) -> NDArray[np.float32]:
         """Sonar ranges (m), one per transducer, in the world file's transducer order."""
@@ -695,8 +701,12 @@ class Simulation:
     def blobs(self, robot: str) -> tuple[Blob, ...]:
         """Blobs of the blobfinder's channel colours, by channel then area (largest first)."""
         st = self._device(robot, "blobfinder")
+        if self._cache_tick == self.tick:
+            done = self._cache.get(("sensed", self.fidelity))
+            if done is not None and st.index in done["blobs"]:  # type: ignore[index]
+                return done["blobs"][st.index]  # type: ignore[index]
         self._active_cameras.add(st.index)
-        return self._sensed()["blobs"][st.index]  # type: ignore[no-any-return]
+        return self._sensed()["blobs"][st.index]
 
     def _render_camera(
         self, cam: blobmod.CameraPose
@@ -790,15 +800,19 @@ class Simulation:
 
     def gripper(self, robot: str) -> GripperState:
         st = self._device(robot, "gripper")
-        g = st.gripper
-        spec = st.spec.devices.gripper
-        assert g is not None and spec is not None
-        beams = 0
-        if g.holding is not None:
-            beams = 3
-        elif self._grip_zone(st) is not None:
-            beams = 1
-        return GripperState(g.state, beams, g.holding, len(g.stored), spec.capacity)
+
+        def compute() -> GripperState:
+            g = st.gripper
+            spec = st.spec.devices.gripper
+            assert g is not None and spec is not None
+            beams = 0
+            if g.holding is not None:
+                beams = 3
+            elif self._grip_zone(st) is not None:
+                beams = 1
+            return GripperState(g.state, beams, g.holding, len(g.stored), spec.capacity)
+
+        return self._cached(("gripper", st.index), compute)  # type: ignore[return-value]
 
     def gripper_command(self, robot: str, command: str) -> None:
         """"open", "close", "stop", "store" (held object into storage), "retrieve"."""

@@ -13,13 +13,13 @@ from worlds import RobotSpec
 
 
 def range_bearings(robot: RobotSpec) -> tuple[str, NDArray[np.float64]] | None:
-    """The range device a wanderer should use (laser, else sonar, else ranger) and the bearing
-    of each of its readings in the robot frame."""
+    """The range device a wanderer should use (sonar, the cheapest; else laser; else ranger)
+    and the bearing of each of its readings in the robot frame."""
     d = robot.devices
-    if d.laser is not None:
-        return "laser", np.array(d.laser.angles_rad()) + d.laser.pose.yaw
     if d.sonar is not None:
         return "sonar", np.array([m.yaw for m in d.sonar.poses])
+    if d.laser is not None:
+        return "laser", np.array(d.laser.angles_rad()) + d.laser.pose.yaw
     if d.ranger is not None:
         return "ranger", np.array(d.ranger.angles_rad()) + d.ranger.pose.yaw
     return None
@@ -37,7 +37,7 @@ class Wanderer:
     _spin: float = 0.0
     _drift: float = 0.0
     _sector_key: int = -1
-    _sector_cache: tuple = ()  # type: ignore[type-arg]
+    _sector_cache: tuple = ()
     _sector_bearings: object = None
 
     def decide(self, bearings: NDArray[np.float64], ranges: NDArray[np.floating]) -> tuple[
@@ -60,6 +60,25 @@ class Wanderer:
         if min(left_min, right_min) < self.slow_m:
             w += 0.6 if left_min > right_min else -0.6
         return v, max(-self.turn_radps, min(self.turn_radps, w))
+
+    def toward(self, goal_bearing: float, goal_m: float, bearings: NDArray[np.float64],
+               ranges: NDArray[np.floating]) -> tuple[float, float]:
+        """Head for a goal at (bearing, distance) in the robot frame, avoiding obstacles
+        ahead; stops on arrival (within 0.1 m)."""
+        if goal_m < 0.1:
+            return 0.0, 0.0
+        front_i, left_i, right_i = self._sectors(bearings)
+        front_min = float(ranges[front_i].min()) if front_i.size else math.inf
+        if front_min < self.stop_m and front_min < goal_m:
+            left_min = float(ranges[left_i].min()) if left_i.size else math.inf
+            right_min = float(ranges[right_i].min()) if right_i.size else math.inf
+            if self._spin == 0.0:
+                self._spin = 1.0 if left_min >= right_min else -1.0
+            return 0.0, self._spin * self.turn_radps
+        self._spin = 0.0
+        w = max(-self.turn_radps, min(self.turn_radps, 1.5 * goal_bearing))
+        v = min(self.cruise_mps, 0.5 * goal_m) * max(0.0, math.cos(goal_bearing))
+        return v, w
 
     def _sectors(self, bearings: NDArray[np.float64]) -> tuple[
         NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]

@@ -43,7 +43,7 @@ class LoopbackApplication(tornado.web.Application):
 
     bound_port: int = 0
 
-    def listen(  # type: ignore[override]
+    def listen(
         self, port: int, address: str | None = None, **kwargs: Any
     ) -> tornado.httpserver.HTTPServer:
         if address not in (None, "", LOOPBACK):
@@ -55,7 +55,7 @@ class LoopbackApplication(tornado.web.Application):
         return server
 
 
-class LoopbackBridge(ZMQWebSocketBridge):  # type: ignore[misc]
+class LoopbackBridge(ZMQWebSocketBridge):
     """meshcat's bridge with both of its sockets on 127.0.0.1 and OS-chosen ports allowed."""
 
     def __init__(self, web_port: int = 0, zmq_port: int = 0) -> None:

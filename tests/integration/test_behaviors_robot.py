@@ -38,14 +38,17 @@ class Server:
     ports: dict[str, int]
 
 
-def _start_server(world: str, robots: int, seed: int = 1) -> Server:
+def _start_server(world: str, robots: int, seed: int = 1, lockstep: bool = True,
+                  speedup: float = 0.0) -> Server:
+    pacing = ["--lockstep", "--lockstep-clients", str(robots)] if lockstep else []
     proc = subprocess.Popen(
-        [str(BIN / "player-server"), world, "-p", "0", "--lockstep", "--speedup", "0",
-         "--seed", str(seed), "--lockstep-clients", str(robots), "-q"],
+        [str(BIN / "player-server"), world, "-p", "0", *pacing, "--speedup", str(speedup),
+         "--seed", str(seed), "-q"],
         stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
     )
     ports: dict[str, int] = {}
-    expected = len(load_world(world_path(world)).robots)
+    spec = load_world(world_path(world))
+    expected = len(spec.robots) + (spec.overhead_camera is not None)
     deadline = time.monotonic() + 30.0
     assert proc.stdout is not None
     while time.monotonic() < deadline:
@@ -55,7 +58,7 @@ def _start_server(world: str, robots: int, seed: int = 1) -> Server:
         parts = line.split()
         if len(parts) >= 2 and parts[1].isdigit():
             ports[parts[0]] = int(parts[1])
-            if len([p for p in ports if p != "overhead"]) >= expected:
+            if len(ports) >= expected:
                 break
     if len(ports) < expected:
         proc.kill()
@@ -65,8 +68,9 @@ def _start_server(world: str, robots: int, seed: int = 1) -> Server:
 
 
 @contextmanager
-def server(world: str, robots: int, seed: int = 1) -> Iterator[Server]:
-    srv = _start_server(world, robots, seed)
+def server(world: str, robots: int, seed: int = 1, lockstep: bool = True,
+           speedup: float = 0.0) -> Iterator[Server]:
+    srv = _start_server(world, robots, seed, lockstep, speedup)
     try:
         yield srv
     finally:
@@ -81,11 +85,13 @@ def server(world: str, robots: int, seed: int = 1) -> Iterator[Server]:
 def robot_process(
     port: int, name: str, world: str, events: Path, *extra: str
 ) -> subprocess.Popen[str]:
-    return subprocess.Popen(
-        [str(BIN / "murdoch-robot"), "-p", str(port), "--name", name, "--world", world,
-         "--events", str(events), *extra],
-        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-    )
+    """A murdoch-robot process; its stderr goes to EVENTS.log next to the events file."""
+    with open(events.with_suffix(".log"), "w", encoding="utf-8") as log:
+        return subprocess.Popen(
+            [str(BIN / "murdoch-robot"), "-p", str(port), "--name", name, "--world", world,
+             "--events", str(events), *extra],
+            stdout=subprocess.DEVNULL, stderr=log, text=True,
+        )
 
 
 def read_events(path: Path) -> list[dict[str, object]]:
@@ -130,6 +136,41 @@ def test_goto_reaches_a_goal_behind_an_obstacle(tmp_path: Path) -> None:
     kinds = [e["kind"] for e in read_events(events)]
     assert kinds == ["task-start", "task-done"], kinds
     assert math.hypot(x - goal[0], y - goal[1]) < 0.45
+
+
+@pytest.mark.timeout(60)
+def test_free_running_server_and_clean_exit_on_sigterm(tmp_path: Path) -> None:
+    events = tmp_path / "events.jsonl"
+    with server("simple", 1, lockstep=False, speedup=10.0) as srv:
+        proc = robot_process(srv.ports["robot1"], "robot1", "simple", events, "--no-battery",
+                             "--task", "goto-goal", "--param", "x=1.5", "--param", "y=-0.2")
+        seen = poll_events(events, "task-done", 30.0, proc)
+        assert proc.poll() is None  # still in service after its task
+        proc.send_signal(signal.SIGTERM)
+        assert wait_for(proc, 10.0) == 0
+        with observer(srv.ports["robot1"]) as sim:
+            x, y, _ = sim.get_pose2d("robot1")
+    assert [e["kind"] for e in seen][:2] == ["task-start", "task-done"]
+    assert math.hypot(x - 1.5, y + 0.2) < 0.45
+    assert '"ready"' in events.with_suffix(".log").read_text()
+
+
+@pytest.mark.timeout(60)
+def test_overhead_camera_monitors_objects_in_world_coordinates(tmp_path: Path) -> None:
+    events = tmp_path / "events.jsonl"
+    # The overhead camera does not drive, so it never holds a lockstep clock: free-running.
+    with server("simple", 1, lockstep=False, speedup=10.0) as srv:
+        proc = robot_process(srv.ports["overhead"], "overhead", "simple", events,
+                             "--task", "monitor-object", "--param", "colours=red,green",
+                             "--param", "duration_s=2", "--param", "period_s=0.5",
+                             "--exit-when-done")
+        assert wait_for(proc, 40.0) == 0
+    seen = read_events(events)
+    assert [e["kind"] for e in seen][-1] == "task-done"
+    observations = [e for e in seen if e["kind"] == "observation"]
+    assert len(observations) >= 3 and all(e["frame"] == "world" for e in observations)
+    reds = [o for o in observations[-1]["objects"] if o["colour"] == "#ff0000"]  # type: ignore[union-attr]
+    assert reds and math.hypot(reds[0]["x"] - 2.5, reds[0]["y"]) < 0.2, reds
 
 
 def poll_events(path: Path, until: str, timeout_s: float, proc: subprocess.Popen[str]

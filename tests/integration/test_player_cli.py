@@ -55,7 +55,7 @@ def test_longterm_serves_every_robot_and_player_print_shows_scans() -> None:
     with server_process("worlds/longterm.toml", "-p", "0", "--speedup", "0", "-q") as table:
         assert set(table) == {"p1", "p2", "p3", "p4", "p5", "p6", "desktop"}
         assert "laser:0" in table["p2"][1] and "gripper:0" in table["p4"][1]
-        assert table["desktop"][1] == "blobfinder:0, fiducial:0, simulation:0"
+        assert table["desktop"][1] == "camera:0, blobfinder:0, fiducial:0, simulation:0"
         out = player_print("-p", str(table["p2"][0]), "-c", "2", "laser")
         assert out.returncode == 0, out.stderr
         scans = [ln for ln in out.stdout.splitlines() if ln.startswith("#laser(6:0)")]

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
 import pytest
 
-from player_server.client import PlayerClient, Position2dProxy, SonarProxy
+from player_server.client import PlayerClient, PlayerTimeout, Position2dProxy, SonarProxy
 from player_server.server.assembly import world_endpoints
 from player_server.server.core import CoreConfig
 from player_server.server.runner import PlayerServer
@@ -22,7 +23,7 @@ TICKS = 40
 
 ROBOT = """
 import sys, time
-from player_server.client import PlayerClient, Position2dProxy, SonarProxy
+from player_server.client import PlayerClient, PlayerTimeout, Position2dProxy, SonarProxy
 port, n, delay_s, out = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3]), sys.argv[4]
 cl = PlayerClient("127.0.0.1", port, read_timeout_s=30.0).connect()
 pos = cl.subscribe(Position2dProxy)
@@ -95,11 +96,44 @@ def test_simulation_waits_for_the_expected_clients() -> None:
             pos = cl.subscribe(Position2dProxy)
             assert cl.is_lockstep_participant()
             cl.read()
-            from player_server.client import PlayerTimeout
-
             with pytest.raises(PlayerTimeout):
                 cl.read(timeout_s=0.5)  # the second robot is not there yet
             assert pos.data_time_s == 0.0 and server.ticks == 0
     finally:
         server.stop()
         sim.close()
+
+
+def test_a_participant_leaving_releases_the_clock() -> None:
+    spec = load_world(world_path("boxpush"))
+    sim = Simulation(spec, seed=2)
+    server = PlayerServer(
+        sim, world_endpoints(spec, sim, 0), interval_s=sim.interval_s, clock=time.monotonic,
+        speedup=0.0, config=CoreConfig(lockstep=True, lockstep_clients=2))
+    stamps: dict[str, list[float]] = {"pusher1": [], "pusher2": []}
+    errors: list[BaseException] = []
+
+    def robot(name: str, reads: int) -> None:
+        try:
+            with PlayerClient("127.0.0.1", server.ports[name], read_timeout_s=20.0) as cl:
+                pos = cl.subscribe(Position2dProxy)
+                for _ in range(reads):
+                    cl.read()
+                    stamps[name].append(pos.data_time_s or 0.0)
+        except BaseException as exc:  # seen by the test
+            errors.append(exc)
+
+    server.start()
+    try:
+        threads = [threading.Thread(target=robot, args=("pusher1", 5)),
+                   threading.Thread(target=robot, args=("pusher2", 15))]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join(60)
+        assert not any(t.is_alive() for t in threads) and not errors
+    finally:
+        server.stop()
+        sim.close()
+    assert stamps["pusher1"] == pytest.approx([0.1 * i for i in range(5)])
+    assert stamps["pusher2"] == pytest.approx([0.1 * i for i in range(15)])

@@ -316,3 +316,57 @@ def test_blob_is_a_frozen_value() -> None:
     b = Blob(0, 0xFF0000, 4, 1, 1, 0, 2, 0, 2, 1.0)
     with pytest.raises(AttributeError):
         b.area = 5  # type: ignore[misc]
+
+
+def test_more_device_edges(sim: Simulation) -> None:
+    with pytest.raises(KeyError):
+        sim.set_pose("ghost", 0.0, 0.0, 0.0)
+    with pytest.raises(ValueError):
+        sim.step(-1)
+    with pytest.raises(ValueError):
+        sim.set_velocity("r", math.nan, 0.0)
+    # PTZ targets are clamped to the head's limits.
+    sim.ptz_command("r", math.radians(500), math.radians(-90), math.radians(1))
+    sim.step(40)
+    p = sim.ptz("r")
+    assert p.pan == pytest.approx(math.radians(100)) and p.tilt == pytest.approx(
+        math.radians(-25)) and p.zoom == pytest.approx(math.radians(4.4))
+    # Backing into the box presses a rear panel only.
+    sim.set_pose("r", 2.5, 0.0, 0.0)
+    sim.set_velocity("r", -0.3, 0.0)
+    sim.step(15)
+    pressed = sim.bumpers("r")
+    assert any(pressed[5:]) and not any(pressed[:5])
+    # Paddles stopped half-way are open and hold nothing.
+    sim.gripper_command("r", "close")
+    sim.step(3)
+    sim.gripper_command("r", "stop")
+    assert sim.gripper("r").state == "open"
+
+
+def test_stored_objects_vanish_and_markers_move(world: Path, tmp_path: Path) -> None:
+    text = world.read_text() + (
+        '\n[[markers]]\nname = "goal"\nposition = [2.5, -1.0]\ncolour = "yellow"\n'
+    )
+    p = tmp_path / "with_goal.toml"
+    p.write_text(text)
+    with Simulation(load_world(p)) as sim:
+        sim.set_pose("box", -2.5, -1.5, 0.0)  # out of view
+        assert [b.colour for b in sim.blobs("r")] == [0xFF0000, 0xFFFF00]  # can, goal post
+        sim.set_pose("goal", -2.0, 1.5, 0.0)  # behind the robot
+        assert [b.colour for b in sim.blobs("r")] == [0xFF0000]
+        assert sim.get_pose("goal")[:2] == (-2.0, 1.5)
+        sim.set_pose("r", -1.0, -1.0, 0.0)
+        sim.set_pose("pick", -0.72, -1.0, 0.0)  # between the paddles
+        assert [f.id for f in sim.fiducials("r")] == [9]
+        sim.gripper_command("r", "close")
+        sim.step(10)
+        assert sim.gripper("r").holding == "pick"
+        sim.gripper_command("r", "store")
+        assert "pick" not in {t.name for t in sim.overhead()}
+        assert not sim.fiducials("r")
+
+
+def test_bad_fidelity_is_refused(world: Path) -> None:
+    with pytest.raises(ValueError, match="fidelity"):
+        Simulation(load_world(world), fidelity="photoreal")

@@ -66,8 +66,11 @@ def test_viewer_listens_on_loopback_only() -> None:
 def test_stock_meshcat_would_listen_everywhere() -> None:
     """The reason for our own bridge: stock meshcat's tornado listen() has no address."""
     import inspect
+    import warnings
 
-    from meshcat.servers import zmqserver
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        from meshcat.servers import zmqserver
 
     source = inspect.getsource(zmqserver.ZMQWebSocketBridge.__init__)
     assert "self.app.listen(port, **listen_kwargs)" in source

@@ -179,7 +179,7 @@ def test_run_stops_when_asked_and_joins_threads() -> None:
     stop = threading.Event()
     before = threading.active_count()
     agent.run(stop, max_ticks=20)
-    assert agent.ticks == 20 and io.v == 0.0
+    assert agent.ticks == 20 and io.v == 0.0 and io.closed
     assert threading.active_count() <= before
     stop.set()
     agent2, _ = make(KinematicIO())

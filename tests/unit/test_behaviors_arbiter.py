@@ -36,3 +36,13 @@ def test_bad_mode_and_count_are_rejected() -> None:
         Arbiter([], "vote")  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="expected 1"):
         Arbiter([Layer(H)]).combine([])
+
+
+def test_sensing_only_layer_never_steers() -> None:
+    # A gain-0 layer at the lowest priority contributes its signal, never its motion.
+    arb = Arbiter([Layer(H, 0), Layer(H, -1, gain=0.0)], "priority")
+    assert arb.combine([Proposal(True, 0.2, 0.1, 1.0), Proposal(True, 0.5, 0.0, 1.0)]) == (
+        0.2,
+        0.1,
+    )
+    assert arb.combine([INACTIVE, Proposal(True, 0.5, 0.0, 1.0)]) == (0.0, 0.0)

@@ -85,6 +85,19 @@ def test_visual_servo_aims_at_the_chosen_end() -> None:
         Snapshot(T, camera=view(blob(70, 90, range_m=0.8))), T
     )
     assert near.signal == "reached" and near.vx_mps == 0.0
+    off_axis = basis.VisualServoToColour(RED, stop_range_m=1.0, align_tolerance_rad=0.1).decide(
+        Snapshot(T, camera=view(blob(10, 30, range_m=0.8))), T
+    )
+    assert off_axis.signal == "seen" and off_axis.vx_mps == 0.0 and off_axis.vyaw_radps > 0
+    # Up against a long box (cut by both image edges) there is no end to aim at: go straight.
+    against = basis.VisualServoToColour(RED, aim_fraction=0.2).decide(
+        Snapshot(T, camera=view(blob(0, 159, range_m=0.05))), T
+    )
+    assert against.vyaw_radps == 0.0
+    # Cut by the right edge only: the right end is beyond it, so turn right to reach it.
+    cut = view(blob(60, 159))
+    to_right = basis.VisualServoToColour(RED, aim_fraction=0.8).decide(Snapshot(T, camera=cut), T)
+    assert to_right.vyaw_radps < 0
     unseen = basis.VisualServoToColour(0x00FF00).decide(Snapshot(T, camera=centred), T)
     assert not unseen.active
 

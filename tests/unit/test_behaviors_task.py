@@ -116,6 +116,12 @@ def test_metrics_prefer_the_closer_and_better_aligned_robot() -> None:
     params = {"x": 0.0, "y": 0.0}
     assert goto.score(near, params, PROFILE) > goto.score(far, params, PROFILE)  # type: ignore[operator]
     assert goto.score(Snapshot(1.0), params, PROFILE) is None
+    # Weights named by an announcement replace the defaults.
+    assert goto.metric_names() == ("distance", "battery")
+    only_distance = goto.score(near, params, PROFILE, [("distance", 2.0)])
+    assert only_distance == pytest.approx(-2.0 * math.sqrt(2.0))
+    with pytest.raises(ParamError, match="no metric"):
+        goto.score(near, params, PROFILE, [("charisma", 1.0)])
     no_sonar = RobotProfile("r2", frozenset({"mobile", "laser"}))
     assert goto.score(near, params, no_sonar) is None
 

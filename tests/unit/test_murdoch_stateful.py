@@ -278,3 +278,23 @@ def test_crashed_winner_task_is_reallocated_to_a_capable_robot(
         assert outcome.winner not in (winner, "r1")
         kinds = [e.kind for e in world.events if e.task_id == task_id]
         assert "reallocation" in kinds
+
+
+def scripted_run(seed: int) -> list[dict[str, Any]]:
+    world = World(seed)
+    for k, subjects in enumerate(({"camera"}, {"camera", "laser"}, {"bumper"})):
+        world.add_robot(frozenset(subjects), float(k))
+    for duration in (0.5, 2.0, 1.0):
+        world.introduce(spec_for("job", frozenset({"camera"}), duration), patience_s=5.0)
+        world.advance(0.3)
+    world.advance(1.0)
+    world.cut("r2", 2.0)
+    world.crash("r1")
+    world.drain()
+    return [e.to_dict() for e in world.events]
+
+
+def test_same_seed_same_run() -> None:
+    first = scripted_run(42)
+    assert first == scripted_run(42)
+    assert first != scripted_run(43)

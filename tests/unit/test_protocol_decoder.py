@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import importlib.util
 import struct
+from pathlib import Path
+from typing import Any
 
 import pytest
 from hypothesis import given, settings
@@ -20,7 +23,19 @@ from player_server.protocol import (
 from player_server.protocol import player_msgs as pm
 from player_server.protocol import sensor_msgs as sm
 from player_server.protocol.registry import REGISTRY
-from tests.unit.test_protocol_golden import CASES
+
+
+def _golden_cases() -> list[Any]:
+    """The golden table of the sibling test module (loaded by path: tests are no package)."""
+    path = Path(__file__).with_name("test_protocol_golden.py")
+    spec = importlib.util.spec_from_file_location("_protocol_golden_cases", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return list(module.CASES)
+
+
+CASES = _golden_cases()
 
 
 def all_wire() -> bytes:

@@ -319,6 +319,17 @@ def test_lockstep_override_and_timeout() -> None:
     assert core.counters.demoted == 1
     assert core.participants() == []
     assert not core.lockstep_ready(7.0)  # nobody holds the clock: wait
+    core.receive(slow, DATA)  # asking again: it holds the clock again
+    assert core.participants() == [slow] and core.lockstep_ready(7.5)
+
+
+def test_lockstep_first_round_grace() -> None:
+    core, _, eps = make_core(lockstep=True, lockstep_clients=1, lockstep_timeout_s=5.0)
+    setting_up = connect(core, eps[0])
+    core.receive(setting_up, sub(4))
+    assert not core.lockstep_ready(0.0)
+    assert not core.lockstep_ready(10.0) and core.counters.demoted == 0  # within 4 x 5 s
+    assert not core.lockstep_ready(21.0) and core.counters.demoted == 1
 
 
 def test_disconnect_unsubscribes() -> None:

@@ -137,3 +137,4 @@ def test_matches_brute_force_reference(seed: int) -> None:
     got = cast(ox, oy, angles, faces, circ, max_range=12.0)
     want = [reference(ox, oy, a, rects, circles, 12.0) for a in angles]
     assert np.allclose(got, want, atol=2e-4)
+
