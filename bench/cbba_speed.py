@@ -13,6 +13,8 @@ import argparse
 import statistics
 import time
 
+import numpy as np
+
 from murdoch.consensus.experiments import EXPERIMENTS, run_seed
 from murdoch.consensus.sync_runner import allocate
 
@@ -31,6 +33,16 @@ def measure(variant_index: int, n_agents: int, seeds: int, repeats: int) -> list
     return times_ms
 
 
+def machine_load_us() -> float:
+    """Microseconds for one small numpy operation: a gauge of how busy the machine is
+    (about 0.5-1 us when idle); solve times scale roughly with it."""
+    a, b = np.zeros(20), np.ones(20)
+    t0 = time.perf_counter()
+    for _ in range(20000):
+        np.maximum(a, b)
+    return (time.perf_counter() - t0) / 20000 * 1e6
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=20)
@@ -38,12 +50,14 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=1,
                         help="solve each scenario this many times and keep the fastest")
     args = parser.parse_args()
+    print(f"numpy_op_us={machine_load_us():.2f} (before)")
     medians = {}
     for name, index in (("cbba", 0), ("cbga", 1)):
         ms = measure(index, args.agents, args.seeds, args.repeats)
         medians[name] = statistics.median(ms)
         print(f"{name}: median {medians[name]:.1f} ms, min {min(ms):.1f}, max {max(ms):.1f} "
               f"over {len(ms)} scenarios")
+    print(f"numpy_op_us={machine_load_us():.2f} (after)")
     print(f"cbba_solve_ms_median={medians['cbba']:.1f} cbga_solve_ms_median={medians['cbga']:.1f}")
 
 

@@ -125,7 +125,8 @@ def plot_allocation(
     ax.invert_yaxis()
     ax.set_xlabel(_time_axis(ax, end_s))
     ax.set_title("Allocation timeline per robot", loc="left")
-    ax.legend(handles=[Patch(color=c, label=s) for s, c in STATE_COLOURS.items()],
+    labels = {timeline.FAILED: "down"}
+    ax.legend(handles=[Patch(color=c, label=labels.get(s, s)) for s, c in STATE_COLOURS.items()],
               loc="lower right", bbox_to_anchor=(1.0, 1.0), fontsize="small", ncol=3,
               frameon=False)
     ax.grid(True, axis="x", alpha=0.3)

@@ -6,7 +6,8 @@ body per state, shown in turn) and the task kind above a working robot. Keyframe
 decimated: a body that stands still keeps only the samples around its moves, and no body keeps
 more than `max_keys_per_body`, so a multi-hour run gives a file of a few megabytes. Playback
 runs `speed` times faster than simulation time (chosen so that the whole run plays in at most
-`max_playback_s`); the viewer's Animations panel can pause, scrub and change the rate.
+`max_playback_s`, two minutes by default); the viewer's Animations panel can pause, scrub
+and change the rate.
 """
 
 from __future__ import annotations
@@ -117,7 +118,7 @@ def build_replay_commands(
     events: Iterable[Mapping[str, Any]],
     *,
     max_keys_per_body: int = 1500,
-    max_playback_s: float = 300.0,
+    max_playback_s: float = 120.0,
     max_labels: int = 300,
 ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """The meshcat commands of the replay and facts about it (keyframes, duration, speed)."""
@@ -249,7 +250,8 @@ def render_html(commands: list[dict[str, Any]], *, title: str, speed: float) -> 
         for c in commands
     ]
     legend = "".join(
-        f'<span class="sw" style="background:#{colour:06x}"></span>{escape(state)}'
+        f'<span class="sw" style="background:#{colour:06x}"></span>'
+        f"{escape('down' if state == scene.FAILED else state)}"
         for state, colour in scene.STATE_COLOURS.items()
     )
     return _PAGE.format(
@@ -269,7 +271,7 @@ def write_replay(
     *,
     title: str = "murdoch replay",
     max_keys_per_body: int = 1500,
-    max_playback_s: float = 300.0,
+    max_playback_s: float = 120.0,
 ) -> ReplayInfo:
     commands, info = build_replay_commands(
         layout, pose_events, events,

@@ -146,13 +146,19 @@ class MemoryTransport:
         from murdoch.auction.messages import AUCTION_CODEC
 
         self._bus = bus
-        self._core = EndpointCore(sender_id, codec or AUCTION_CODEC, bus.clock, key)
+        instance = f"{bus.rng.getrandbits(32):08x}"
+        self._core = EndpointCore(sender_id, codec or AUCTION_CODEC, bus.clock, key,
+                                  instance=instance)
         self._inbox: list[tuple[float, int, bytes]] = []
         self.closed = False
 
     @property
     def sender_id(self) -> str:
         return self._core.sender_id
+
+    @property
+    def instance(self) -> str:
+        return self._core.instance
 
     @property
     def counters(self) -> Counters:

@@ -89,11 +89,14 @@ class MulticastTransport:
         config: MulticastConfig | None = None,
         codec: Codec | None = None,
         key: TeamKey | None = None,
+        instance: str | None = None,
     ) -> None:
         from murdoch.auction.messages import AUCTION_CODEC
 
         self.config = config or MulticastConfig()
-        self._core = EndpointCore(sender_id, codec or AUCTION_CODEC, clock, key)
+        self._core = EndpointCore(
+            sender_id, codec or AUCTION_CODEC, clock, key, instance=instance
+        )
         self._sock = open_multicast_socket(self.config)
         self._dest = (self.config.group, self.config.port)
         self.closed = False
@@ -101,6 +104,10 @@ class MulticastTransport:
     @property
     def sender_id(self) -> str:
         return self._core.sender_id
+
+    @property
+    def instance(self) -> str:
+        return self._core.instance
 
     @property
     def counters(self) -> Counters:

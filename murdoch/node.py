@@ -23,6 +23,7 @@ from __future__ import annotations
 import functools
 import logging
 import threading
+from collections import deque
 from collections.abc import Callable, Iterable
 from typing import Any, TypeVar, cast
 
@@ -47,6 +48,8 @@ def _locked(method: F) -> F:
             return method(self, *args, **kwargs)
 
     return cast(F, wrapper)
+
+
 Observer = Callable[[AuctionEvent], None]
 
 
@@ -69,15 +72,19 @@ class Node:
         self.transport = transport
         self.clock = clock
         self.agent_id = agent_id or transport.sender_id
-        self.auctioneer = Auctioneer(self.agent_id, observer)
+        prefix = f"{self.agent_id}.{transport.instance[:6]}" if transport.instance else None
+        self.auctioneer = Auctioneer(self.agent_id, observer, task_prefix=prefix)
         self.bidder = (
-            Bidder(self.agent_id, metric, on_start, on_stop, observer) if metric else None
+            Bidder(self.agent_id, metric, on_start, on_stop, observer)
+            if metric is not None
+            else None
         )
         self._subjects: SubjectSet = subject_set(subjects)
         self._on_outcome = on_outcome
         self._backoff = backoff
         self.auto_idle = auto_idle
-        self.outcomes: list[Outcome] = []
+        self.outcomes: deque[Outcome] = deque(maxlen=1024)
+        """The latest outcomes of tasks this node introduced (also sent to `on_outcome`)."""
         self._lock = threading.RLock()
         self._sub = transport.subscribe(self._wanted())
         self.closed = False
@@ -118,6 +125,13 @@ class Node:
             self._sync()
             raise
         return task_id
+
+    @_locked
+    def cancel(self, task_id: str, reason: str = "cancelled") -> None:
+        """Withdraw a task this node introduced; it ends as failed with `reason`."""
+        self._publish(self.auctioneer.cancel(task_id, self.clock(), reason))
+        self._deliver_outcomes()
+        self._sync()
 
     # -- executor side
     @_locked

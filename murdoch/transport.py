@@ -25,6 +25,7 @@ the counters. Transports only move bytes.
 from __future__ import annotations
 
 import logging
+import os
 import threading
 from collections import deque
 from collections.abc import Callable, Iterable
@@ -160,6 +161,11 @@ class Transport(Protocol):
     def sender_id(self) -> str: ...
 
     @property
+    def instance(self) -> str:
+        """A nonce fixed when the transport was opened (differs across restarts)."""
+        ...
+
+    @property
     def counters(self) -> Counters: ...
 
     @property
@@ -189,10 +195,12 @@ class EndpointCore:
         clock: Clock,
         key: TeamKey | None = None,
         replay_window: int = 1024,
+        instance: str | None = None,
     ) -> None:
         if not sender_id or len(sender_id) > 80:
             raise ValueError("sender_id must be 1-80 characters")
         self.sender_id = sender_id
+        self.instance = instance if instance is not None else os.urandom(4).hex()
         self.codec = codec
         self.clock = clock
         self.key = key
@@ -249,7 +257,7 @@ class EndpointCore:
         with self._lock:
             seq = self._seq
             self._seq += 1
-            data = self.codec.encode_frame(self.sender_id, seq, subject_fs, message)
+            data = self.codec.encode_frame(self.sender_id, seq, subject_fs, message, self.instance)
             if self.key is not None:
                 data = self.key.sign(data)
             self.counters.count_sent(message.KIND, len(data))
@@ -299,7 +307,8 @@ class EndpointCore:
         else:
             plain = strip_tag(datagram) if is_signed(datagram) else datagram
         frame = self.codec.parse_frame(plain)
-        if self.key is not None and not self._replay.accept(frame.sender, frame.seq):
+        sender_key = f"{frame.sender}/{frame.instance}"
+        if self.key is not None and not self._replay.accept(sender_key, frame.seq):
             raise WireError("replayed", f"{frame.sender}#{frame.seq}")
         if self.frame_tap is not None:
             self.frame_tap(frame, len(datagram))

@@ -2,8 +2,11 @@
 
 One datagram is one UTF-8 JSON object::
 
-    {"v": 1, "k": "<kind>", "s": "<sender id>", "q": <per-sender sequence>,
+    {"v": 1, "k": "<kind>", "s": "<sender id>", "i": "<instance>", "q": <sequence>,
      "t": ["<subject>", ...], "b": {<the message's fields>}}
+
+`i` is a nonce chosen when a transport is opened, so a process that restarts under the same
+sender id is a new (sender, instance) pair whose sequence numbers start again at 0.
 
 With a team key (see `murdoch.auth`) the object starts with ``"h": "<hmac hex>"`` computed over
 the exact bytes of the rest. Messages are frozen dataclasses with a class attribute ``KIND``; a
@@ -74,6 +77,7 @@ class Frame:
     seq: int
     subjects: SubjectSet
     body: Mapping[str, Any]
+    instance: str = ""
 
 
 def freeze(value: Any) -> Any:
@@ -249,13 +253,14 @@ class Codec:
         return {name: _thaw(getattr(message, name)) for name in self._field_order[kind]}
 
     def encode_frame(
-        self, sender: str, seq: int, subjects: SubjectSet, message: Any
+        self, sender: str, seq: int, subjects: SubjectSet, message: Any, instance: str = ""
     ) -> bytes:
         """The unauthenticated datagram bytes of one message."""
         obj = {
             "v": WIRE_VERSION,
             "k": message.KIND,
             "s": sender,
+            "i": instance,
             "q": seq,
             "t": sorted(subjects),
             "b": self.body_of(message),
@@ -287,13 +292,16 @@ class Codec:
         seq = obj.get("q")
         subjects = obj.get("t")
         body = obj.get("b")
+        instance = obj.get("i", "")
         if type(kind) is not str or type(sender) is not str or not sender:
             raise WireError("malformed", "kind or sender missing")
+        if type(instance) is not str:
+            raise WireError("malformed", f"bad instance {instance!r}")
         if type(seq) is not int or seq < 0:
             raise WireError("malformed", f"bad sequence {seq!r}")
         if type(subjects) is not list or type(body) is not dict:
             raise WireError("malformed", "subjects or body missing")
-        return Frame(kind, sender, seq, self._subjects_of(subjects), body)
+        return Frame(kind, sender, seq, self._subjects_of(subjects), body, instance)
 
     def _subjects_of(self, subjects: list[Any]) -> SubjectSet:
         key = tuple(subjects)

@@ -85,8 +85,13 @@ class _Task:
 
 
 class Auctioneer:
-    def __init__(self, agent_id: str, observer: Observer | None = None) -> None:
+    def __init__(
+        self, agent_id: str, observer: Observer | None = None, task_prefix: str | None = None
+    ) -> None:
+        """`task_prefix` (default: the agent id) starts every task id this auctioneer makes;
+        give each run of a process its own (`Node` adds the transport's instance nonce)."""
         self.agent_id = check_subject(agent_id)
+        self.task_prefix = check_subject(task_prefix or agent_id)
         self._observer = observer
         self._tasks: dict[str, _Task] = {}
         self._outcomes: list[Outcome] = []
@@ -135,7 +140,7 @@ class Auctioneer:
         """Introduce a task; returns its id and the announcement to publish."""
         if task_id is None:
             self._counter += 1
-            task_id = f"{self.agent_id}.{self._counter}"
+            task_id = f"{self.task_prefix}.{self._counter}"
         if task_id in self._tasks:
             raise ValueError(f"task {task_id} is already open")
         task = _Task(task_id, spec, negotiation_subject(task_id), retry, now)

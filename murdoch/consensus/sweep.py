@@ -118,9 +118,12 @@ def summarise(records: Iterable[RunRecord]) -> list[Summary]:
             groups.items(), key=lambda kv: (kv[0][0], order.get(f"{kv[0][0]}/{kv[0][1]}", 0),
                                             kv[0][2])):
         sm, ss = _mean_std([r.score for r in rs])
-        tm, ts = _mean_std([float(r.steps) for r in rs])
-        mm, ms = _mean_std([float(r.messages) for r in rs])
-        bm, bs = _mean_std([float(r.bytes) for r in rs])
+        # communication is summarised over the runs that converged (a run that hit the
+        # round limit would only measure the limit); the count is reported beside it
+        done = [r for r in rs if r.converged] or rs
+        tm, ts = _mean_std([float(r.steps) for r in done])
+        mm, ms = _mean_std([float(r.messages) for r in done])
+        bm, bs = _mean_std([float(r.bytes) for r in done])
         out.append(Summary(exp, variant, n, len(rs), sm, ss, tm, ts, mm, ms, bm, bs,
                            1000 * sum(r.solve_s for r in rs) / len(rs),
                            sum(r.converged for r in rs), sum(r.conflict_free for r in rs)))
@@ -128,7 +131,7 @@ def summarise(records: Iterable[RunRecord]) -> list[Summary]:
 
 
 def markdown_table(rows: Sequence[Summary]) -> str:
-    lines = ["| experiment | variant | agents | runs | score | steps | messages | bytes |"
+    lines = ["| experiment | variant | agents | runs | score | steps* | messages* | bytes* |"
              " solve ms | converged | conflict-free |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
@@ -138,6 +141,8 @@ def markdown_table(rows: Sequence[Summary]) -> str:
             f"| {r.messages_mean:.0f} ± {r.messages_std:.0f} "
             f"| {r.bytes_mean:.0f} ± {r.bytes_std:.0f} | {r.solve_ms_mean:.0f} "
             f"| {r.converged}/{r.runs} | {r.conflict_free}/{r.runs} |")
+    lines.append("")
+    lines.append("Mean ± standard deviation over runs; * over the runs that converged.")
     return "\n".join(lines) + "\n"
 
 

@@ -37,11 +37,11 @@ from player_server.client.errors import PlayerConnectionError, PlayerNack, Playe
 from player_server.client.proxy import Proxy
 from player_server.protocol import constants as c
 from player_server.protocol import player_msgs as pm
-from player_server.protocol.codec import NEED_DATA, Decoder, Undecodable, encode_message
+from player_server.protocol.codec import Decoder, Undecodable, encode_message
 from player_server.protocol.common import DevAddr
 from player_server.protocol.constants import MsgType
 from player_server.protocol.errors import FrameError
-from player_server.protocol.header import Message
+from player_server.protocol.header import HEADER_STRUCT, Message
 
 log = logging.getLogger(__name__)
 
@@ -52,6 +52,10 @@ _ACK, _NACK, _SYNCH = int(MsgType.RESP_ACK), int(MsgType.RESP_NACK), int(MsgType
 _PLAYER = int(c.Interface.PLAYER)
 #: longest single wait inside a receive; timeouts are checked between slices
 _RECV_SLICE_S = 0.1
+_RECV_SIZE = 256 * 1024
+#: wake a reader waiting for a round only for more than a lone reply header
+_ROUND_LOWAT = c.HEADER_SIZE + 1
+_HEADER = HEADER_STRUCT
 
 
 class PlayerClient:
@@ -77,7 +81,10 @@ class PlayerClient:
         self._clock = clock
         self._sock: socket.socket | None = None
         self._decoder = Decoder()
+        self._rview = memoryview(bytearray(_RECV_SIZE))
+        self._lowat = 1
         self._backlog: deque[Message] = deque()
+        self._events: deque[Message | Undecodable] = deque()
         self._io_lock = threading.RLock()
         self._send_lock = threading.Lock()
         self._round_outstanding = False
@@ -99,6 +106,7 @@ class PlayerClient:
                 f"cannot connect to {self.host}:{self.port}: {exc}") from exc
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self._sock = sock
+        self._lowat = 1
         try:
             banner = b""
             deadline = self._clock() + timeout
@@ -161,40 +169,64 @@ class PlayerClient:
                 self.close()
                 raise PlayerConnectionError(f"send failed: {exc}") from exc
 
-    def _next(self, deadline: float | None) -> Message:
-        """The next decoded message from the server (blocking until ``deadline``)."""
-        while True:
+    def _set_lowat(self, sock: socket.socket, lowat: int) -> None:
+        if lowat != self._lowat:
             try:
-                ev = self._decoder.next_event()
-            except FrameError as exc:
-                self.close()
-                raise PlayerConnectionError(f"unframeable stream from server: {exc}") from exc
-            if isinstance(ev, Message):
-                return ev
-            if isinstance(ev, Undecodable):
+                sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVLOWAT, lowat)
+            except (OSError, AttributeError):
+                return  # not supported: every arrival wakes the reader, which is only slower
+            self._lowat = lowat
+
+    def _next(self, deadline: float | None, round_wait: bool = False) -> Message:
+        """The next decoded message from the server (blocking until ``deadline``).
+
+        ``round_wait``: a PULL round was asked for and its ACK has not come yet. In
+        lockstep the ACK arrives alone and the round only after the step; waking for the
+        lone 40-byte ACK would cost a second wake-up per tick, so the receive then waits
+        for more than one header's worth of bytes (SO_RCVLOWAT). A receive slice that
+        ends returns what has arrived, so a lone reply still gets through in one slice.
+        """
+        events = self._events
+        while True:
+            if events:
+                ev = events.popleft()
+                if type(ev) is Message:
+                    return ev
+                assert isinstance(ev, Undecodable)
                 log.warning("skipping a message that does not decode: %s", ev.reason)
                 if ev.header.type in (_ACK, _NACK):
                     return Message(ev.header, None)
                 continue
-            assert ev is NEED_DATA
+            try:
+                decoded = self._decoder.events()
+            except FrameError as exc:
+                self.close()
+                raise PlayerConnectionError(f"unframeable stream from server: {exc}") from exc
+            if decoded:
+                events.extend(decoded)
+                continue
             sock = self._sock
             if sock is None:
                 raise PlayerConnectionError("not connected")
             if deadline is not None and deadline - self._clock() <= 0:
                 raise PlayerTimeout("timed out waiting for the server")
+            self._set_lowat(sock, 1 if not round_wait or self._decoder.buffered
+                            else _ROUND_LOWAT)
             try:
                 # a blocking recv bounded by SO_RCVTIMEO slices: one system call per
-                # receive (a Python socket timeout would add a poll() to each)
-                chunk = sock.recv(262144)
+                # receive (a Python socket timeout would add a poll() to each), into a
+                # buffer allocated once (a fresh 256 KiB bytes per recv costs an
+                # mmap/munmap pair and page faults)
+                n = sock.recv_into(self._rview)
             except (BlockingIOError, TimeoutError, InterruptedError):
                 continue  # a slice ended: check the deadline and wait again
             except OSError as exc:
                 self.close()
                 raise PlayerConnectionError(f"receive failed: {exc}") from exc
-            if not chunk:
+            if not n:
                 self.close()
                 raise PlayerConnectionError("the server closed the connection")
-            self._decoder.feed(chunk)
+            self._decoder.feed(self._rview[:n])
 
     def _deadline(self, timeout_s: float | None, default: float) -> float | None:
         t = default if timeout_s is None else timeout_s
@@ -288,33 +320,69 @@ class PlayerClient:
         return proxy
 
     def read(self, timeout_s: float | None = None) -> list[Proxy]:
-        """Wait for one full data round (PULL) or one DATA (PUSH); return updated proxies."""
+        """Wait for one full data round (PULL) or one DATA (PUSH); return updated proxies.
+
+        In PULL mode the REQ DATA's ACK (within ``timeout_s``, default the request
+        timeout) and the round (within ``read_timeout_s``) are read in one pass.
+        """
         with self._io_lock:
             deadline = self._deadline(timeout_s, self.read_timeout_s)
-            updated: list[Proxy] = []
-            if (self.mode == c.PLAYER_DATAMODE_PULL and not self._round_outstanding
-                    and not any(m.header.type == _SYNCH for m in self._backlog)):
-                self.request(_PLAYER, 0, c.PLAYER_REQ_DATA, None, timeout_s)
+            pull = self.mode == c.PLAYER_DATAMODE_PULL
+            backlog = self._backlog
+            ack_wait = False
+            ack_deadline = None
+            if (pull and not self._round_outstanding
+                    and not (backlog and any(m.header.type == _SYNCH for m in backlog))):
+                self._send(_HEADER.pack(0, 0, _PLAYER, 0, _REQ, c.PLAYER_REQ_DATA,
+                                        self._clock(), 0, 0))
                 self._round_outstanding = True
-            got_data = False
+                ack_wait = True
+                ack_deadline = self._deadline(timeout_s, self.timeout_s)
+            updated: list[Proxy] = []
+            proxies = self.proxies
+            got_data = synched = False
             while True:
-                msg = self._backlog.popleft() if self._backlog else self._next(deadline)
-                t = msg.header.type
+                if backlog:
+                    msg = backlog.popleft()
+                elif ack_wait:
+                    wait = (ack_deadline if deadline is None or (
+                        ack_deadline is not None and ack_deadline < deadline) else deadline)
+                    msg = self._next(wait, True)
+                else:
+                    msg = self._next(deadline)
+                h = msg.header
+                t = h.type
                 if t == _DATA:
-                    p = self._dispatch(msg)
+                    proxy = proxies.get((h.interf, h.index))
                     got_data = True
-                    if p is not None and p not in updated:
-                        updated.append(p)
-                    if self.mode == c.PLAYER_DATAMODE_PUSH:
+                    if proxy is None:
+                        log.debug("data for %d:%d without a proxy", h.interf, h.index)
+                    else:
+                        proxy._on_data(h.subtype, msg.body, h.timestamp)
+                        self.data_time_s = h.timestamp
+                        if proxy not in updated:
+                            updated.append(proxy)
+                    if not pull:
                         return updated
                 elif t == _SYNCH:
-                    if msg.header.subtype == c.PLAYER_SYNCH_OVERFLOW and msg.body is not None:
+                    if h.subtype == c.PLAYER_SYNCH_OVERFLOW and msg.body is not None:
                         self.overflow_count += msg.body.dropped
                     self._round_outstanding = False
-                    if self.mode == c.PLAYER_DATAMODE_PULL:
+                    if pull:
                         self.rounds += 1
                         if not got_data:
                             log.warning("a data round without data")
-                        return updated
+                        synched = True
+                        if not ack_wait:
+                            return updated
                 elif t in (_ACK, _NACK):
-                    log.warning("discarding an unclaimed reply %s", msg.header)
+                    if (ack_wait and h.interf == _PLAYER and h.index == 0
+                            and h.subtype == c.PLAYER_REQ_DATA):
+                        ack_wait = False
+                        if t == _NACK:
+                            self._round_outstanding = False
+                            raise PlayerNack(_PLAYER, 0, c.PLAYER_REQ_DATA, msg.body)
+                        if synched:
+                            return updated
+                    else:
+                        log.warning("discarding an unclaimed reply %s", h)

@@ -18,11 +18,12 @@ from player_server.protocol.constants import HEADER_SIZE, MAX_MESSAGE_SIZE
 from player_server.protocol.errors import DecodeError, EncodeError, FrameError
 from player_server.protocol.header import HEADER_STRUCT, Header, Message
 from player_server.protocol.registry import UnknownMessage, lookup
-from player_server.protocol.xdr import decode_body
+from player_server.protocol.xdr import _fast_constructor, decode_body
 
 _pack_header = HEADER_STRUCT.pack
 _unpack_header = HEADER_STRUCT.unpack_from
 _make_header = Header._make
+_make_message = _fast_constructor(Message)
 
 
 def encode_message(
@@ -101,6 +102,7 @@ class Decoder:
         self._pos = 0
         self._max_size = max_size
         self._header: Header | None = None
+        self._decoders: dict[tuple[int, int, int], Any] = {}
         self.messages = 0
         self.undecodable = 0
 
@@ -137,16 +139,84 @@ class Decoder:
         self._header = None
         if size == 0:
             self.messages += 1
-            return Message(header, None)
-        body = bytes(buf[pos:end])
+            return _make_message(header, None)
+        return self._decode(header, buf, pos, end)
+
+    def events(self) -> list[Message | Undecodable]:
+        """Every complete message now buffered, in order (``[]`` = need data).
+
+        The same events as calling ``next_event`` until ``NEED_DATA``, in one pass. A
+        frame over the size limit raises ``FrameError`` once the messages before it have
+        been returned.
+        """
+        out: list[Message | Undecodable] = []
+        if self._header is not None:
+            ev = self.next_event()
+            if ev is NEED_DATA:
+                return out
+            out.append(ev)  # type: ignore[arg-type]
+        buf = self._buf
+        pos = self._pos
+        have = len(buf)
+        max_size = self._max_size
+        append = out.append
+        empty = 0
+        while have - pos >= HEADER_SIZE:
+            header = _make_header(_unpack_header(buf, pos))
+            size = header[8]
+            if size > max_size:
+                self._pos = pos
+                if out:
+                    break
+                raise FrameError(f"message size {size} exceeds the limit {max_size}")
+            start = pos + HEADER_SIZE
+            end = start + size
+            if end > have:
+                self._pos = start
+                self._header = header
+                break
+            pos = end
+            if size == 0:
+                empty += 1
+                append(_make_message(header, None))
+            else:
+                self._pos = pos
+                append(self._decode(header, buf, start, end))
+        else:
+            self._pos = pos
+        self.messages += empty
+        return out
+
+    def _decode(self, header: Header, buf: bytearray, pos: int, end: int
+                ) -> Message | Undecodable:
+        # the body is decoded where it lies in the buffer (no copy); it must end exactly
+        # at the frame's end
+        key = (header[2], header[4], header[5])
+        decode = self._decoders.get(key)
         try:
-            msg = decode_message(header, body)
+            if decode is None:
+                decode = self._decoders[key] = _body_decoder(*key)
+            body, stop = decode(buf, pos)
+            if stop != end:
+                raise DecodeError(
+                    f"{lookup(*key).__name__}: {end - stop} unexpected trailing bytes"
+                    if stop < end else f"{lookup(*key).__name__}: body runs past its size")
         except (DecodeError, UnknownMessage) as exc:
             self.undecodable += 1
             reason = (
                 f"no declaration for {exc.args[0]}" if isinstance(exc, UnknownMessage)
                 else str(exc)
             )
-            return Undecodable(header, reason, body)
+            return Undecodable(header, reason, bytes(buf[pos:end]))
         self.messages += 1
-        return msg
+        return _make_message(header, body)
+
+
+def _body_decoder(interf: int, msg_type: int, subtype: int) -> Any:
+    """``decode(buf, offset) -> (body, end)`` for one message kind (UnknownMessage if none)."""
+    cls = lookup(interf, msg_type, subtype)
+    if cls is None:
+        def no_body(buf: Any, offset: int) -> tuple[Any, int]:
+            raise DecodeError(f"{interf}:{msg_type}:{subtype} takes no body")
+        return no_body
+    return cls.xdr_decode

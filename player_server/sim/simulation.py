@@ -99,6 +99,8 @@ class _Robot:
     battery: Battery | None = None
     gripper: _Gripper | None = None
     ptz: _Ptz | None = None
+    z0: float = 0.0  # body-centre height it glides at
+    z: float = 0.0
 
 
 @dataclass
@@ -165,6 +167,7 @@ class Simulation:
             st = _Robot(index=i, spec=r, body=self._ids.robots[r.name],
                         rng=np.random.default_rng(seeds[i]))
             st.x, st.y, st.yaw = r.pose
+            st.z0 = st.z = r.body.height_m / 2 + 0.001
             st.odom = (0.0, 0.0, 0.0)
             d = r.devices
             if d.power is not None:
@@ -273,11 +276,13 @@ class Simulation:
             st.v = ramp(st.v, tv, p2d.accel_mps2 * dt)
             st.w = ramp(st.w, tw, p2d.yaw_accel_radps2 * dt)
         sub_dt = dt / self.substeps
-        # An upward speed of g*dt cancels one step of gravity (semi-implicit Euler).
-        vz = _GRAVITY_MPS2 * sub_dt
+        # An upward speed of g*dt cancels one step of gravity (semi-implicit Euler); a robot
+        # that a contact lifted or pressed down is brought back to its height within a tick.
+        vz0 = _GRAVITY_MPS2 * sub_dt
         reset_vel = pb.resetBaseVelocity
         for k in range(self.substeps):
             for st in robots:
+                vz = vz0 + (st.z0 - st.z) / dt
                 yaw = st.yaw + st.w * sub_dt * (k + 0.5)
                 c, s = math.cos(yaw), math.sin(yaw)
                 off = st.spec.body.offset_x_m
@@ -291,6 +296,7 @@ class Simulation:
         get_pose = pb.getBasePositionAndOrientation
         for st in robots:
             pos, q = get_pose(st.body, physicsClientId=cid)
+            st.z = pos[2]
             yaw = _yaw_of(q)
             off = st.spec.body.offset_x_m
             x = pos[0] - off * math.cos(yaw)
@@ -381,11 +387,11 @@ class Simulation:
         if kind == "robot":
             st = self._robot(name)
             off = st.spec.body.offset_x_m
-            z = st.spec.body.height_m / 2 + 0.001
             pb.resetBasePositionAndOrientation(
-                bid, (x + off * math.cos(yaw), y + off * math.sin(yaw), z), _quat_yaw(yaw),
+                bid, (x + off * math.cos(yaw), y + off * math.sin(yaw), st.z0), _quat_yaw(yaw),
                 physicsClientId=cid,
             )
+            st.z = st.z0
             st.x, st.y, st.yaw = x, y, wrap_angle(yaw)
             st.v = st.w = 0.0
         else:

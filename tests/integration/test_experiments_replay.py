@@ -55,7 +55,7 @@ def test_three_hour_replay_stays_a_few_megabytes(tmp_path: Path) -> None:
     still = len(layout.boxes) + len(layout.objects)
     assert info.keyframes <= 1500 * len(layout.robots) + 2 * still
     assert info.duration_s == pytest.approx(3 * 3600.0)
-    assert 3 * 3600.0 / info.speed <= 300.0 + 1e-6
+    assert 3 * 3600.0 / info.speed <= 120.0 + 1e-6  # plays in two minutes
     html = info.path.read_text(encoding="utf-8")
     assert "MeshCat.Viewer" in html and "<script src=" not in html  # self-contained
 

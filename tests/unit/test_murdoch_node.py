@@ -132,3 +132,19 @@ def test_metric_sees_the_announcement_and_scores_decide() -> None:
     s.run(0.5)
     assert seen[0].metric_weights == {"distance": 1.0}
     assert [e.detail["winner"] for e in s.events if e.kind == "award"] == ["near"]
+
+
+def test_cancel_revokes_the_winner_and_reports_failed() -> None:
+    s = Setup()
+    stopped: list[str] = []
+    robot = Node(s.bus.endpoint("r1"), s.clock, subjects={"camera"}, metric=lambda a: 1.0,
+                 on_stop=lambda c, why: stopped.append(why))
+    s.nodes.append(robot)
+    task_id = s.user.announce(quick("track", {"camera"}, duration_s=9.0))
+    s.run(0.5)
+    assert robot.busy
+    s.user.cancel(task_id, "no longer needed")
+    s.run(0.2)
+    assert not robot.busy and stopped == ["revoked: no longer needed"]
+    (outcome,) = s.outcomes
+    assert (outcome.status, outcome.reason) == ("failed", "no longer needed")
