@@ -2,10 +2,13 @@
 
     murdoch-robot -p 6665 [-h 127.0.0.1] [--name r1] [--world longterm]
                   [--task goto-goal --param x=1 --param y=2] [--events run/r1.jsonl]
+                  [--mcast-port 5xxxx [--mcast-group 239.255.74.17] [--auction-log F]]
 
 Connects to the robot's port, subscribes to every device listed there, derives the robot's
 resource subjects and runs until SIGINT/SIGTERM (or, with --exit-when-done, until its task
-ends). Events (JSON lines) go to --events ("-" = stdout).
+ends). Events (JSON lines) go to --events ("-" = stdout). With --mcast-port the robot joins
+MURDOCH on that loopback multicast group (`behaviors.murdoch_link`): it offers its subjects,
+bids on announcements with its tasks' metrics and runs the tasks it wins.
 """
 
 from __future__ import annotations
@@ -52,6 +55,11 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--no-battery", action="store_true", help="never go charging")
     p.add_argument("--seed", type=int, default=0, help="seed for wandering")
     p.add_argument("--images", action="store_true", help="also subscribe raw camera images")
+    p.add_argument("--mcast-port", type=int, default=0,
+                   help="join MURDOCH on this loopback multicast port (0 = do not)")
+    p.add_argument("--mcast-group", default="239.255.74.17", help="MURDOCH multicast group")
+    p.add_argument("--auction-log", default="",
+                   help="append this robot's auctioneer and bidder events (JSON lines) here")
     p.add_argument("--log-level", default="WARNING", help="logging level (default WARNING)")
     return p
 
@@ -104,6 +112,8 @@ def main(argv: list[str] | None = None) -> int:
     battery = None if args.no_battery else BatteryPolicy(args.battery_low, args.battery_resume)
     client = PlayerClient(args.host, args.port)
     code = 0
+    auction_log: IO[str] | None = None
+    transport = link = None
     try:
         client.connect()
         agent = build_agent(client, name, world=world, events=events, battery=battery,
@@ -112,7 +122,23 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps({"ready": status}), file=sys.stderr, flush=True)
         if args.task:
             agent.start_task(args.task, params, args.task_id)
-        agent.run(stop, max_ticks=args.max_ticks or None)
+        if args.mcast_port:
+            from behaviors.murdoch_link import MurdochLink
+            from murdoch.multicast import MulticastConfig, MulticastTransport
+
+            if args.auction_log:
+                auction_log = open(args.auction_log, "a", encoding="utf-8")  # noqa: SIM115
+            transport = MulticastTransport(
+                name, lambda: float(agent.status().time_s),
+                MulticastConfig(group=args.mcast_group, port=args.mcast_port),
+            )
+            link = MurdochLink(agent, transport, events, auction_log)
+            ticks = 0
+            while not stop.is_set() and (not args.max_ticks or ticks < args.max_ticks):
+                link.step()
+                ticks += 1
+        else:
+            agent.run(stop, max_ticks=args.max_ticks or None)
     except ParamError as exc:
         print(f"murdoch-robot: {exc}", file=sys.stderr)
         code = 2
@@ -124,7 +150,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"murdoch-robot: {exc}", file=sys.stderr)
         code = 1
     finally:
+        if link is not None:
+            link.close()
+        if transport is not None:
+            transport.close()
         client.close()
+        if auction_log is not None:
+            auction_log.close()
         if stream is not None and stream is not sys.stdout:
             stream.close()
     return code

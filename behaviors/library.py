@@ -18,6 +18,7 @@ from behaviors.basis import (
     AvoidWithSonar,
     BackOff,
     BoxAlignmentFromLaser,
+    Cruise,
     DockAtCharger,
     GoalFromCamera,
     Hold,
@@ -25,11 +26,13 @@ from behaviors.basis import (
     PushWithBumpers,
     ServoToLocation,
     TurnAbout,
+    ViewOfEnd,
     VisualServoToColour,
     Wander,
     WatchForMotionWithLaser,
 )
 from behaviors.metrics import (
+    MetricFn,
     WeightedMetric,
     battery_fraction,
     colour_alignment,
@@ -158,43 +161,88 @@ def build_goto(p: Params, profile: RobotProfile) -> TaskPlan:
 # --- pushing --------------------------------------------------------------------------------
 
 
+def _close_to_box(colour: int, near_m: float, recent_s: float) -> Callable[[TickView], bool]:
+    """The approach is over: touching the box, or it just went out of view up close.
+
+    The camera loses a long box when the robot is near one of its ends, so losing it within
+    `recent_s` of having seen it nearer than `near_m` counts as having arrived.
+    """
+
+    def check(view: TickView) -> bool:
+        signals = view.signals
+        if "contact" in signals or "reached" in signals:
+            return True
+        memo = view.memo
+        if "seen" in signals:
+            memo["seen_range_m"] = signals["seen"]
+            memo["seen_at_s"] = view.now
+            return False
+        return (memo.get("seen_range_m", math.inf) < near_m
+                and view.now - memo.get("seen_at_s", -math.inf) <= recent_s)
+
+    del colour
+    return check
+
+
 def _push_builder(name: str, aim: float) -> Builder:
+    """Approach the end to push (visual servo on the box colour), push straight ahead with
+    the bumpers for `duration_s`, then back off so that the box is in view for the next bid."""
+
     def build(p: Params, profile: RobotProfile) -> TaskPlan:
         colour = colour_of(p["colour"])
         duration = number(p, "duration_s")
         speed = number(p, "speed_mps")
         backoff = number(p, "backoff_s")
-        layers: tuple[Layer, ...] = (
-            # The box is straight ahead while pushing: avoid only what is off to the sides.
-            *_avoid(profile, 0.3, ignore_half_angle_rad=math.radians(50.0)),
-            Layer(VisualServoToColour(colour, aim_fraction=aim, speed_mps=speed), 1),
+        near = number(p, "approach_m")
+        side_avoid = _avoid(profile, 0.25, ignore_half_angle_rad=math.radians(60.0))
+        approach: tuple[Layer, ...] = (
+            *side_avoid,
+            Layer(VisualServoToColour(colour, aim_fraction=aim, speed_mps=speed,
+                                      stop_range_m=near * 0.5,
+                                      align_tolerance_rad=math.radians(10.0)), 1),
             Layer(_search(profile), 0),
         )
+        push: tuple[Layer, ...] = (*side_avoid, Layer(Cruise(speed_mps=speed), 0))
         if profile.has("bumper"):
-            layers = (*layers, Layer(PushWithBumpers(speed_mps=speed), 1))
+            approach = (*approach, Layer(PushWithBumpers(speed_mps=speed), 1))
+            push = (*push, Layer(PushWithBumpers(speed_mps=speed), 1))
         return TaskPlan(
             name,
             (
-                Stage("push", layers, until=stage_elapsed(duration)),
+                # Too close to see the end to push (e.g. it is the far end): get a view.
+                Stage("view", (Layer(ViewOfEnd(colour, aim, min_range_m=near * 1.8,
+                                               speed_mps=speed), 1),),
+                      until=signal("in-view"), timeout_s=12.0, on_timeout="next"),
+                Stage("approach", approach, until=_close_to_box(colour, near, 1.0),
+                      timeout_s=number(p, "lost_s")),
+                Stage("push", push, until=stage_elapsed(duration)),
                 # Step back from the box so that it is in view again for the next bid.
                 Stage("back-off", (Layer(BackOff(duration_s=backoff, turn_radps=0.0), 1),),
                       until=signal("backed-off")),
             ),
-            failed=lambda view: view.stage_name == "push"
-            and view.task_elapsed_s > number(p, "lost_s")
-            and "seen" not in view.signals
-            and "reached" not in view.signals
-            and "contact" not in view.signals,
             progress=_elapsed_progress(duration + backoff),
         )
 
     return build
 
 
+def _unseen_fallback(inner: MetricFn, unseen: float) -> MetricFn:
+    """A camera metric that scores `unseen` (instead of not bidding) when the colour is out
+    of view: a pusher that lost sight of the box can still find it, only worse placed."""
+
+    def metric(snapshot: Snapshot, params: Params, profile: RobotProfile) -> float | None:
+        if snapshot.camera is None:
+            return None
+        value = inner(snapshot, params, profile)
+        return unseen if value is None else value
+
+    return metric
+
+
 def _push_metrics(aim: float) -> tuple[WeightedMetric, ...]:
     return (
-        WeightedMetric("alignment", colour_alignment(aim), 1.0),
-        WeightedMetric("proximity", colour_proximity(), 0.3),
+        WeightedMetric("alignment", _unseen_fallback(colour_alignment(aim), -math.pi), 1.0),
+        WeightedMetric("proximity", _unseen_fallback(colour_proximity(), -3.0), 0.3),
     )
 
 
@@ -426,27 +474,30 @@ TASKS: dict[str, TaskSpec] = {
         ),
         TaskSpec(
             "push-left-end", frozenset({"mobile", "camera"}),
-            {"duration_s": 8.0, "speed_mps": 0.2, "lost_s": 20.0, "backoff_s": 1.0}, ("colour",),
+            {"duration_s": 5.0, "speed_mps": 0.2, "lost_s": 20.0, "backoff_s": 3.0,
+             "approach_m": 0.8}, ("colour",),
             _push_builder("push-left-end", AIM_LEFT), _push_metrics(AIM_LEFT),
             "push the left end of the box (as seen from behind it)",
         ),
         TaskSpec(
             "push-right-end", frozenset({"mobile", "camera"}),
-            {"duration_s": 8.0, "speed_mps": 0.2, "lost_s": 20.0, "backoff_s": 1.0}, ("colour",),
+            {"duration_s": 5.0, "speed_mps": 0.2, "lost_s": 20.0, "backoff_s": 3.0,
+             "approach_m": 0.8}, ("colour",),
             _push_builder("push-right-end", AIM_RIGHT), _push_metrics(AIM_RIGHT),
             "push the right end of the box",
         ),
         TaskSpec(
             "push-box", frozenset({"mobile", "camera"}),
-            {"duration_s": 8.0, "speed_mps": 0.2, "lost_s": 20.0, "backoff_s": 1.0}, ("colour",),
+            {"duration_s": 5.0, "speed_mps": 0.2, "lost_s": 20.0, "backoff_s": 3.0,
+             "approach_m": 0.8}, ("colour",),
             _push_builder("push-box", AIM_MIDDLE), _push_metrics(AIM_MIDDLE),
             "push the box in the middle",
         ),
         TaskSpec(
             "watch-box", frozenset({"mobile", "camera", "laser"}),
-            {"lead_m": 1.2, "tolerance_rad": math.radians(8.0), "need_period_s": 4.0,
+            {"lead_m": 1.0, "tolerance_rad": math.radians(8.0), "need_period_s": 4.0,
              "duration_s": 300.0, "laser_sector_rad": math.pi, "speed_mps": 0.15,
-             "arrive_m": 1.0},
+             "arrive_m": 0.4},
             ("colour", "goal_colour"), build_watch_box,
             (WeightedMetric("goal-visible", colour_visible("goal_colour"), 1.0),
              WeightedMetric("battery", battery_fraction, 0.5)),

@@ -102,10 +102,10 @@ def run_once(ticks: int, warmup: int, profile: bool) -> dict[str, float]:
     core = server.core
     core_publish = core.publish
 
-    def publish() -> None:
+    def publish(*args: Any) -> None:
         publish_marks.append((time.perf_counter(), time.thread_time()))
         t0 = time.thread_time()
-        core_publish()
+        core_publish(*args)
         publish_t.wall.append(time.thread_time() - t0)
 
     core.publish = publish  # type: ignore[method-assign]

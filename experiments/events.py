@@ -39,6 +39,10 @@ BATTERY = "battery"
 PROCESS = "process"
 ALARM = "alarm"
 POSES = "poses"
+GOAL_REACHED = "goal_reached"
+GOAL_UNACHIEVABLE = "goal_unachievable"
+ROBOT_SWITCH_OFF = "robot_switch_off"
+ROBOT_SWITCH_ON = "robot_switch_on"
 
 COMPLETED = "completed"
 FAILED = "failed"
@@ -61,6 +65,10 @@ REQUIRED_FIELDS: dict[str, tuple[str, ...]] = {
     PROCESS: ("name", "pid", "rss_bytes"),
     ALARM: ("robot",),
     POSES: ("bodies",),
+    GOAL_REACHED: ("box", "distance_m"),
+    GOAL_UNACHIEVABLE: ("task", "reason"),
+    ROBOT_SWITCH_OFF: ("robot",),
+    ROBOT_SWITCH_ON: ("robot", "x", "y"),
 }
 
 

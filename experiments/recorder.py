@@ -111,9 +111,13 @@ class RunRecorder:
         self._stream.write(f"meshcat live view: {self.viewer_url}\n")
         self._stream.flush()
 
-    def observe(self, sim: SnapshotSim, *, battery_period_s: float = 30.0) -> ObservedSim:
+    def observe(
+        self, sim: SnapshotSim, *, battery_period_s: float = 30.0,
+        samplers: tuple[tuple[float, Callable[[Any, float], None]], ...] = (),
+    ) -> ObservedSim:
         """Wrap the simulation for the serving loop: pose keyframes, live view, and a battery
-        sample of every robot with a power device every `battery_period_s`."""
+        sample of every robot with a power device every `battery_period_s`; `samplers`
+        (period in simulation seconds, callback(sim, t)) also run on the serving thread."""
         powered = tuple(r.name for r in self.world.robots if r.devices.power is not None)
 
         def sample_battery(s: Any, t: float) -> None:
@@ -125,7 +129,7 @@ class RunRecorder:
             sim, wall_clock=self._clock, pose_sampler=self.poses,
             live_offer=self.live.offer if self.live is not None else None,
             live_period_s=1.0 / self._live_rate_hz,
-            samplers=((battery_period_s, sample_battery),),
+            samplers=((battery_period_s, sample_battery), *samplers),
         )
 
     # --- while running ---

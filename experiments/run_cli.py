@@ -1,9 +1,10 @@
 """`murdoch run EXPERIMENT`: one command that runs an experiment end to end.
 
 The runner process holds the simulation and the Player device server (its serving thread),
-starts one robot process per endpoint (`python -m experiments.robot_node`, robots joining
-MURDOCH over loopback multicast on a port of their own), and is itself the user: it introduces
-the experiment's tasks through a MURDOCH node, logs every auction message it hears, and writes
+starts one `murdoch-robot` process per endpoint (robots joining MURDOCH over loopback
+multicast on a port of their own, `behaviors.murdoch_link`), and is itself the user: it
+introduces the experiment's tasks through a MURDOCH node, logs every auction message it
+hears, and writes
 the run directory through `experiments.recorder.RunRecorder`. Lockstep is used when running as
 fast as possible (speedup 0), so a seeded run repeats.
 """
@@ -11,6 +12,7 @@ fast as possible (speedup 0), so a seeded run repeats.
 from __future__ import annotations
 
 import logging
+import math
 import os
 import random
 import re
@@ -69,6 +71,18 @@ def _start_robot(rp: RobotProcess, args: list[str], log_path: Path) -> None:
                                stdin=subprocess.DEVNULL)
 
 
+def _robot_command() -> list[str]:
+    """The `murdoch-robot` entry point next to this interpreter (or its module)."""
+    exe = Path(sys.executable).parent / "murdoch-robot"
+    return [str(exe)] if exe.exists() else [sys.executable, "-m", "behaviors"]
+
+
+def _place(sim: Any, name: str, pose: tuple[float, float, float]) -> None:
+    """Teleport a robot (on the serving thread) and leave it standing still."""
+    sim.set_velocity(name, 0.0, 0.0)
+    sim.set_pose(name, *pose)
+
+
 def _stop_robot(rp: RobotProcess, *, kill: bool = False, timeout_s: float = 5.0) -> None:
     if rp.proc is not None and rp.proc.poll() is None:
         if kill:
@@ -102,10 +116,20 @@ def _stop_robot(rp: RobotProcess, *, kill: bool = False, timeout_s: float = 5.0)
               help="Kill a robot process: ROBOT@TIME (ROBOT 'busy' = one holding a task).")
 @click.option("--restart", "restarts", multiple=True,
               help="Start a killed robot again: ROBOT@TIME ('busy' = the last one killed so).")
+@click.option("--switch-off", "switch_offs", multiple=True,
+              help="boxpush: switch a pusher off (process stopped, robot moved out of the "
+                   "way): ROBOT@TIME, e.g. p1@60s.")
+@click.option("--switch-on", "switch_ons", multiple=True,
+              help="boxpush: switch a pusher back on behind the other end of the box: "
+                   "ROBOT@TIME.")
+@click.option("--goal-radius", type=float, default=None,
+              help="boxpush: the box has arrived when its centre is this close to the goal "
+                   "marker (metres, default 2.5).")
 @click.option("--no-replay", is_flag=True, help="Do not write replay.html.")
 def run(experiment: str, sim_hours: float | None, until: str | None, speedup: float, seed: int,
         meshcat: bool, out: Path, world: str | None, task_interval: float,
-        kills: tuple[str, ...], restarts: tuple[str, ...], no_replay: bool) -> None:
+        kills: tuple[str, ...], restarts: tuple[str, ...], switch_offs: tuple[str, ...],
+        switch_ons: tuple[str, ...], goal_radius: float | None, no_replay: bool) -> None:
     """Run EXPERIMENT end to end and leave a run directory behind."""
     if sim_hours is not None and until is not None:
         raise click.UsageError("give --sim-hours or --until, not both")
@@ -116,6 +140,8 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
         meshcat=meshcat, out=out, world_name=world or EXPERIMENT_WORLDS[experiment],
         task_interval_s=task_interval, kills=[parse_at(k) for k in kills],
         restarts=[parse_at(r) for r in restarts], replay=not no_replay,
+        switch_offs=[parse_at(r) for r in switch_offs],
+        switch_ons=[parse_at(r) for r in switch_ons], goal_radius_m=goal_radius,
     )
     sys.exit(code)
 
@@ -124,8 +150,11 @@ def run_experiment(
     *, experiment: str, duration_s: float, speedup: float, seed: int, meshcat: bool, out: Path,
     world_name: str, task_interval_s: float, kills: list[tuple[str, float]],
     restarts: list[tuple[str, float]], replay: bool,
+    switch_offs: list[tuple[str, float]] | None = None,
+    switch_ons: list[tuple[str, float]] | None = None, goal_radius_m: float | None = None,
 ) -> int:
     from behaviors.library import TASKS
+    from experiments import boxpush as bp
     from experiments import events as ev
     from experiments.observe import JsonlTail, robot_event_to_run_events
     from experiments.recorder import RunRecorder
@@ -145,6 +174,20 @@ def run_experiment(
     wpath = Path(world_name)
     spec = load_world(wpath if wpath.suffix == ".toml" else world_path(world_name))
     lockstep = speedup == 0
+    switch_offs, switch_ons = list(switch_offs or ()), list(switch_ons or ())
+    names = [r.name for r in spec.robots]
+    try:
+        switch_offs = [(bp.resolve_robot(r, names), t) for r, t in switch_offs]
+        switch_ons = [(bp.resolve_robot(r, names), t) for r, t in switch_ons]
+    except ValueError as exc:
+        raise click.BadParameter(str(exc)) from exc
+    if (switch_offs or switch_ons) and experiment != "boxpush":
+        raise click.UsageError("--switch-off/--switch-on are for the boxpush experiment")
+    goal_watch = actions = None
+    if experiment == "boxpush":
+        goal_watch = bp.GoalWatch(bp.box_goal(spec), goal_radius_m or bp.GOAL_RADIUS_M,
+                                 tuple(r.name for r in spec.robots if r.mobile))
+        actions = bp.SimActions()
     mcast_port = free_udp_port()
     config = {
         "experiment": experiment, "seed": seed, "world": str(spec.source),
@@ -153,13 +196,23 @@ def run_experiment(
         "kills": [f"{r}@{t:g}s" for r, t in kills],
         "restarts": [f"{r}@{t:g}s" for r, t in restarts],
     }
+    if goal_watch is not None:
+        config.update({
+            "switch_offs": [f"{r}@{t:g}s" for r, t in switch_offs],
+            "switch_ons": [f"{r}@{t:g}s" for r, t in switch_ons],
+            "goal_radius_m": goal_watch.radius_m,
+        })
     rec = RunRecorder(out, experiment, config, world=spec, started=datetime.now(),
                       wall_clock=time.monotonic, stream=sys.stdout, meshcat=meshcat)
     click.echo(f"run directory: {rec.run.root}")
     sim = Simulation(spec, seed=seed)
     endpoints = world_endpoints(spec, sim, 0)
+    samplers: tuple[tuple[float, Any], ...] = ()
+    if goal_watch is not None and actions is not None:
+        samplers = ((0.5, goal_watch.sample), (0.0, actions.apply))
     server = PlayerServer(
-        rec.observe(sim), endpoints, interval_s=sim.interval_s, clock=time.monotonic,
+        rec.observe(sim, samplers=samplers), endpoints, interval_s=sim.interval_s,
+        clock=time.monotonic,
         speedup=speedup, quit_time_s=duration_s,
         config=CoreConfig(lockstep=lockstep,
                           lockstep_clients=max(1, sum(1 for e in endpoints if e.mobile)),
@@ -170,6 +223,11 @@ def run_experiment(
     introduced_tasks: set[str] = set()
     finished_tasks: set[str] = set()
     auction_tails: dict[str, JsonlTail] = {}
+    unachievable_reasons: dict[str, str] = {}
+
+    def sim_pose_of(name: str) -> tuple[float, float, float]:
+        poses = goal_watch.robot_poses if goal_watch is not None else {}
+        return poses.get(name, (0.0, 0.0, 0.0))
     stop_requested = [False]
 
     def on_signal(signum: int, frame: object) -> None:
@@ -186,7 +244,7 @@ def run_experiment(
         ports = server.ports
 
         def robot_args(name: str) -> list[str]:
-            return [sys.executable, "-m", "experiments.robot_node", "-p", str(ports[name]),
+            return [*_robot_command(), "-p", str(ports[name]),
                     "--name", name, "--world", str(spec.source), "--mcast-port",
                     str(mcast_port), "--seed", str(seed),
                     "--events", str(rec.run.logs / f"{name}.events.jsonl"),
@@ -239,6 +297,9 @@ def run_experiment(
                 rec.event(t, ev.REALLOCATION, task=task_id, from_robot=d.get("winner"),
                           reason=d.get("reason", ""))
             elif kind == "outcome" and task_id not in finished_tasks:
+                why = str(d.get("reason", ""))
+                if d.get("status") == "unachievable" or why.startswith("unachievable"):
+                    unachievable_reasons[task_id] = why or "unachievable"
                 rec.event(t, ev.TASK_OUTCOME, task=task_id, outcome=d.get("status"),
                           robot=d.get("winner"), reason=d.get("reason", ""))
                 finished_tasks.add(task_id)
@@ -257,7 +318,11 @@ def run_experiment(
         main_task: str | None = None
         end_after_s: float | None = None
         schedule = sorted([(t, "kill", r) for r, t in kills]
-                          + [(t, "restart", r) for r, t in restarts])
+                          + [(t, "restart", r) for r, t in restarts]
+                          + [(t, "switch-off", r) for r, t in switch_offs]
+                          + [(t, "switch-on", r) for r, t in switch_ons])
+        switched_off: dict[str, float] = {}  # robot -> its side along the box when switched off
+        goal_outcome: str | None = None
         next_memory_t = 60.0  # first sample once every process is up and running
         busy_killed: list[str] = []
         next_tail_wall = 0.0
@@ -277,7 +342,21 @@ def run_experiment(
                 introduced_tasks.add(task_id)
                 main_task = main_task or task_id
                 next_task = next(planned)
-            if experiment == "boxpush" and main_task in finished_tasks:
+            if goal_watch is not None and goal_outcome is None:
+                if goal_watch.reached_at_s is not None:
+                    goal_outcome = "reached"
+                    rec.event(goal_watch.reached_at_s, ev.GOAL_REACHED, box=goal_watch.bg.box,
+                              distance_m=round(goal_watch.distance_m, 3),
+                              radius_m=goal_watch.radius_m)
+                    click.echo(f"goal reached at {goal_watch.reached_at_s:.1f} s simulated: "
+                               f"box {goal_watch.distance_m:.2f} m from the goal")
+                elif main_task is not None and main_task in unachievable_reasons:
+                    goal_outcome = "unachievable"
+                    why = unachievable_reasons[main_task]
+                    rec.event(now, ev.GOAL_UNACHIEVABLE, task=main_task, reason=why)
+                    click.echo(f"error: the box cannot be pushed to the goal: {why}", err=True)
+            if experiment == "boxpush" and (main_task in finished_tasks
+                                            or goal_outcome is not None):
                 # the box reached the goal (or could not): let the last reports arrive, then stop
                 end_after_s = end_after_s if end_after_s is not None else now + 3.0
                 if now >= end_after_s:
@@ -293,6 +372,30 @@ def run_experiment(
                 target = robots.get(name)
                 if target is None:
                     log.warning("no robot %s to %s", name, action)
+                elif action == "switch-off":
+                    _stop_robot(target, kill=True)
+                    box_pose = goal_watch.box_pose if goal_watch is not None else None
+                    xy = sim_pose_of(name)
+                    side = bp.side_of(box_pose, xy[:2]) if box_pose is not None else 0.0
+                    switched_off[name] = side
+                    spot = bp.park_pose(spec, sorted(robots).index(name))
+                    actions.put(lambda s, n=name, p=spot: _place(s, n, p))  # type: ignore[union-attr]
+                    rec.event(now, ev.ROBOT_SWITCH_OFF, robot=name, side_m=round(side, 3))
+                elif action == "switch-on":
+                    side = switched_off.pop(name, 0.0)
+                    box_pose = goal_watch.box_pose if goal_watch is not None else None
+                    assert goal_watch is not None and actions is not None and box_pose is not None
+                    # the other end of the box from where it was
+                    other = -math.copysign(max(abs(side), 0.3), side or 1.0)
+                    other = max(-goal_watch.bg.box_half_length_m + 0.2,
+                                min(goal_watch.bg.box_half_length_m - 0.2, other))
+                    pose = bp.return_pose(box_pose, goal_watch.bg.goal_xy, other, goal_watch.bg)
+                    actions.put(lambda s, n=name, p=pose: _place(s, n, p))
+                    if target.proc is None or target.proc.poll() is not None:
+                        _start_robot(target, robot_args(name), rec.run.log_file(f"robot-{name}"))
+                    assert target.proc is not None
+                    rec.event(now, ev.ROBOT_SWITCH_ON, robot=name, x=round(pose[0], 3),
+                              y=round(pose[1], 3), yaw=round(pose[2], 3), pid=target.proc.pid)
                 elif action == "kill":
                     pid = target.proc.pid if target.proc is not None else None
                     _stop_robot(target, kill=True)
@@ -320,8 +423,9 @@ def run_experiment(
             reason = "server-error"
         # tasks still open when the run ends fail with a reason: one terminal state each
         end = sim_now()
+        end_why = "run ended: box at the goal" if goal_outcome == "reached" else "run ended"
         for task_id in node.auctioneer.open_tasks():
-            node.auctioneer.cancel(task_id, end, "run ended")
+            node.auctioneer.cancel(task_id, end, end_why)
         node.step(0.0)
         pids = {"runner": os.getpid()}
         pids.update({f"robot-{n}": rp.proc.pid for n, rp in robots.items()
@@ -368,4 +472,8 @@ def run_experiment(
     if any(problems.values()):
         click.echo(f"invariant broken: {problems}", err=True)
         return 3
+    goal = s.get("goal")
+    if goal is not None and goal.get("unachievable"):
+        click.echo(f"unachievable: {goal.get('unachievable_reason')}", err=True)
+        return 4
     return 0 if reason == "completed" else 1

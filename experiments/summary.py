@@ -124,6 +124,21 @@ def summarize(events: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
             battery_min = low if battery_min is None else min(battery_min, low)
 
     problems = terminal_state_problems(evs)
+    reached = next((e for e in evs if e["kind"] == ev.GOAL_REACHED), None)
+    unachievable = next((e for e in evs if e["kind"] == ev.GOAL_UNACHIEVABLE), None)
+    goal: dict[str, Any] | None = None
+    if reached is not None or unachievable is not None or (
+        run_start is not None and run_start.get("experiment") == "boxpush"
+    ):
+        goal = {
+            "reached": reached is not None,
+            "reached_t_s": round(float(reached["t"]), 3) if reached is not None else None,
+            "box_distance_m": reached.get("distance_m") if reached is not None else None,
+            "unachievable": unachievable is not None,
+            "unachievable_reason": unachievable.get("reason") if unachievable else None,
+            "switch_offs": kinds[ev.ROBOT_SWITCH_OFF],
+            "switch_ons": kinds[ev.ROBOT_SWITCH_ON],
+        }
     return {
         "schema": SCHEMA_VERSION,
         "experiment": run_start.get("experiment") if run_start else None,
@@ -145,6 +160,7 @@ def summarize(events: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
         "robot_failures": kinds[ev.ROBOT_FAILURE],
         "robot_restarts": kinds[ev.ROBOT_RESTART],
         "alarms": kinds[ev.ALARM],
+        "goal": goal,
         "lowest_battery_percent": battery_min,
         "messages": {
             "by_kind": dict(sorted(messages.items())),

@@ -6,9 +6,9 @@ An authenticated datagram is the plain JSON datagram with ``"h": "<64 hex digits
 
 so it stays one JSON object, and the tag covers the exact bytes of the plain datagram (no
 re-serialisation on the receiving side). Each sender numbers its datagrams; a `ReplayWindow`
-per receiver remembers, per sender, the highest sequence seen and which of the previous
-`window` numbers arrived, and rejects repeats and numbers older than the window. Sender ids are
-unique per transport instance (a restarted process gets a new one), so sequences start at 0.
+per receiver remembers, per sender instance (sender id + the nonce a transport draws when it opens),
+the highest sequence seen and which of the previous `window` numbers arrived, and rejects
+repeats and numbers older than the window; a restarted process is a new instance from 0.
 """
 
 from __future__ import annotations

@@ -7,9 +7,9 @@ the start of a task stage) reaches them through `Snapshot.mark`.
 
 from behaviors.basis.avoid import AvoidWithLaser, AvoidWithSonar
 from behaviors.basis.boxwatch import BoxAlignmentFromLaser, GoalFromCamera
-from behaviors.basis.colour import KeepDistanceToColour, VisualServoToColour
+from behaviors.basis.colour import KeepDistanceToColour, ViewOfEnd, VisualServoToColour
 from behaviors.basis.dock import DockAtCharger
-from behaviors.basis.motion import BackOff, Hold, TurnAbout
+from behaviors.basis.motion import BackOff, Cruise, Hold, TurnAbout
 from behaviors.basis.navigate import ServoToLocation, Wander
 from behaviors.basis.push import PushWithBumpers
 from behaviors.basis.watch import WatchForMotionWithLaser
@@ -19,6 +19,7 @@ __all__ = [
     "AvoidWithSonar",
     "BackOff",
     "BoxAlignmentFromLaser",
+    "Cruise",
     "DockAtCharger",
     "GoalFromCamera",
     "Hold",
@@ -26,6 +27,7 @@ __all__ = [
     "PushWithBumpers",
     "ServoToLocation",
     "TurnAbout",
+    "ViewOfEnd",
     "VisualServoToColour",
     "Wander",
     "WatchForMotionWithLaser",

@@ -118,3 +118,50 @@ class KeepDistanceToColour:
         if abs(bearing) > math.radians(45.0):
             speed = min(speed, 0.0)
         return Proposal(True, speed, turn, self.weight, "tracking", error)
+
+
+@dataclass(frozen=True, slots=True)
+class ViewOfEnd:
+    """Get a view of one end of a colour blob (a long box) before approaching it.
+
+    When that end is in view no more than `max_bearing_rad` off, raise "in-view" and stand
+    still. Otherwise (e.g. it is the far end of the box, or the box fills the image) back
+    straight away until the box is `min_range_m` away, then turn towards that end.
+    `aim_fraction` 0.5 asks for both ends in view.
+    """
+
+    colour: int
+    aim_fraction: float = 0.5
+    min_range_m: float = 0.5
+    max_bearing_rad: float = math.radians(25.0)
+    speed_mps: float = 0.2
+    max_turn_radps: float = 0.5
+    max_age_s: float = 0.5
+    weight: float = 0.7
+    name: str = "view-of-end"
+
+    @property
+    def max_speed_mps(self) -> float:
+        return self.speed_mps
+
+    def decide(self, snapshot: Snapshot, now: float) -> Proposal:
+        view = snapshot.camera
+        if view is None or now - view.time_s > self.max_age_s:
+            return INACTIVE
+        blob = view.largest(self.colour)
+        if blob is None:
+            # Too close to see it at all: back straight away.
+            return Proposal(True, -self.speed_mps, 0.0, self.weight, "", 0.0)
+        px = end_px(blob, self.aim_fraction, view.width_px)
+        bearing = 0.0 if px is None else view.bearing_of_px(px)
+        if px is not None and abs(bearing) <= self.max_bearing_rad:
+            return Proposal(True, 0.0, 0.0, self.weight, "in-view", bearing)
+        if blob.range_m < self.min_range_m or (px is None and self.aim_fraction == 0.5):
+            # Get room first, backing straight, so the approach is not too oblique.
+            return Proposal(True, -self.speed_mps, 0.0, self.weight, "", bearing)
+        if px is None:
+            # That end is beyond the image edge on its side: turn towards it.
+            turn = self.max_turn_radps if self.aim_fraction < 0.5 else -self.max_turn_radps
+            return Proposal(True, 0.0, turn, self.weight, "", 0.0)
+        return Proposal(True, 0.0, clamp(2.0 * bearing, self.max_turn_radps), self.weight, "",
+                        bearing)

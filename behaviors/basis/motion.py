@@ -76,3 +76,20 @@ class BackOff:
         if now - mark.time_s >= self.duration_s:
             return Proposal(True, 0.0, 0.0, 1.0, "backed-off", 0.0)
         return Proposal(True, -abs(self.speed_mps), self.turn_radps, 1.0, "", 0.0)
+
+
+@dataclass(frozen=True, slots=True)
+class Cruise:
+    """Drive straight ahead at `speed_mps` (always active; a low-priority default)."""
+
+    speed_mps: float = 0.2
+    weight: float = 0.5
+    name: str = "cruise"
+    max_turn_radps: float = 0.0
+
+    @property
+    def max_speed_mps(self) -> float:
+        return abs(self.speed_mps)
+
+    def decide(self, snapshot: Snapshot, now: float) -> Proposal:
+        return Proposal(True, self.speed_mps, 0.0, self.weight, "", 0.0)

@@ -8,7 +8,8 @@ and reports back with `progress()`, `complete()` and `fail()`. The agent execute
 time: it bids only while it holds no contract, and declines an award that arrives while busy.
 
 Bids are visible to every bidder: one that sees a better bid (by the auctioneer's rule) knows it
-lost and stops listening to that negotiation. A winner that hears no renewal for the
+has most likely lost (an `outbid` event) but keeps listening until the award, since the better
+bid may not have reached the auctioneer. A winner that hears no renewal for the
 announcement's `abandon_after_s` abandons the task. A renewal for a bid whose award got lost
 counts as the award. Replies to renewals of finished tasks repeat the final report, so a lost
 report is sent again.
@@ -114,12 +115,17 @@ class Bidder:
 
     @property
     def pending_bids(self) -> int:
-        """Bids sent whose auction has not yet closed for this bidder (won, lost or expired)."""
+        """Bids sent whose award has not been heard yet (nor given up on)."""
         return len(self._pending)
+
+    @property
+    def contending_bids(self) -> int:
+        """Pending bids that no better bid seen so far has beaten."""
+        return sum(1 for p in self._pending.values() if not p.lost)
 
     def interest(self) -> frozenset[str]:
         """Negotiation subjects this bidder must hear."""
-        subjects = {p.announce.negotiation for p in self._pending.values() if not p.lost}
+        subjects = {p.announce.negotiation for p in self._pending.values()}
         if self._contract is not None:
             subjects.add(self._contract.announce.negotiation)
         return frozenset(subjects)
@@ -129,7 +135,7 @@ class Bidder:
         if isinstance(message, Announce):
             return self._on_announce(message, now)
         if isinstance(message, Bid):
-            self._on_other_bid(message)
+            self._on_other_bid(message, now)
         elif isinstance(message, Award):
             return self._on_award(message, now)
         elif isinstance(message, Renew):
@@ -187,12 +193,13 @@ class Bidder:
         bid = Bid(announce.task_id, announce.attempt, self.agent_id, score)
         return [Outgoing(frozenset({announce.negotiation}), bid)]
 
-    def _on_other_bid(self, bid: Bid) -> None:
+    def _on_other_bid(self, bid: Bid, now: float) -> None:
         pending = self._pending.get((bid.task_id, bid.attempt))
-        if pending is None or bid.bidder == self.agent_id:
+        if pending is None or pending.lost or bid.bidder == self.agent_id:
             return
         if beats(bid.score, bid.bidder, pending.score, self.agent_id):
             pending.lost = True
+            self._emit(now, "outbid", bid.task_id, bid.attempt, by=bid.bidder, score=bid.score)
 
     def _on_award(self, award: Award, now: float) -> list[Outgoing]:
         key = (award.task_id, award.attempt)

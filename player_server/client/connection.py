@@ -178,7 +178,13 @@ class PlayerClient:
             self._lowat = lowat
 
     def _next(self, deadline: float | None, round_wait: bool = False) -> Message:
-        """The next decoded message from the server (blocking until ``deadline``).
+        """The next decoded message from the server (blocking until ``deadline``)."""
+        if not self._events:
+            self._fill(deadline, round_wait)
+        return self._events.popleft()
+
+    def _fill(self, deadline: float | None, round_wait: bool = False) -> None:
+        """Receive until at least one decoded message is queued in ``_events``.
 
         ``round_wait``: a PULL round was asked for and its ACK has not come yet. In
         lockstep the ACK arrives alone and the round only after the step; waking for the
@@ -187,31 +193,29 @@ class PlayerClient:
         ends returns what has arrived, so a lone reply still gets through in one slice.
         """
         events = self._events
-        while True:
-            if events:
-                ev = events.popleft()
-                if type(ev) is Message:
-                    return ev
-                assert isinstance(ev, Undecodable)
-                log.warning("skipping a message that does not decode: %s", ev.reason)
-                if ev.header.type in (_ACK, _NACK):
-                    return Message(ev.header, None)
-                continue
+        decoder = self._decoder
+        while not events:
             try:
-                decoded = self._decoder.events()
+                decoded = decoder.events()
             except FrameError as exc:
                 self.close()
                 raise PlayerConnectionError(f"unframeable stream from server: {exc}") from exc
             if decoded:
-                events.extend(decoded)
+                for ev in decoded:
+                    if type(ev) is Message:
+                        events.append(ev)
+                        continue
+                    assert isinstance(ev, Undecodable)
+                    log.warning("skipping a message that does not decode: %s", ev.reason)
+                    if ev.header.type in (_ACK, _NACK):
+                        events.append(Message(ev.header, None))
                 continue
             sock = self._sock
             if sock is None:
                 raise PlayerConnectionError("not connected")
             if deadline is not None and deadline - self._clock() <= 0:
                 raise PlayerTimeout("timed out waiting for the server")
-            self._set_lowat(sock, 1 if not round_wait or self._decoder.buffered
-                            else _ROUND_LOWAT)
+            self._set_lowat(sock, 1 if not round_wait or decoder.buffered else _ROUND_LOWAT)
             try:
                 # a blocking recv bounded by SO_RCVTIMEO slices: one system call per
                 # receive (a Python socket timeout would add a poll() to each), into a
@@ -226,7 +230,7 @@ class PlayerClient:
             if not n:
                 self.close()
                 raise PlayerConnectionError("the server closed the connection")
-            self._decoder.feed(self._rview[:n])
+            decoder.feed(self._rview[:n])
 
     def _deadline(self, timeout_s: float | None, default: float) -> float | None:
         t = default if timeout_s is None else timeout_s
@@ -260,6 +264,14 @@ class PlayerClient:
                         raise PlayerNack(interf, index, subtype, msg.body)
                     return msg.body
                 self._backlog.append(msg)
+
+    def clock(self) -> float:
+        """The client's clock (header timestamps of what it sends)."""
+        return self._clock()
+
+    def send_encoded(self, wire: bytes) -> None:
+        """Send one already encoded message (header and body), e.g. a prepacked CMD."""
+        self._send(wire)
 
     def command(self, interf: int, index: int, subtype: int, body: Any = None) -> None:
         """Send a CMD (never answered)."""
@@ -341,15 +353,19 @@ class PlayerClient:
             updated: list[Proxy] = []
             proxies = self.proxies
             got_data = synched = False
+            events = self._events
             while True:
                 if backlog:
                     msg = backlog.popleft()
-                elif ack_wait:
-                    wait = (ack_deadline if deadline is None or (
-                        ack_deadline is not None and ack_deadline < deadline) else deadline)
-                    msg = self._next(wait, True)
                 else:
-                    msg = self._next(deadline)
+                    if not events:
+                        if ack_wait:
+                            self._fill(ack_deadline if deadline is None or (
+                                ack_deadline is not None and ack_deadline < deadline)
+                                else deadline, True)
+                        else:
+                            self._fill(deadline)
+                    msg = events.popleft()
                 h = msg.header
                 t = h.type
                 if t == _DATA:

@@ -8,6 +8,7 @@ Angles in radians, distances in metres, times in simulation seconds.
 from __future__ import annotations
 
 import math
+import struct
 from typing import Any
 
 from player_server.client.proxy import Proxy
@@ -16,7 +17,14 @@ from player_server.protocol import constants as c
 from player_server.protocol import sensor_msgs as sm
 from player_server.protocol import simulation_msgs as simm
 from player_server.protocol.common import Pose2d, Pose3d
-from player_server.protocol.constants import Interface
+from player_server.protocol.constants import Interface, MsgType
+from player_server.protocol.errors import EncodeError
+from player_server.protocol.header import HEADER_STRUCT
+
+_CMD = int(MsgType.CMD)
+#: header + position2d CMD VEL body (pose2d velocity, motor state) in one struct
+_CMD_VEL = struct.Struct(HEADER_STRUCT.format + "dddI")
+_CMD_VEL_SIZE = _CMD_VEL.size - HEADER_STRUCT.size
 
 
 class Position2dProxy(Proxy):
@@ -65,8 +73,17 @@ class Position2dProxy(Proxy):
 
     def set_velocity(self, vx_mps: float, vyaw_radps: float, vy_mps: float = 0.0,
                      enable: bool = True) -> None:
-        self.command(c.PLAYER_POSITION2D_CMD_VEL,
-                     am.Position2dCmdVel(Pose2d(vx_mps, vy_mps, vyaw_radps), int(enable)))
+        # sent every tick by a controller: header and body packed in one go (the same
+        # bytes as encoding Position2dCmdVel(Pose2d(vx, vy, vyaw), enable))
+        client = self.client
+        try:
+            wire = _CMD_VEL.pack(0, 0, self.interf, self.index, _CMD, c.PLAYER_POSITION2D_CMD_VEL,
+                                 client.clock(), 0, _CMD_VEL_SIZE, vx_mps, vy_mps, vyaw_radps,
+                                 int(enable))
+        except struct.error as exc:
+            raise EncodeError(f"Position2dCmdVel: cannot encode ({vx_mps!r}, {vy_mps!r}, "
+                              f"{vyaw_radps!r}, {enable!r}): {exc}") from exc
+        client.send_encoded(wire)
 
     def stop(self) -> None:
         self.set_velocity(0.0, 0.0)

@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import struct
 from dataclasses import dataclass
 from typing import Any, Final
 
@@ -189,18 +190,21 @@ class Decoder:
 
     def _decode(self, header: Header, buf: bytearray, pos: int, end: int
                 ) -> Message | Undecodable:
-        # the body is decoded where it lies in the buffer (no copy); it must end exactly
-        # at the frame's end
+        # the body is decoded where it lies in the buffer (no copy) by the class's
+        # unwrapped decoder; it must end exactly at the frame's end
         key = (header[2], header[4], header[5])
-        decode = self._decoders.get(key)
+        entry = self._decoders.get(key)
         try:
-            if decode is None:
-                decode = self._decoders[key] = _body_decoder(*key)
-            body, stop = decode(buf, pos)
+            if entry is None:
+                entry = self._decoders[key] = _body_decoder(*key)
+            decode, name = entry
+            try:
+                body, stop = decode(buf, pos)
+            except (struct.error, UnicodeDecodeError, TypeError, ValueError) as exc:
+                raise DecodeError(f"{name}: {exc}") from exc
             if stop != end:
-                raise DecodeError(
-                    f"{lookup(*key).__name__}: {end - stop} unexpected trailing bytes"
-                    if stop < end else f"{lookup(*key).__name__}: body runs past its size")
+                raise DecodeError(f"{name}: {end - stop} unexpected trailing bytes"
+                                  if stop < end else f"{name}: body runs past its size")
         except (DecodeError, UnknownMessage) as exc:
             self.undecodable += 1
             reason = (
@@ -212,11 +216,14 @@ class Decoder:
         return _make_message(header, body)
 
 
-def _body_decoder(interf: int, msg_type: int, subtype: int) -> Any:
-    """``decode(buf, offset) -> (body, end)`` for one message kind (UnknownMessage if none)."""
+def _body_decoder(interf: int, msg_type: int, subtype: int) -> tuple[Any, str]:
+    """``(decode(buf, offset) -> (body, end), class name)`` for one message kind.
+
+    Raises UnknownMessage when the kind is not declared.
+    """
     cls = lookup(interf, msg_type, subtype)
     if cls is None:
         def no_body(buf: Any, offset: int) -> tuple[Any, int]:
             raise DecodeError(f"{interf}:{msg_type}:{subtype} takes no body")
-        return no_body
-    return cls.xdr_decode
+        return no_body, "none"
+    return cls.xdr_decode_raw, cls.__name__

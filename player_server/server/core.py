@@ -177,7 +177,7 @@ class ServerCore:
         )
 
     # -- input ----------------------------------------------------------------------------
-    def receive(self, session: Session, data: bytes) -> None:
+    def receive(self, session: Session, data: bytes | bytearray | memoryview) -> None:
         """Feed bytes from a client; handles every complete message."""
         if session.closing is not None:
             return
@@ -399,19 +399,20 @@ class ServerCore:
                 return r.replace
         return c.PLAYER_PLAYER_MSG_REPLACE_RULE_REPLACE
 
-    def _device_data(self, ep: Endpoint, key: tuple[int, int],
-                     driver: Driver) -> list[tuple[DataKey, bytes]]:
+    def _device_data(self, ep: Endpoint, key: tuple[int, int], driver: Driver,
+                     version: tuple[float, int] | None = None) -> list[tuple[DataKey, bytes]]:
         # data depends only on simulation state: the same tick and no request or command
         # handled since means the same bytes (several clients, or rounds while paused)
         ck = (id(ep), key[0], key[1])
-        version = (self._sim_time_s(), self._mutations)
+        if version is None:
+            version = (self._sim_time_s(), self._mutations)
         hit = self._cache.get(ck)
         if hit is not None and hit[0] == version:
             return hit[1]
         out: list[tuple[DataKey, bytes]] = []
         try:
             items = driver.data()
-            t = self._sim_time_s()
+            t = version[0]
             for subtype, body in items:
                 out.append(((key[0], key[1], _DATA, subtype), encode_message(
                     key[0], key[1], _DATA, subtype, body, timestamp=t, robot=ep.port)))
@@ -422,22 +423,24 @@ class ServerCore:
         return out
 
     def _round_items(self, s: Session) -> Iterable[tuple[DataKey, bytes]]:
+        version = (self._sim_time_s(), self._mutations)
+        ep = s.endpoint
         for key, driver in s.subs.items():
-            yield from self._device_data(s.endpoint, key, driver)
+            yield from self._device_data(ep, key, driver, version)
 
     def _try_round(self, s: Session) -> bool:
         """Send a pending PULL round if there is a newer round with data to send."""
         if not s.round_pending or s.last_round >= self.round_seq:
             return False
-        sent = 0
-        for dkey, wire in self._round_items(s):
-            if s.rules and self._rule(s, dkey) == c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE:
-                continue
-            s.queue.push_reply(wire)
-            sent += 1
-        if not sent:
+        rules = s.rules
+        wires = [wire for dkey, wire in self._round_items(s)
+                 if not rules or self._rule(s, dkey) != c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE]
+        if not wires:
             return False
-        s.queue.push_reply(_SYNCH_OK)
+        # the DATA (encoded once per tick and device, shared by every client) and the
+        # SYNCH leave as one queue entry, i.e. in the same write as what precedes them
+        wires.append(_SYNCH_OK)
+        s.queue.push_reply(b"".join(wires))
         s.round_pending = False
         s.last_round = self.round_seq
         s.counters.rounds += 1

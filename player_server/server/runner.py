@@ -70,6 +70,9 @@ class PlayerServer:
         self.error: BaseException | None = None
         self.ticks = 0
         self._drivers: list[Driver] = []
+        self._eager_step = False
+        #: ticks stepped right after the input that completed them (lockstep)
+        self._eager_steps = 0
 
     # -- lifecycle ----------------------------------------------------------------------------
     def start(self) -> PlayerServer:
@@ -138,13 +141,30 @@ class PlayerServer:
             core.publish()
             self.ticks += 1
 
+    def _after_input(self) -> None:
+        """Runs after a poll's input and before its output is written.
+
+        In lockstep at full speed, the REQ DATA that completes a tick steps the
+        simulation here, so that its ACK and the new round leave in one write and the
+        step does not wait for another pass of the loop.
+        """
+        self._paused_rounds()
+        core = self.core
+        if (self._eager_step and not self.sim.paused and not self._stop.is_set()
+                and core.lockstep_ready(self._clock())):
+            self._step_and_publish()
+            self._eager_steps += 1
+
     def _loop(self) -> None:
         core, tcp, sim = self.core, self.tcp, self.sim
         lockstep = core.config.lockstep
         period = self.interval_s / self.speedup if self.speedup > 0 else 0.0
         self._drivers = [d for ep in self.endpoints for d in ep.drivers.values()]
+        self._eager_step = lockstep and period == 0.0
         next_due = self._clock()
         while not self._stop.is_set():
+            if self._quit_reached():
+                return
             now = self._clock()
             due = period == 0.0 or now >= next_due
             ready = due and (core.lockstep_ready(now) if lockstep else True)
@@ -153,8 +173,7 @@ class PlayerServer:
             if ready:
                 self._step_and_publish()
                 tcp.flush()
-                if self.quit_time_s > 0 and sim.time_s >= self.quit_time_s - 1e-9:
-                    log.info("quit time %.3f s reached", self.quit_time_s)
+                if self._quit_reached():
                     return
                 if period:
                     next_due += period
@@ -165,4 +184,10 @@ class PlayerServer:
                 timeout = min(next_due - now, 0.1)
             else:
                 timeout = 0.05  # waiting for clients; their I/O wakes the selector
-            tcp.poll(timeout, self._paused_rounds)
+            tcp.poll(timeout, self._after_input)
+
+    def _quit_reached(self) -> bool:
+        if self.quit_time_s > 0 and self.sim.time_s >= self.quit_time_s - 1e-9:
+            log.info("quit time %.3f s reached", self.quit_time_s)
+            return True
+        return False

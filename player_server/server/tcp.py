@@ -41,6 +41,7 @@ class TcpFrontEnd:
         self._sel = selectors.DefaultSelector()
         self._listeners: list[socket.socket] = []
         self._conns: dict[int, _Conn] = {}
+        self._rview = memoryview(bytearray(_RECV_SIZE))
         self._wake_r, self._wake_w = socket.socketpair()
         self._wake_r.setblocking(False)
         self._wake_w.setblocking(False)
@@ -155,17 +156,19 @@ class TcpFrontEnd:
             log.info("client %s connected to %s (port %d)", peer, ep.name, ep.port)
 
     def _read(self, conn: _Conn) -> None:
+        view = self._rview
         try:
-            data = conn.sock.recv(_RECV_SIZE)
+            # into one buffer allocated once (the core's decoder copies what it keeps)
+            n = conn.sock.recv_into(view)
         except (BlockingIOError, InterruptedError):
             return
         except OSError as exc:
             self._drop(conn, f"read error: {exc}")
             return
-        if not data:
+        if not n:
             self._drop(conn, "closed by peer")
             return
-        self.core.receive(conn.session, data)
+        self.core.receive(conn.session, view[:n])
         if conn.session.closing is not None:
             self._drop(conn, conn.session.closing)
         elif not conn.session.round_pending:

@@ -14,21 +14,27 @@ import numpy as np
 from numpy.typing import NDArray
 
 from player_server.sim.readings import Blob
-from player_server.sim.sensing import WorldArrays
+from player_server.sim.world_arrays import WorldArrays
 from worlds import RobotSpec
 
 F64 = NDArray[np.float64]
 C128 = NDArray[np.complex128]
 _LIM = float(np.radians(89.0))
+# Edge angles are kept off +-90 deg on their outer side: left and top below +89 deg, right and
+# bottom above -89 deg (per row of the (4, n) edge arrays).
+_ANGLE_MIN = np.array([[-np.inf], [-_LIM], [-np.inf], [-_LIM]])
+_ANGLE_MAX = np.array([[_LIM], [np.inf], [_LIM], [np.inf]])
 
 
 @dataclass(frozen=True)
 class Frame:
-    """Robot poses at one tick: axle-centre position, heading, yaw (per robot)."""
+    """Robot poses at one tick: axle-centre position, heading, yaw, body-centre position
+    (per robot)."""
 
     pos: C128
     head: C128
     yaw: F64
+    body: C128
 
 
 @dataclass(frozen=True)
@@ -140,6 +146,10 @@ class BlobPlan:
     dz_top: F64
     dz_bottom: F64
     circle: NDArray[np.bool_]
+    half_size: F64  # (4, pairs): width/2, width/2, height/2, height/2 (pixel edge origins)
+    edge_min: F64  # (4, pairs): 0, -inf, 0, -inf
+    edge_max: F64  # (4, pairs): inf, width - 1, inf, height - 1
+    meta: NDArray[np.int64]  # (3, pairs): camera slot, channel, colour
 
     @staticmethod
     def build(cams: tuple[int, ...], wa: WorldArrays) -> BlobPlan:
@@ -147,6 +157,8 @@ class BlobPlan:
         slot, target = np.nonzero(ch >= 0)
         robot = np.array(cams, dtype=np.int64)[slot] if cams else slot
         cam = wa.cam[robot]
+        zero = np.zeros(slot.size)
+        inf = np.full(slot.size, np.inf)
         return BlobPlan(
             cams=cams,
             slot=slot,
@@ -169,6 +181,10 @@ class BlobPlan:
             dz_top=wa.t_z_top[target] - cam[:, 2],
             dz_bottom=wa.t_z_bottom[target] - cam[:, 2],
             circle=wa.t_radius[target] > 0,
+            half_size=np.stack([cam[:, 6] / 2, cam[:, 6] / 2, cam[:, 7] / 2, cam[:, 7] / 2]),
+            edge_min=np.stack([zero, -inf, zero, -inf]),
+            edge_max=np.stack([inf, cam[:, 6] - 1, inf, cam[:, 7] - 1]),
+            meta=np.stack([slot, ch[slot, target], wa.t_colour[target]]).astype(np.int64),
         )
 
     def pending(self, frame: Frame, t_pos: C128, t_head: C128, pan: F64, zoom: F64,
@@ -209,14 +225,11 @@ class BlobPlan:
         idx = p.pair[visible]
         if idx.size:
             r = self.robot[idx]
-            w, h = self.width[idx], self.height[idx]
-            fov = np.where(zoom[r] > 0, zoom[r], self.fov[idx])
-            f = (w / 2) / np.tan(fov / 2)
+            zr = zoom[r]
+            fov = np.where(zr > 0, zr, self.fov[idx])
+            f = self.half_size[0, idx] / np.tan(fov / 2)
             b, half = p.bearing[visible], p.half[visible]
             near = p.near[visible]
-            # Horizontal: the angular edges (left is the larger angle, hence smaller x).
-            left = np.maximum(np.ceil(w / 2 - f * np.tan(np.minimum(b + half, _LIM))), 0)
-            right = np.minimum(np.floor(w / 2 - f * np.tan(np.maximum(b - half, -_LIM))), w - 1)
             # Vertical: the top edge is the top at the near side when above the camera, else
             # at the far side; the bottom edge likewise.
             cos_b = np.maximum(np.cos(b), 1e-3)
@@ -224,18 +237,31 @@ class BlobPlan:
             far_d = (2.0 * p.dist[visible] - near) * cos_b
             dz_t, dz_b = self.dz_top[idx], self.dz_bottom[idx]
             tilt_all = self.tilt[idx] + tilt[r]
-            e_top = np.arctan2(dz_t, np.where(dz_t > 0, near_d, far_d)) - tilt_all
-            e_bot = np.arctan2(dz_b, np.where(dz_b < 0, near_d, far_d)) - tilt_all
-            top = np.maximum(np.ceil(h / 2 - f * np.tan(np.minimum(e_top, _LIM))), 0)
-            bottom = np.minimum(np.floor(h / 2 - f * np.tan(np.maximum(e_bot, -_LIM))), h - 1)
-            area = np.maximum(right - left + 1, 0) * np.maximum(bottom - top + 1, 0)
-            ok = area >= self.min_area[idx]
-            rows = zip(self.slot[idx][ok].tolist(), self.channel[idx][ok].tolist(),
-                       self.colour[idx][ok].tolist(), area[ok].tolist(), left[ok].tolist(),
-                       right[ok].tolist(), top[ok].tolist(), bottom[ok].tolist(),
-                       near[ok].tolist(), strict=True)
-            for sl, ch, col, ar, lf, rt, tp, bt, rng in rows:
-                li, ri, ti, bi = int(lf), int(rt), int(tp), int(bt)
-                out[sl].append(Blob(ch, col, int(ar), (li + ri) // 2, (ti + bi) // 2, li, ri, ti,
-                                    bi, rng))
+            # The four edge angles: left, right (the larger angle is the smaller x), top,
+            # bottom; then pixel edges, rounded inwards and clipped to the image.
+            ang = np.empty((4, idx.size))
+            np.add(b, half, out=ang[0])
+            np.subtract(b, half, out=ang[1])
+            np.arctan2(dz_t, np.where(dz_t > 0, near_d, far_d), out=ang[2])
+            np.arctan2(dz_b, np.where(dz_b < 0, near_d, far_d), out=ang[3])
+            ang[2:] -= tilt_all
+            np.clip(ang, _ANGLE_MIN, _ANGLE_MAX, out=ang)
+            edge = np.tan(ang)
+            edge *= f
+            np.subtract(self.half_size[:, idx], edge, out=edge)
+            np.ceil(edge[0::2], out=edge[0::2])
+            np.floor(edge[1::2], out=edge[1::2])
+            np.clip(edge, self.edge_min[:, idx], self.edge_max[:, idx], out=edge)
+            span = edge[1::2] - edge[0::2]
+            span += 1
+            np.maximum(span, 0, out=span)
+            area = span[0] * span[1]
+            sel = np.flatnonzero(area >= self.min_area[idx])
+            if sel.size:
+                vals = np.vstack([edge[:, sel], area[sel], near[sel]]).T.tolist()
+                meta = self.meta[:, idx[sel]].T.tolist()
+                for (sl, ch, col), (lf, rt, tp, bt, ar, rng) in zip(meta, vals, strict=True):
+                    li, ri, ti, bi = int(lf), int(rt), int(tp), int(bt)
+                    out[sl].append(Blob(ch, col, int(ar), (li + ri) // 2, (ti + bi) // 2, li,
+                                        ri, ti, bi, rng))
         return [tuple(sorted(bl, key=lambda b: (b.id, -b.area, b.x))) for bl in out]

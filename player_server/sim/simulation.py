@@ -24,7 +24,7 @@ from player_server.sim.battery import Battery
 from player_server.sim.bodies import BodyIds, build_world
 from player_server.sim.drive import integrate, ramp, to_robot_frame, wrap_angle
 from player_server.sim.fastsense import BlobPlan, Frame, RangePlan
-from player_server.sim.raycast import Circles, RayCaster, Scene2D, write_rectangle_matrix
+from player_server.sim.footprint_cast import FootprintCaster, Footprints
 from player_server.sim.readings import (
     Blob,
     BodyPose,
@@ -36,7 +36,7 @@ from player_server.sim.readings import (
     SceneSnapshot,
     TrackedObject,
 )
-from player_server.sim.sensing import WorldArrays
+from player_server.sim.world_arrays import WorldArrays
 from worlds import RobotSpec, WorldSpec
 
 log = logging.getLogger(__name__)
@@ -139,7 +139,7 @@ class Simulation:
         self.timings = Timings()
         self._client = pb.connect(pb.DIRECT)
         self._closed = False
-        self._caster = RayCaster()
+        self._caster = FootprintCaster()
         self._robot_index = {r.name: i for i, r in enumerate(spec.robots)}
         self._active_ranges: set[tuple[int, str]] = set()
         self._active_cameras: set[int] = set()
@@ -163,6 +163,7 @@ class Simulation:
         seeds = np.random.SeedSequence(self.seed).spawn(len(self.spec.robots) + 1)
         self._noise_seed = int(seeds[-1].generate_state(1)[0])
         self._robots: list[_Robot] = []
+        self._has_device: dict[tuple[str, str], _Robot] = {}
         for i, r in enumerate(self.spec.robots):
             st = _Robot(index=i, spec=r, body=self._ids.robots[r.name],
                         rng=np.random.default_rng(seeds[i]))
@@ -187,6 +188,10 @@ class Simulation:
         self._obj_visible = np.ones(len(self.spec.objects), dtype=bool)
         self._blob_hidden = np.zeros(len(self.spec.objects), dtype=bool)
         self._marker_row = {m.name: i for i, m in enumerate(self.spec.markers)}
+        wa = self._arrays
+        # Footprint radii and tops: rectangles, then circles (all objects visible).
+        self._fp_radius = np.concatenate([wa.fp_rect_radius, wa.fp_circle_radius])
+        self._fp_top = np.concatenate([wa.fp_rect_top, wa.fp_circle_top])
         self._range_plans: dict[tuple[tuple[int, str], ...], RangePlan] = {}
         self._blob_plans: dict[tuple[int, ...], BlobPlan] = {}
         self._has_ptz = any(st.ptz is not None for st in self._robots)
@@ -197,12 +202,6 @@ class Simulation:
             [complex(m.x, m.y) for m in self.spec.markers]
             + [complex(c.x, c.y) for c in self.spec.chargers], dtype=np.complex128)
         self._fixed_target_head = np.ones(len(self._fixed_target_pos), dtype=np.complex128)
-        # Face matrix of the 2-D scene: static faces once, moving rectangles rewritten per tick.
-        wa = self._arrays
-        ns = wa.static_top.size
-        self._w_buf = np.zeros((5, 4, ns + 4 * wa.rect_top.size))
-        self._w_buf[:, :, :ns] = wa.static_w
-        self._w_top = np.concatenate([wa.static_top, np.tile(wa.rect_top, 4)])
         self._body_kind: dict[str, tuple[str, int]] = {}
         for r in self.spec.robots:
             self._body_kind[r.name] = ("robot", self._ids.robots[r.name])
@@ -361,9 +360,12 @@ class Simulation:
             raise KeyError(f"no robot named {name!r}") from None
 
     def _device(self, name: str, device: str) -> _Robot:
-        st = self._robot(name)
-        if getattr(st.spec.devices, device) is None:
-            raise ValueError(f"robot {name!r} has no {device}")
+        st = self._has_device.get((name, device))
+        if st is None:
+            st = self._robot(name)
+            if getattr(st.spec.devices, device) is None:
+                raise ValueError(f"robot {name!r} has no {device}")
+            self._has_device[(name, device)] = st
         return st
 
     def get_pose(self, name: str) -> tuple[float, float, float]:
@@ -461,46 +463,60 @@ class Simulation:
     # ---- per-tick arrays ------------------------------------------------------------------
     def _dynamic_poses(self) -> NDArray[np.float64]:
         """(n_boxes + n_objects, 3) poses, boxes first."""
+        return self._dynamic()[0]
 
-        def compute() -> NDArray[np.float64]:
+    def _dynamic(self) -> tuple[NDArray[np.float64], NDArray[np.complex128],
+                                NDArray[np.complex128]]:
+        """Boxes' and objects' poses (n, 3), positions x + iy and headings exp(i yaw), read
+        from PyBullet in one pass per tick."""
+
+        def compute() -> tuple[NDArray[np.float64], NDArray[np.complex128],
+                               NDArray[np.complex128]]:
             cid = self._client
             get = pb.getBasePositionAndOrientation
-            rows = []
+            rows, pos, head = [], [], []
             for bid in self._dyn_ids:
-                pos, q = get(bid, physicsClientId=cid)
-                rows.append((pos[0], pos[1], _yaw_of(q)))
-            return np.array(rows, dtype=np.float64).reshape(-1, 3)
+                p, q = get(bid, physicsClientId=cid)
+                yaw = _yaw_of(q)
+                rows.append((p[0], p[1], yaw))
+                pos.append(complex(p[0], p[1]))
+                head.append(complex(math.cos(yaw), math.sin(yaw)))
+            return (np.array(rows, dtype=np.float64).reshape(-1, 3),
+                    np.array(pos, dtype=np.complex128), np.array(head, dtype=np.complex128))
 
-        return self._cached("dynamic_poses", compute)  # type: ignore[return-value]
+        return self._cached("dynamic", compute)  # type: ignore[return-value]
 
     def _dyn_pose(self, name: str) -> tuple[float, float, float]:
         x, y, yaw = self._dynamic_poses()[self._dyn_row[name]].tolist()
         return (x, y, yaw)
 
-    def _scene(self) -> Scene2D:
-        def compute() -> Scene2D:
+    def _footprints(self) -> Footprints:
+        """This tick's footprints: static obstacles, robots' bodies and boxes (rectangles),
+        static cylinders and the objects not held or stored (circles)."""
+
+        def compute() -> Footprints:
             wa = self._arrays
             frame = self._frame()
-            body = frame.pos + frame.head * self._robot_offset
-            dp = self._dynamic_poses()
+            _, pos, head = self._dynamic()
             nb = wa.n_boxes
-            ns = wa.static_top.size
-            write_rectangle_matrix(
-                self._w_buf[:, :, ns:],
-                np.concatenate([body.real, dp[:nb, 0]]),
-                np.concatenate([body.imag, dp[:nb, 1]]),
-                np.concatenate([frame.yaw, dp[:nb, 2]]),
-                wa.rect_half_x, wa.rect_half_y,
-            )
             vis = self._obj_visible
-            objs = dp[nb:]
-            circles = Circles.concat([
-                wa.static_circles,
-                Circles(objs[vis, 0], objs[vis, 1], wa.obj_radius[vis], wa.obj_top[vis]),
-            ])
-            return Scene2D(self._w_buf, self._w_top, circles)
+            if vis.all():
+                circles, c_radius, c_top = pos[nb:], self._fp_radius, self._fp_top
+            else:
+                keep = np.concatenate([np.ones(wa.static_circle_centre.size, dtype=bool), vis])
+                circles = pos[nb:][vis]
+                c_radius, c_top = self._fp_radius[keep], self._fp_top[keep]
+            return Footprints(
+                centre=np.concatenate([wa.static_rect_centre, frame.body, pos[:nb],
+                                       wa.static_circle_centre, circles]),
+                head_conj=np.concatenate([wa.static_rect_head, frame.head,
+                                          head[:nb]]).conjugate(),
+                half=wa.fp_half,
+                radius=c_radius,
+                top=c_top,
+            )
 
-        return self._cached("scene", compute)  # type: ignore[return-value]
+        return self._cached("footprints", compute)  # type: ignore[return-value]
 
     def _cameras(self, idx: list[int]) -> blobmod.Cameras:
         frame = self._frame()
@@ -529,13 +545,17 @@ class Simulation:
 
     def _frame(self) -> Frame:
         def compute() -> Frame:
-            pos, head, yaw = [], [], []
+            pos, head, yaw, body = [], [], [], []
             for st in self._robots:
-                pos.append(complex(st.x, st.y))
-                head.append(complex(math.cos(st.yaw), math.sin(st.yaw)))
+                h = complex(math.cos(st.yaw), math.sin(st.yaw))
+                p = complex(st.x, st.y)
+                pos.append(p)
+                head.append(h)
                 yaw.append(st.yaw)
+                body.append(p + h * st.spec.body.offset_x_m)
             return Frame(np.array(pos, dtype=np.complex128),
-                         np.array(head, dtype=np.complex128), np.array(yaw))
+                         np.array(head, dtype=np.complex128), np.array(yaw),
+                         np.array(body, dtype=np.complex128))
 
         return self._cached("frame", compute)  # type: ignore[return-value]
 
@@ -552,10 +572,9 @@ class Simulation:
         return pan, tilt, zoom
 
     def _target_poses(self, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
-        dp = self._dynamic_poses()
-        body = frame.pos + frame.head * self._robot_offset
-        t_pos = np.concatenate([body, dp[:, 0] + 1j * dp[:, 1], self._fixed_target_pos])
-        t_head = np.concatenate([frame.head, np.exp(1j * dp[:, 2]), self._fixed_target_head])
+        _, pos, head = self._dynamic()
+        t_pos = np.concatenate([frame.body, pos, self._fixed_target_pos])
+        t_head = np.concatenate([frame.head, head, self._fixed_target_head])
         return t_pos, t_head
 
     def _sense_fast(self, rkeys: tuple[tuple[int, str], ...], cams: list[int],
@@ -596,10 +615,9 @@ class Simulation:
         if origins:
             o = np.concatenate(origins) if len(origins) > 1 else origins[0]
             d = np.concatenate(dirs) if len(dirs) > 1 else dirs[0]
-            args = (o.real, o.imag, d.real, d.imag,
-                    np.concatenate(maxr) if len(maxr) > 1 else maxr[0],
-                    np.concatenate(zs) if len(zs) > 1 else zs[0], self._scene())
-            hits = self._caster.cast_scene(*args)
+            hits = self._caster.cast(o, d, np.concatenate(maxr) if len(maxr) > 1 else maxr[0],
+                                     np.concatenate(zs) if len(zs) > 1 else zs[0],
+                                     self._footprints(), self._arrays.room)
         t2 = self._now()
         if plan is not None:
             cache["ranges"].update(plan.split(hits[:n_range]))

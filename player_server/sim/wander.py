@@ -39,14 +39,12 @@ class Wanderer:
     _sector_key: int = -1
     _sector_cache: tuple = ()
     _sector_bearings: object = None
+    _sector_ints: tuple[list[int], ...] = ()
 
     def decide(self, bearings: NDArray[np.float64], ranges: NDArray[np.floating]) -> tuple[
         float, float
     ]:
-        front_i, left_i, right_i = self._sectors(bearings)
-        front_min = float(ranges[front_i].min()) if front_i.size else math.inf
-        left_min = float(ranges[left_i].min()) if left_i.size else math.inf
-        right_min = float(ranges[right_i].min()) if right_i.size else math.inf
+        front_min, left_min, right_min = self._minima(bearings, ranges)
         if front_min < self.stop_m:
             if self._spin == 0.0:
                 self._spin = 1.0 if left_min >= right_min else -1.0
@@ -67,11 +65,8 @@ class Wanderer:
         ahead; stops on arrival (within 0.1 m)."""
         if goal_m < 0.1:
             return 0.0, 0.0
-        front_i, left_i, right_i = self._sectors(bearings)
-        front_min = float(ranges[front_i].min()) if front_i.size else math.inf
+        front_min, left_min, right_min = self._minima(bearings, ranges)
         if front_min < self.stop_m and front_min < goal_m:
-            left_min = float(ranges[left_i].min()) if left_i.size else math.inf
-            right_min = float(ranges[right_i].min()) if right_i.size else math.inf
             if self._spin == 0.0:
                 self._spin = 1.0 if left_min >= right_min else -1.0
             return 0.0, self._spin * self.turn_radps
@@ -79,6 +74,19 @@ class Wanderer:
         w = max(-self.turn_radps, min(self.turn_radps, 1.5 * goal_bearing))
         v = min(self.cruise_mps, 0.5 * goal_m) * max(0.0, math.cos(goal_bearing))
         return v, w
+
+    def _minima(self, bearings: NDArray[np.float64],
+                ranges: NDArray[np.floating]) -> tuple[float, float, float]:
+        """The nearest range in the front, left and right sectors (inf for an empty one),
+        in plain Python: a handful of readings cost less than numpy calls on them."""
+        r = ranges.tolist()
+        return tuple(min([r[i] for i in sector], default=math.inf)  # type: ignore[return-value]
+                     for sector in self._sector_lists(bearings))
+
+    def _sector_lists(self, bearings: NDArray[np.float64]) -> tuple[list[int], ...]:
+        if self._sector_key != id(bearings) or not self._sector_ints:
+            self._sector_ints = tuple(ix.tolist() for ix in self._sectors(bearings))
+        return self._sector_ints
 
     def _sectors(self, bearings: NDArray[np.float64]) -> tuple[
         NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]

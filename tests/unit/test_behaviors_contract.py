@@ -34,6 +34,9 @@ BEHAVIOURS = [
     basis.TurnAbout(),
     basis.BackOff(),
     basis.Hold(),
+    basis.Cruise(speed_mps=0.15),
+    basis.ViewOfEnd(RED, aim_fraction=0.2),
+    basis.ViewOfEnd(GREEN),
 ]
 
 

@@ -204,15 +204,20 @@ def test_bidder_bids_once_per_round_and_only_when_capable_and_free() -> None:
     assert Robot("r9", None).bidder.handle(ann, 0.0) == []  # not capable
 
 
-def test_seeing_a_better_bid_means_lost() -> None:
+def test_seeing_a_better_bid_means_probably_lost_but_the_award_decides() -> None:
     auctioneer = Auctioneer("user")
     _, ann = announce_of(auctioneer)
     robot = Robot("r2", 2.0)
     robot.bidder.handle(ann, 0.0)
     robot.bidder.handle(Bid(ann.task_id, 1, "r3", 1.0), 0.01)
-    assert robot.bidder.interest() == {ann.negotiation}
+    assert robot.bidder.contending_bids == 1
     robot.bidder.handle(Bid(ann.task_id, 1, "r1", 2.0), 0.02)  # same score, smaller id
-    assert robot.bidder.interest() == frozenset()
+    assert robot.bidder.contending_bids == 0 and robot.bidder.pending_bids == 1
+    assert [e.kind for e in robot.events] == ["bid", "outbid"]
+    # r1's bid never reached the auctioneer: r2 still listens and takes the award
+    assert robot.bidder.interest() == {ann.negotiation}
+    robot.bidder.handle(Award(ann.task_id, 1, "r2", 2.0, 2, ""), 0.5)
+    assert robot.started and robot.bidder.pending_bids == 0
 
 
 def test_winner_runs_answers_renewals_and_reports() -> None:
@@ -273,6 +278,7 @@ def test_award_to_someone_else_frees_the_bidder() -> None:
     _, ann = announce_of(auctioneer)
     robot = Robot("r2", 1.0)
     robot.bidder.handle(ann, 0.0)
+    assert robot.bidder.interest() == {ann.negotiation}
     robot.bidder.handle(Award(ann.task_id, 1, "r1", 3.0, 2, ""), 0.5)
     assert robot.bidder.interest() == frozenset() and not robot.started
     # pending bids also expire on their own

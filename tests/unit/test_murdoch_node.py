@@ -148,3 +148,30 @@ def test_cancel_revokes_the_winner_and_reports_failed() -> None:
     assert not robot.busy and stopped == ["revoked: no longer needed"]
     (outcome,) = s.outcomes
     assert (outcome.status, outcome.reason) == ("failed", "no longer needed")
+
+
+def test_a_restarted_requester_gets_fresh_task_ids() -> None:
+    s = Setup()
+    started: list[Contract] = []
+    robot = s.robot("r1", {"camera"}, 1.0, on_start=started.append)
+    first = Node(s.bus.endpoint("boss"), s.clock, agent_id="boss",
+                 on_outcome=s.outcomes.append)
+    s.nodes.append(first)
+    old = first.announce(quick("track", {"camera"}, duration_s=0.0))
+    s.run(0.5)
+    robot.complete(started[-1].task_id)
+    s.run(0.2)
+    first.close()
+    first.transport.close()
+    s.nodes.remove(first)
+    again = Node(s.bus.endpoint("boss"), s.clock, agent_id="boss",
+                 on_outcome=s.outcomes.append)
+    s.nodes.append(again)
+    new = again.announce(quick("track", {"camera"}, duration_s=0.0))
+    s.run(0.5)
+    robot.complete(started[-1].task_id)
+    s.run(0.2)
+    assert [c.task_id for c in started] == [old, new]
+    assert new != old and new.startswith("boss.") and old.startswith("boss.")
+    assert [o.status for o in s.outcomes] == ["completed", "completed"]
+    assert not robot.busy

@@ -74,11 +74,14 @@ def test_every_auction_message_round_trips(message: Any) -> None:
 
 
 def test_wire_layout_is_the_documented_one() -> None:
-    data = AUCTION_CODEC.encode_frame("r2", 9, frozenset({"b", "a"}), Bid("t", 1, "r2", 2.5))
+    data = AUCTION_CODEC.encode_frame(
+        "r2", 9, frozenset({"b", "a"}), Bid("t", 1, "r2", 2.5), instance="5e1f"
+    )
     assert json.loads(data) == {
         "v": 1,
         "k": "bid",
         "s": "r2",
+        "i": "5e1f",
         "q": 9,
         "t": ["a", "b"],
         "b": {"task_id": "t", "attempt": 1, "bidder": "r2", "score": 2.5},
@@ -101,6 +104,7 @@ BAD = [
     (bid_frame(q=-1), "malformed"),
     (bid_frame(q=True), "malformed"),
     (bid_frame(s=""), "malformed"),
+    (bid_frame(i=7), "malformed"),
     (bid_frame(t=["Not A Subject"]), "malformed"),
     (bid_frame(t="task.x"), "malformed"),
     (bid_frame(k="mystery"), "unknown_kind"),
@@ -188,3 +192,13 @@ def test_keyed_endpoint_rejects_unsigned_forged_and_replayed_datagrams() -> None
         receiver.receive(data)
     assert [e.message.score for e in sub.drain()] == [1.0]
     assert receiver.counters.dropped == {"auth_failed": 2, "replayed": 1}
+
+
+def test_a_restarted_sender_is_a_new_instance_for_the_replay_window() -> None:
+    key = TeamKey("team-secret-1")
+    receiver = EndpointCore("me", AUCTION_CODEC, lambda: 0.0, key=key)
+    sub = receiver.subscribe({"task.x"})
+    for run in ("aaaa", "bbbb"):  # the same robot name, before and after a restart
+        sender = EndpointCore("r2", AUCTION_CODEC, lambda: 0.0, key=key, instance=run)
+        receiver.receive(sender.encode({"task.x"}, Bid("x", 1, "r2", 1.0)))
+    assert len(sub.drain()) == 2 and receiver.counters.dropped == {}

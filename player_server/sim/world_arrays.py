@@ -1,6 +1,7 @@
 """Constant arrays derived once from a world spec for vectorised sensing (pure numpy).
 
-Index conventions: moving rectangles are the robots' bodies then the boxes; blob targets are
+Index conventions: footprint rectangles are the static box obstacles, then the robots' bodies,
+then the boxes; footprint circles are the static cylinders, then the objects; blob targets are
 robots, boxes, objects, markers, chargers in world-file order.
 """
 
@@ -12,7 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from player_server.sim.blobs import Cameras
-from player_server.sim.raycast import Circles, Faces, arena_faces, face_matrix, rectangle_faces
+from player_server.sim.footprint_cast import Room
 from worlds import WorldSpec
 
 F64 = NDArray[np.float64]
@@ -27,10 +28,17 @@ class WorldArrays:
     n_robots: int
     n_boxes: int
     n_objects: int
-    static_w: F64
-    static_top: F64
-    static_circles: Circles
-    rect_half_x: F64
+    room: Room
+    n_static_rects: int
+    static_rect_centre: NDArray[np.complex128]
+    static_rect_head: NDArray[np.complex128]
+    static_circle_centre: NDArray[np.complex128]
+    fp_half: NDArray[np.complex128]  # every footprint rectangle: hx + i hy
+    fp_rect_radius: F64
+    fp_rect_top: F64
+    fp_circle_radius: F64  # static cylinders then objects
+    fp_circle_top: F64
+    rect_half_x: F64  # robots then boxes
     rect_half_y: F64
     rect_top: F64
     obj_radius: F64
@@ -51,17 +59,6 @@ class WorldArrays:
         a = spec.arena
         boxes_static = [o for o in a.obstacles if o.shape == "box"]
         cyl_static = [o for o in a.obstacles if o.shape == "cylinder"]
-        static = Faces.concat([
-            arena_faces(a.half_x_m, a.half_y_m, a.wall_height_m),
-            rectangle_faces(
-                _arr([o.pose.x for o in boxes_static]),
-                _arr([o.pose.y for o in boxes_static]),
-                _arr([o.pose.yaw for o in boxes_static]),
-                _arr([o.size_x_m / 2 for o in boxes_static]),
-                _arr([o.size_y_m / 2 for o in boxes_static]),
-                _arr([o.height_m for o in boxes_static]),
-            ),
-        ])
         robots, boxes, objects = spec.robots, spec.boxes, spec.objects
         n_t = len(robots) + len(boxes) + len(objects) + len(spec.markers) + len(spec.chargers)
         zeros = [0.0] * n_t
@@ -96,18 +93,26 @@ class WorldArrays:
                 cam[i] = (c.pose.x, c.pose.y, c.pose.z, c.pose.yaw, c.tilt_rad, c.fov_h_rad,
                           c.width_px, c.height_px, c.max_range_m,
                           bf.min_area_px if bf is not None else 1)
+        fp_hx = _arr([o.size_x_m / 2 for o in boxes_static] + half_x[:len(robots) + len(boxes)])
+        fp_hy = _arr([o.size_y_m / 2 for o in boxes_static] + half_y[:len(robots) + len(boxes)])
         return WorldArrays(
             n_robots=len(robots),
             n_boxes=len(boxes),
             n_objects=len(objects),
-            static_w=face_matrix(static),
-            static_top=static.top,
-            static_circles=Circles(
-                _arr([o.pose.x for o in cyl_static]),
-                _arr([o.pose.y for o in cyl_static]),
-                _arr([o.radius_m for o in cyl_static]),
-                _arr([o.height_m for o in cyl_static]),
-            ),
+            room=Room(a.half_x_m, a.half_y_m, a.wall_height_m),
+            n_static_rects=len(boxes_static),
+            static_rect_centre=np.array([complex(o.pose.x, o.pose.y) for o in boxes_static],
+                                        dtype=np.complex128),
+            static_rect_head=np.exp(1j * _arr([o.pose.yaw for o in boxes_static])),
+            static_circle_centre=np.array([complex(o.pose.x, o.pose.y) for o in cyl_static],
+                                          dtype=np.complex128),
+            fp_half=fp_hx + 1j * fp_hy,
+            fp_rect_radius=np.hypot(fp_hx, fp_hy),
+            fp_rect_top=_arr([o.height_m for o in boxes_static]
+                             + [r.body.height_m for r in robots] + [b.size_z_m for b in boxes]),
+            fp_circle_radius=_arr([o.radius_m for o in cyl_static]
+                                  + [o.radius_m for o in objects]),
+            fp_circle_top=_arr([o.height_m for o in cyl_static] + [o.height_m for o in objects]),
             rect_half_x=_arr([r.body.length_m / 2 for r in robots]
                              + [b.size_x_m / 2 for b in boxes]),
             rect_half_y=_arr([r.body.width_m / 2 for r in robots]

@@ -1,0 +1,142 @@
+"""The box-pushing domain's referee and stage hands (pure geometry plus serving-thread hooks).
+
+`GoalWatch` measures the box's distance to the goal marker from the simulation's ground
+truth (the robots never see it); the run ends when the box is within `radius_m`. `SimActions`
+queues changes to the simulation (moving a switched-off pusher out of the way, placing it
+back behind the other end of the box) and applies them on the serving thread, between steps.
+`return_pose` and `park_pose` say where.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections import deque
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from typing import Any
+
+from worlds import WorldSpec
+
+# How far behind the box's back face a returning pusher is placed (robot centre), metres.
+RETURN_GAP_M = 0.9
+# Default goal radius: the box counts as arrived when its centre is this close to the goal
+# marker. The watcher stops about its own arrival range short of the marker and leads the
+# box from `lead_m` behind, so the box cannot come much closer than about 2 m.
+GOAL_RADIUS_M = 2.5
+
+
+@dataclass(frozen=True, slots=True)
+class BoxGoal:
+    box: str
+    goal: str
+    goal_xy: tuple[float, float]
+    box_half_depth_m: float
+    box_half_length_m: float
+
+
+def box_goal(world: WorldSpec) -> BoxGoal:
+    """The largest box and the first marker of a box-pushing world."""
+    if not world.boxes or not world.markers:
+        raise ValueError(f"world {world.name!r} needs a box and a goal marker for boxpush")
+    box = max(world.boxes, key=lambda b: b.size_x_m * b.size_y_m)
+    goal = world.markers[0]
+    return BoxGoal(box.name, goal.name, (goal.x, goal.y), box.size_x_m / 2.0,
+                   box.size_y_m / 2.0)
+
+
+def resolve_robot(name: str, names: Iterable[str]) -> str:
+    """A robot's name, or a short form of it: 'p1' for 'pusher1' (same first letter and the
+    same trailing number). Raises ValueError when it names no robot or several."""
+    names = tuple(names)
+    if name in names:
+        return name
+    head, digits = name[:1], name[1:]
+    if head and digits.isdigit():
+        found = [n for n in names if n.startswith(head) and n.endswith(digits)
+                 and not n[: len(n) - len(digits)][-1:].isdigit()]
+        if len(found) == 1:
+            return found[0]
+    raise ValueError(f"no robot {name!r}; robots: {', '.join(names)}")
+
+
+def side_of(box_pose: tuple[float, float, float], xy: tuple[float, float]) -> float:
+    """Signed offset (metres) of a point along the box's long axis (its local +y)."""
+    bx, by, yaw = box_pose
+    return -(xy[0] - bx) * math.sin(yaw) + (xy[1] - by) * math.cos(yaw)
+
+
+def push_heading(box_pose: tuple[float, float, float], goal_xy: tuple[float, float]) -> float:
+    """The box's pushing direction (its local +x or -x, whichever faces the goal)."""
+    bx, by, yaw = box_pose
+    to_goal = math.atan2(goal_xy[1] - by, goal_xy[0] - bx)
+    if math.cos(to_goal - yaw) >= 0.0:
+        return yaw
+    return yaw + math.pi
+
+
+def return_pose(
+    box_pose: tuple[float, float, float], goal_xy: tuple[float, float], side_m: float,
+    bg: BoxGoal, gap_m: float = RETURN_GAP_M,
+) -> tuple[float, float, float]:
+    """Behind the box (away from the goal), `side_m` along its long axis, facing the box."""
+    bx, by, yaw = box_pose
+    heading = push_heading(box_pose, goal_xy)
+    back = bg.box_half_depth_m + gap_m
+    # the long axis (box +y) in the world
+    ux, uy = -math.sin(yaw), math.cos(yaw)
+    x = bx - back * math.cos(heading) + side_m * ux
+    y = by - back * math.sin(heading) + side_m * uy
+    return x, y, math.atan2(math.sin(heading), math.cos(heading))
+
+
+def park_pose(world: WorldSpec, index: int) -> tuple[float, float, float]:
+    """A spot along the arena's far (+y) wall, out of everybody's way, one per index."""
+    sx, sy = world.arena.size_x_m, world.arena.size_y_m
+    return -sx / 2.0 + 0.6 + 0.8 * index, sy / 2.0 - 0.5, 0.0
+
+
+class GoalWatch:
+    """Measures the box's ground-truth distance to the goal on the serving thread."""
+
+    def __init__(self, bg: BoxGoal, radius_m: float = GOAL_RADIUS_M,
+                 robots: tuple[str, ...] = ()) -> None:
+        self.bg = bg
+        self.robots = robots
+        self.robot_poses: dict[str, tuple[float, float, float]] = {}
+        self.radius_m = radius_m
+        self.box_pose: tuple[float, float, float] | None = None
+        self.distance_m = math.inf
+        self.reached_at_s: float | None = None
+
+    def sample(self, sim: Any, t: float) -> None:
+        pose = tuple(float(v) for v in sim.get_pose(self.bg.box))
+        self.box_pose = (pose[0], pose[1], pose[2])
+        poses = {}
+        for name in self.robots:
+            x, y, yaw = sim.get_pose(name)
+            poses[name] = (float(x), float(y), float(yaw))
+        self.robot_poses = poses  # replaced whole: readers on other threads see one or the other
+        d = math.hypot(self.bg.goal_xy[0] - pose[0], self.bg.goal_xy[1] - pose[1])
+        self.distance_m = d
+        if d <= self.radius_m and self.reached_at_s is None:
+            self.reached_at_s = t
+
+
+class SimActions:
+    """Changes to the simulation queued by any thread, applied between steps."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._queue: deque[Callable[[Any], None]] = deque()
+
+    def put(self, action: Callable[[Any], None]) -> None:
+        with self._lock:
+            self._queue.append(action)
+
+    def apply(self, sim: Any, t: float) -> None:
+        with self._lock:
+            actions = list(self._queue)
+            self._queue.clear()
+        for action in actions:
+            action(sim)

@@ -1,0 +1,223 @@
+"""A culling 2-D ray caster over whole footprints (pure numpy): the one the simulation uses.
+
+Footprints are oriented rectangles and circles, each with the height of its top, inside an
+optional rectangular room centred on the origin whose walls face inwards. Planar points and
+directions are complex numbers. A cast runs in three stages, each a handful of numpy calls
+however many rays and footprints there are:
+
+1. the room: where each ray leaves the room's rectangle, in closed form per ray;
+2. culling: one matrix product gives, for every (footprint, ray) pair, how far the
+   footprint's centre lies behind the ray origin and beside the ray; a pair is a candidate
+   when its bounding circle touches the ray's half-line;
+3. the candidates only: a slab test per rectangle (a ray that starts inside a rectangle
+   leaves it unseen, as a sensor inside its own body must), a quadratic per circle, then the
+   nearest hit per ray (``np.minimum.at``).
+
+It agrees with the face caster of ``raycast`` (the reference in the tests) to float noise,
+and costs per tick about as much as a few passes over (rays x footprints) bytes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+F64 = NDArray[np.float64]
+C128 = NDArray[np.complex128]
+I64 = NDArray[np.int64]
+
+# OpenBLAS runs a product on several threads above m*n*k = 4 * 65536 (here 8 * rays *
+# footprints); its worker threads then spin and starve the elementwise work that follows on a
+# busy machine. Rays are cast in chunks that keep each product (and the culling arrays) small.
+_CHUNK_ELEMENTS = 30_000
+
+
+@dataclass(frozen=True)
+class Room:
+    """The arena: walls at x = +-half_x and y = +-half_y facing inwards, of height top."""
+
+    half_x: float
+    half_y: float
+    top: float
+
+
+@dataclass(frozen=True)
+class Footprints:
+    """n_rect rectangles then circles.
+
+    centre: complex centres (all); head_conj: exp(-i yaw) of each rectangle; half: complex
+    half extents hx + i hy of each rectangle; radius: bounding radius (all; the radius of a
+    circle); top: height of each top (all).
+    """
+
+    centre: C128
+    head_conj: C128
+    half: C128
+    radius: F64
+    top: F64
+    _cull: dict[str, F64] = field(default_factory=dict, compare=False, repr=False)
+
+    def cull_weights(self) -> F64:
+        """(2 count, 4) weights of the culling product (computed once per Footprints)."""
+        w = self._cull.get("w")
+        if w is None:
+            k = self.count
+            c = self.centre
+            w = np.empty((2 * k, 4))
+            np.negative(c.real, out=w[:k, 0])
+            np.negative(c.imag, out=w[:k, 1])
+            w[:k, 2:] = (1.0, 0.0)
+            np.negative(c.imag, out=w[k:, 0])
+            w[k:, 1] = c.real
+            w[k:, 2:] = (0.0, -1.0)
+            self._cull["w"] = w
+        return w
+
+    @property
+    def n_rect(self) -> int:
+        return int(self.head_conj.shape[0])
+
+    @property
+    def count(self) -> int:
+        return int(self.centre.shape[0])
+
+    @staticmethod
+    def build(rect_centre: C128, rect_yaw_head: C128, rect_half_x: F64, rect_half_y: F64,
+              rect_top: F64, circle_centre: C128, circle_radius: F64,
+              circle_top: F64) -> Footprints:
+        """From rectangles (centre, heading exp(i yaw), half extents, top) and circles."""
+        return Footprints(
+            centre=np.concatenate([rect_centre, circle_centre]),
+            head_conj=np.conjugate(rect_yaw_head),
+            half=rect_half_x + 1j * rect_half_y,
+            radius=np.concatenate([np.hypot(rect_half_x, rect_half_y), circle_radius]),
+            top=np.concatenate([rect_top, circle_top]),
+        )
+
+
+def room_exit(o: C128, d: C128, room: Room) -> F64:
+    """Distance along each unit ray (origin o, direction d) to the room's walls (inf where a
+    ray starting outside the room never meets a wall's inner face)."""
+    ox, oy, dx, dy = o.real, o.imag, d.real, d.imag
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tx = np.copysign(room.half_x, dx)
+        tx -= ox
+        tx /= dx
+        ty = np.copysign(room.half_y, dy)
+        ty -= oy
+        ty /= dy
+        out = np.fmin(tx, ty)
+    if out.size and not out.min() >= 0.0:  # an origin outside the room (or nan): no wall
+        out[~(out >= 0.0)] = np.inf
+    return out
+
+
+class FootprintCaster:
+    """Casts batches of rays against Footprints and a Room (owns no state between calls)."""
+
+    def cast(self, o: C128, d: C128, limit: F64, z: F64, fp: Footprints,
+             room: Room | None) -> F64:
+        """Distance along each unit ray (origin o, direction d, height z) to the nearest
+        footprint (or wall) at least as tall as z, or ``limit`` when nothing is nearer."""
+        best = np.array(limit, dtype=np.float64, copy=True)
+        n = best.shape[0]
+        if n == 0:
+            return best
+        if room is not None:
+            walls = room_exit(o, d, room)
+            if float(z.max()) > room.top:
+                walls[z > room.top] = np.inf
+            np.minimum(best, walls, out=best)
+        k = fp.count
+        if k == 0:
+            return best
+        # Per-ray features [dx, dy, o.d, o x d] and per-footprint weights give, per pair,
+        # how far the centre lies behind the origin, -(c - o).d, and beside the ray,
+        # (c - o) x d. A candidate's bounding circle touches the ray's half-line.
+        od = o * np.conjugate(d)  # o.d - i (o x d)
+        feat = np.empty((4, n))
+        feat[0] = d.real
+        feat[1] = d.imag
+        feat[2] = od.real
+        np.negative(od.imag, out=feat[3])
+        w = fp.cull_weights()
+        radius = fp.radius[:, None]
+        chunk = max(1, _CHUNK_ELEMENTS // k)
+        flats: list[I64] = []
+        alongs: list[F64] = []
+        besides: list[F64] = []
+        for start in range(0, n, chunk):
+            stop = min(n, start + chunk)
+            m = np.matmul(w, feat[:, start:stop])
+            test = np.abs(m[k:])
+            np.maximum(test, m[:k], out=test)
+            flat = np.flatnonzero(test <= radius)
+            if flat.size:
+                mf = m.ravel()
+                alongs.append(np.negative(mf[flat]))
+                besides.append(mf[flat + k * (stop - start)])
+                if stop - start < n:  # re-index into the (k, n) layout of all rays
+                    fi, ri = np.divmod(flat, stop - start)
+                    flat = fi * n + (ri + start)
+                flats.append(flat)
+        if not flats:
+            return best
+        if len(flats) > 1:
+            flat = np.concatenate(flats)
+            order = np.argsort(flat, kind="stable")
+            flat = flat[order]
+            along, beside = np.concatenate(alongs)[order], np.concatenate(besides)[order]
+        else:
+            flat, along, beside = flats[0], alongs[0], besides[0]
+        # v = (c - o) conj(d) per pair: along + i (o - c) x d.
+        val = np.empty(flat.shape[0], dtype=np.complex128)
+        val.real = along
+        np.negative(beside, out=val.imag)
+        fi, ri = np.divmod(flat, n)
+        split = int(np.searchsorted(fi, fp.n_rect))
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            if split == flat.shape[0]:
+                dist = _rect_hits(d, fp, fi, ri, val)
+            elif split == 0:
+                dist = _circle_hits(fp, fi, val)
+            else:
+                dist = np.concatenate([_rect_hits(d, fp, fi[:split], ri[:split], val[:split]),
+                                       _circle_hits(fp, fi[split:], val[split:])])
+            if fp.top.min() < z.max():  # footprints lower than a ray pass under it
+                dist[fp.top[fi] < z[ri]] = np.inf
+        np.minimum.at(best, ri, dist)
+        return best
+
+
+def _rect_hits(d: C128, fp: Footprints, fi: I64, ri: I64, v: C128) -> F64:
+    """Slab test: entry distance of each ray into its rectangle; inf for a miss or for a ray
+    that starts inside (or past) it. v is the centre relative to the ray (as in the cull)."""
+    q = d[ri]
+    q *= fp.head_conj[fi]  # the direction in the rectangle's frame
+    p = v * q  # minus the origin in the rectangle's frame: v = (c - o) conj(d)
+    qv = q.view(np.float64).reshape(-1, 2)
+    qv += np.copysign(1e-30, qv)  # a ray parallel to a side: a huge finite slab time
+    inv = np.reciprocal(qv)
+    a = p.view(np.float64).reshape(-1, 2)
+    a *= inv  # per axis: the slab is crossed between a - b and a + b
+    b = np.abs(inv)
+    b *= fp.half[fi].view(np.float64).reshape(-1, 2)
+    lo = a - b
+    a += b
+    t_near = np.maximum(lo[:, 0], lo[:, 1])
+    ok = t_near <= np.minimum(a[:, 0], a[:, 1])
+    ok &= t_near > 0.0
+    return np.where(ok, t_near, np.inf)
+
+
+def _circle_hits(fp: Footprints, fi: I64, v: C128) -> F64:
+    """Distance to the near intersection with each circle; inf for a ray that starts inside
+    (or past) it. v is the centre relative to the ray; candidates pass beside within r."""
+    r = fp.radius[fi]
+    disc = r * r
+    disc -= v.imag * v.imag
+    np.maximum(disc, 0.0, out=disc)
+    t = v.real - np.sqrt(disc)
+    return np.where(t > 0.0, t, np.inf)

@@ -1,0 +1,114 @@
+"""The culling footprint caster against hand geometry and against the face caster."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from player_server.sim.footprint_cast import FootprintCaster, Footprints, Room, room_exit
+from player_server.sim.raycast import Circles, Faces, RayCaster, arena_faces, rectangle_faces
+
+
+def footprints(rects: np.ndarray, circles: np.ndarray) -> Footprints:
+    """rects rows (cx, cy, yaw, hx, hy, top); circles rows (cx, cy, r, top)."""
+    rects = rects.reshape(-1, 6)
+    circles = circles.reshape(-1, 4)
+    return Footprints.build(rects[:, 0] + 1j * rects[:, 1], np.exp(1j * rects[:, 2]),
+                            rects[:, 3], rects[:, 4], rects[:, 5],
+                            circles[:, 0] + 1j * circles[:, 1], circles[:, 2], circles[:, 3])
+
+
+def cast(ox: float, oy: float, angles: list[float] | np.ndarray, fp: Footprints,
+         room: Room | None, max_range: float = 10.0, z: float = 0.2) -> np.ndarray:
+    a = np.asarray(angles, dtype=np.float64)
+    n = a.size
+    return FootprintCaster().cast(np.full(n, complex(ox, oy)), np.exp(1j * a),
+                                  np.full(n, max_range), np.full(n, z), fp, room)
+
+
+def test_room_box_and_circle_by_hand() -> None:
+    fp = footprints(np.array([2.0, 0.0, 0.0, 0.5, 0.25, 1.0]), np.array([-2.0, 0.0, 0.5, 1.0]))
+    room = Room(5.0, 4.0, 0.5)
+    r = cast(0.0, 0.0, [0, math.pi / 2, math.pi, -math.pi / 2], fp, room)
+    assert r == pytest.approx([1.5, 4.0, 1.5, 4.0], abs=1e-9)
+    a = math.atan2(4.0, 5.0) + 0.3
+    assert cast(0.0, 0.0, [a], fp, room)[0] == pytest.approx(4.0 / math.sin(a), rel=1e-9)
+    # Axis-parallel rays beside a box miss it; one grazing inside its width hits.
+    r = cast(0.0, 0.3, [0.0], fp, room)
+    assert r[0] == pytest.approx(5.0)
+    r = cast(0.0, 0.2, [0.0], fp, room)
+    assert r[0] == pytest.approx(1.5)
+
+
+def test_inside_own_body_low_footprints_and_max_range() -> None:
+    fp = footprints(np.array([[0.0, 0.0, 0.3, 0.3, 0.2, 1.0], [3.0, 0.0, math.pi / 4, 0.5,
+                                                                0.5, 0.2]]),
+                    np.array([0.0, 3.0, 0.2, 0.1]))
+    r = cast(0.05, 0.0, [0.0, math.pi / 2], fp, None, z=0.1, max_range=8.0)
+    assert r == pytest.approx([3.0 - 0.5 * math.sqrt(2) - 0.05, 3.0 - math.sqrt(0.2**2 - 0.05**2)],
+                              abs=1e-9)
+    r = cast(0.05, 0.0, [0.0, math.pi / 2, math.pi], fp, None, z=0.3, max_range=8.0)
+    assert r == pytest.approx([8.0, 8.0, 8.0])
+    # From inside a circle, the circle is not seen.
+    r = cast(0.0, 3.0, [0.0], fp, Room(4.0, 4.0, 1.0), z=0.05)
+    assert r[0] == pytest.approx(4.0)
+
+
+def test_room_exit_from_outside_is_infinite() -> None:
+    r = room_exit(np.array([6.0 + 0j, 6.0 + 0j]), np.array([1.0 + 0j, -1.0 + 0j]),
+                  Room(5.0, 4.0, 1.0))
+    assert r[0] == math.inf
+    assert r[1] == pytest.approx(11.0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(min_value=0, max_value=2**31 - 1))
+def test_matches_the_face_caster(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    k, m, n = int(rng.integers(0, 8)), int(rng.integers(0, 5)), 97
+    rects = np.column_stack([rng.uniform(-4, 4, (k, 2)), rng.uniform(-3, 3, k),
+                             rng.uniform(0.05, 0.8, (k, 2)), rng.uniform(0.1, 1.0, k)])
+    # Some axis-aligned rectangles (rays exactly parallel to their sides).
+    rects[: k // 2, 2] = 0.0
+    circles = np.column_stack([rng.uniform(-4, 4, (m, 2)), rng.uniform(0.05, 0.5, m),
+                               rng.uniform(0.1, 1.0, m)])
+    room = Room(5.0, 4.5, 0.8)
+    o = rng.uniform(-4.5, 4.5, n) + 1j * rng.uniform(-4, 4, n)
+    o[:40] = o[0]  # a fan from one origin, with axis-parallel rays
+    a = rng.uniform(-math.pi, math.pi, n)
+    a[:8] = np.arange(8) * math.pi / 4
+    d = np.exp(1j * a)
+    z = rng.choice([0.0, 0.25, 0.5, 0.9], n)
+    limit = rng.uniform(0.5, 12.0, n)
+    got = FootprintCaster().cast(o, d, limit, z, footprints(rects, circles), room)
+    faces = Faces.concat([
+        arena_faces(room.half_x, room.half_y, room.top),
+        rectangle_faces(rects[:, 0], rects[:, 1], rects[:, 2], rects[:, 3], rects[:, 4],
+                        rects[:, 5]),
+    ])
+    want = RayCaster().cast(o.real, o.imag, d.real, d.imag, limit, z, faces,
+                            Circles(circles[:, 0], circles[:, 1], circles[:, 2], circles[:, 3]))
+    # The face caster works in float32; rays grazing a corner may differ by a hair of angle.
+    close = np.isclose(got, want, atol=2e-4, rtol=1e-5)
+    assert close.all(), (got[~close], want[~close])
+
+
+def test_many_rays_are_cast_in_chunks() -> None:
+    rng = np.random.default_rng(3)
+    k = 300
+    rects = np.column_stack([rng.uniform(-9, 9, (k, 2)), rng.uniform(-3, 3, k),
+                             np.full((k, 2), 0.1), np.ones(k)])
+    fp = footprints(rects, np.zeros((0, 4)))
+    n = 2000
+    o = np.full(n, 0.0 + 0j)
+    d = np.exp(1j * np.linspace(-math.pi, math.pi, n, endpoint=False))
+    lim, z = np.full(n, 20.0), np.zeros(n)
+    all_at_once = FootprintCaster().cast(o, d, lim, z, fp, Room(10.0, 10.0, 1.0))
+    one_by_one = np.array([FootprintCaster().cast(o[i:i + 1], d[i:i + 1], lim[i:i + 1],
+                                                  z[i:i + 1], fp, Room(10.0, 10.0, 1.0))[0]
+                           for i in range(0, n, 50)])
+    assert all_at_once[::50] == pytest.approx(one_by_one)
