@@ -19,6 +19,7 @@ from behaviors.basis import (
     BackOff,
     BoxAlignmentFromLaser,
     Cruise,
+    CruiseOnHeading,
     DockAtCharger,
     GoalFromCamera,
     Hold,
@@ -202,10 +203,16 @@ def _push_builder(name: str, aim: float) -> Builder:
                                       align_tolerance_rad=math.radians(10.0)), 1),
             Layer(_search(profile), 0),
         )
-        push: tuple[Layer, ...] = (*side_avoid, Layer(Cruise(speed_mps=speed), 0))
+        heading = p.get("heading_rad")
+        if heading is None:
+            push: tuple[Layer, ...] = (*side_avoid, Layer(Cruise(speed_mps=speed), 0))
+        else:
+            # The watcher said which way the box is to go: push that way, whatever angle
+            # the approach ended at (never sideways into the box).
+            push = (*side_avoid,
+                    Layer(CruiseOnHeading(number(p, "heading_rad"), speed_mps=speed), 1))
         if profile.has("bumper"):
             approach = (*approach, Layer(PushWithBumpers(speed_mps=speed), 1))
-            push = (*push, Layer(PushWithBumpers(speed_mps=speed), 1))
         return TaskPlan(
             name,
             (
@@ -299,14 +306,22 @@ def build_watch_box(p: Params, profile: RobotProfile) -> TaskPlan:
         # The face normal points from the watcher into the box; the box travels the other way.
         error = wrap_angle(face.normal_rad + math.pi - goal_bearing)
         need = needed_push(error, tolerance)
+        pose = view.snapshot.pose
+        # Which way the box is to travel, in the odometry frame the pushers share (toward the
+        # goal): the pushers push along it.
+        heading = None if pose is None else wrap_angle(pose.yaw_rad + goal_bearing)
         memo["box_heading_error_rad"] = error
         memo["box_range_m"] = face.range_m
         if need == memo.get("need") and view.now - memo.get("need_at_s", -math.inf) < period:
             return []
         memo["need"] = need
         memo["need_at_s"] = view.now
-        return [("need", {"tasks": list(need), "box_heading_error_rad": round(error, 4),
-                          "box_range_m": round(face.range_m, 3)})]
+        detail: dict[str, Any] = {"tasks": list(need),
+                                  "box_heading_error_rad": round(error, 4),
+                                  "box_range_m": round(face.range_m, 3)}
+        if heading is not None:
+            detail["heading_rad"] = round(heading, 4)
+        return [("need", detail)]
 
     return TaskPlan(
         "watch-box",

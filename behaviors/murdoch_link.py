@@ -36,6 +36,7 @@ class MurdochLink:
         self._done_kinds = {TASK_DONE: "done", TASK_FAILED: "failed", TASK_STOPPED: "stopped"}
         self._finished: deque[tuple[str, str, str]] = deque(maxlen=64)
         self._needs: deque[tuple[str, tuple[str, ...]]] = deque(maxlen=64)
+        self._heading_rad: float | None = None  # which way the watched box is to go
         self._current: str | None = None
         self._current_params: dict[str, Any] = {}
         self._subtasks: dict[str, str] = {}  # task name -> open sub-task id
@@ -100,8 +101,11 @@ class MurdochLink:
             reason = dict(event.detail).get("reason", "")
             self._finished.append((event.task_id, self._done_kinds[event.kind], str(reason)))
         elif event.kind == "need" and event.task_id:
-            tasks = dict(event.detail).get("tasks", ())
+            detail = dict(event.detail)
+            tasks = detail.get("tasks", ())
             self._needs.append((event.task_id, tuple(str(t) for t in tasks)))
+            if isinstance(detail.get("heading_rad"), (int, float)):
+                self._heading_rad = float(detail["heading_rad"])
 
     def _announce_needs(self) -> None:
         """A running task (the box watcher) said which tasks it needs: auction them as its
@@ -114,7 +118,10 @@ class MurdochLink:
                 if name in self._subtasks or name not in TASKS:
                     continue
                 spec = TASKS[name]
-                params = {"colour": self._current_params.get("colour", "orange")}
+                params: dict[str, Any] = {
+                    "colour": self._current_params.get("colour", "orange")}
+                if self._heading_rad is not None:
+                    params["heading_rad"] = round(self._heading_rad, 3)
                 sub = TaskSpec(name, spec.subjects, params, duration_s=8.0, bid_window_s=0.5,
                                renew_period_s=1.0, contract_timeout_s=5.0, abandon_after_s=5.0,
                                timeout_s=60.0, parent=parent)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import os
 import statistics
 import time
 
@@ -57,10 +58,16 @@ def one_run(spec: WorldSpec, fidelity: str, ticks: int, seed: int) -> tuple[floa
         per_tick = {k.removesuffix("_s"): 1e3 * v / ticks
                     for k, v in sim.timings.as_dict().items()}
         per_tick["total"] = 1e3 * wall / ticks
+        per_tick["cpu"] = 1e3 * cpu / ticks
         per_tick["cpu_rtf"] = sim_s / max(cpu, 1e-9)
         return sim_s / wall, per_tick
     finally:
         sim.close()
+
+
+def ticks_s(spec: WorldSpec) -> float:
+    """Simulated milliseconds per tick."""
+    return 1e3 * spec.sim.interval_sim_s
 
 
 def main() -> None:
@@ -76,12 +83,18 @@ def main() -> None:
         spec = scaled_world(spec, args.robots)
     ticks = round(args.sim_seconds / spec.sim.interval_sim_s)
     rtfs = []
+    cpu_ms = []
     for run in range(args.runs):
+        load = os.getloadavg()[0]
         rtf, per_tick = one_run(spec, args.fidelity, ticks, seed=run)
         rtfs.append(rtf)
+        cpu_ms.append(per_tick["cpu"])
         parts = " ".join(f"{k}={v:.3f}" for k, v in per_tick.items())
-        print(f"run {run}: {len(spec.robots)} robots {args.fidelity} rtf={rtf:.1f} "
-              f"wall ms/tick: {parts}", flush=True)
+        print(f"run {run}: {len(spec.robots)} robots {args.fidelity} load={load:.1f} "
+              f"rtf={rtf:.1f} ms/tick (wall unless cpu): {parts}", flush=True)
+    print(f"cpu ms/tick median={statistics.median(cpu_ms):.3f} min={min(cpu_ms):.3f} "
+          f"(cpu_rtf median={ticks_s(spec) / statistics.median(cpu_ms):.1f}); "
+          f"load average now {os.getloadavg()[0]:.1f}")
     print(f"sim_rtf_median={statistics.median(rtfs):.1f} sim_rtf_min={min(rtfs):.1f}")
 
 

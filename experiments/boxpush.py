@@ -90,6 +90,17 @@ def return_pose(
     return x, y, math.atan2(math.sin(heading), math.cos(heading))
 
 
+def odometry_at(start: tuple[float, float, float],
+                pose: tuple[float, float, float]) -> tuple[float, float, float]:
+    """The odometry reading of a robot at world `pose` whose odometry started (0, 0, 0) at
+    world `start`: what it would read had it driven there without slipping."""
+    x0, y0, yaw0 = start
+    dx, dy = pose[0] - x0, pose[1] - y0
+    c, s = math.cos(-yaw0), math.sin(-yaw0)
+    yaw = pose[2] - yaw0
+    return dx * c - dy * s, dx * s + dy * c, math.atan2(math.sin(yaw), math.cos(yaw))
+
+
 def park_pose(world: WorldSpec, index: int) -> tuple[float, float, float]:
     """A spot along the arena's far (+y) wall, out of everybody's way, one per index."""
     sx, sy = world.arena.size_x_m, world.arena.size_y_m

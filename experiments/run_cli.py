@@ -77,10 +77,13 @@ def _robot_command() -> list[str]:
     return [str(exe)] if exe.exists() else [sys.executable, "-m", "behaviors"]
 
 
-def _place(sim: Any, name: str, pose: tuple[float, float, float]) -> None:
+def _place(sim: Any, name: str, pose: tuple[float, float, float],
+           odometry: tuple[float, float, float] | None = None) -> None:
     """Teleport a robot (on the serving thread) and leave it standing still."""
     sim.set_velocity(name, 0.0, 0.0)
     sim.set_pose(name, *pose)
+    if odometry is not None:
+        sim.set_odometry(name, *odometry)
 
 
 def _stop_robot(rp: RobotProcess, *, kill: bool = False, timeout_s: float = 5.0) -> None:
@@ -390,7 +393,10 @@ def run_experiment(
                     other = max(-goal_watch.bg.box_half_length_m + 0.2,
                                 min(goal_watch.bg.box_half_length_m - 0.2, other))
                     pose = bp.return_pose(box_pose, goal_watch.bg.goal_xy, other, goal_watch.bg)
-                    actions.put(lambda s, n=name, p=pose: _place(s, n, p))
+                    start = next(r.pose for r in spec.robots if r.name == name)
+                    odo = bp.odometry_at((start[0], start[1], start[2]), pose)
+                    # placed by hand and told where it is: odometry stays in the shared frame
+                    actions.put(lambda s, n=name, p=pose, o=odo: _place(s, n, p, o))
                     if target.proc is None or target.proc.poll() is not None:
                         _start_robot(target, robot_args(name), rec.run.log_file(f"robot-{name}"))
                     assert target.proc is not None

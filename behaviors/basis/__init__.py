@@ -9,7 +9,7 @@ from behaviors.basis.avoid import AvoidWithLaser, AvoidWithSonar
 from behaviors.basis.boxwatch import BoxAlignmentFromLaser, GoalFromCamera
 from behaviors.basis.colour import KeepDistanceToColour, ViewOfEnd, VisualServoToColour
 from behaviors.basis.dock import DockAtCharger
-from behaviors.basis.motion import BackOff, Cruise, Hold, TurnAbout
+from behaviors.basis.motion import BackOff, Cruise, CruiseOnHeading, Hold, TurnAbout
 from behaviors.basis.navigate import ServoToLocation, Wander
 from behaviors.basis.push import PushWithBumpers
 from behaviors.basis.watch import WatchForMotionWithLaser
@@ -20,6 +20,7 @@ __all__ = [
     "BackOff",
     "BoxAlignmentFromLaser",
     "Cruise",
+    "CruiseOnHeading",
     "DockAtCharger",
     "GoalFromCamera",
     "Hold",

@@ -93,3 +93,37 @@ class Cruise:
 
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
         return Proposal(True, self.speed_mps, 0.0, self.weight, "", 0.0)
+
+
+@dataclass(frozen=True, slots=True)
+class CruiseOnHeading:
+    """Drive along `heading_rad` (odometry frame): turn towards it first, then go straight.
+
+    A pusher uses it to push the box the way the watcher wants it to go, whatever angle it
+    came in at. Forward only while within `tolerance_rad` of the heading.
+    """
+
+    heading_rad: float
+    speed_mps: float = 0.2
+    tolerance_rad: float = math.radians(25.0)
+    max_turn_radps: float = 0.6
+    turn_gain: float = 1.5
+    max_age_s: float = 0.5
+    weight: float = 0.5
+    name: str = "cruise-on-heading"
+
+    @property
+    def max_speed_mps(self) -> float:
+        return abs(self.speed_mps)
+
+    def decide(self, snapshot: Snapshot, now: float) -> Proposal:
+        odo = snapshot.odometry
+        if odo is None or now - odo.time_s > self.max_age_s or not math.isfinite(
+            self.heading_rad
+        ):
+            return INACTIVE
+        error = wrap_angle(self.heading_rad - odo.pose.yaw_rad)
+        turn = clamp(self.turn_gain * error, self.max_turn_radps)
+        if abs(error) > self.tolerance_rad:
+            return Proposal(True, 0.0, turn, self.weight, "", error)
+        return Proposal(True, self.speed_mps, turn, self.weight, "on-heading", error)

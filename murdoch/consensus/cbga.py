@@ -217,16 +217,17 @@ class CbgaAgent:
             g = gains[self.single_idx]
             valid[self.single_idx] = cand[self.single_idx] & (
                 (g > y) | ((g == y) & ((z > i) | (z == i))))
-        for j in self.group_idx[cand[self.group_idx]]:
-            j = int(j)
-            row = self.x[j]
-            members = {int(m): float(row[m]) for m in np.flatnonzero(row > 0) if m != i}
+        group = self.group_idx[cand[self.group_idx]].tolist()
+        rows = self.x[group].tolist() if group else []
+        gains_l = gains.tolist()
+        for j, row in zip(group, rows, strict=True):
+            members = {m: v for m, v in enumerate(row) if v > 0 and m != i}
             if self.banned[j] >= 0:
                 if len(members) <= self.banned[j]:
                     continue
                 self.banned[j] = -1
             size = int(p.required[j])
-            bid = float(gains[j])
+            bid = gains_l[j]
             if self.options.team_reward and size > 1:
                 others = min(len(members), size - 1)
                 bid = min(bid + p.team_reward[j] * others / (size - 1), cap)
@@ -347,50 +348,57 @@ class CbgaAgent:
             t_k = np.zeros_like(x_k) if t_k is None else t_k
             differ = group_idx[((x_i[group_idx] != x_k[group_idx])
                                 | (self.t[group_idx] != t_k[group_idx])).any(axis=1)]
-            for j in differ:
-                changed |= self._merge_group_row(int(j), k, x_k[j], s_k, t_k[j])
+            if differ.size:
+                fresher = (s_k[:-1] > self.s[:-1]).tolist()
+                fresher[k] = True
+                for j in differ.tolist():
+                    changed |= self._merge_group_row(j, k, x_k[j].tolist(), fresher,
+                                                     t_k[j].tolist())
         if merge:
             merge_timestamps(self.s, s_k, i, k, now)
         if changed:
             self.needs_build = True
         return changed
 
-    def _merge_group_row(self, j: int, k: int, row_k: np.ndarray, s_k: np.ndarray,
-                         starts_k: np.ndarray) -> bool:
+    def _merge_group_row(self, j: int, k: int, row_k: list[float], fresher: list[bool],
+                         starts_k: list[float]) -> bool:
+        """Algorithm 2 for one group row (plain Python lists: rows are short).
+        `fresher[m]` says the sender knows member m better (m is the sender, or the sender
+        heard from m more recently)."""
         i = self.index
-        row = self.x[j]
-        starts = self.t[j]
-        before = row.copy()
-        starts_before = starts.copy()
+        n = len(row_k)
+        before = self.x[j].tolist()
+        starts_before = self.t[j].tolist()
+        row = list(before)
+        starts = list(starts_before)
         # phase 1: refresh what we believe from a sender who knows better
-        for m in np.flatnonzero(row > 0):
-            m = int(m)
-            if m != i and (m == k or s_k[m] > self.s[m]):
+        for m in range(n):
+            if row[m] > 0 and m != i and fresher[m]:
                 row[m] = row_k[m]
         # phase 2: add the sender's other members, then keep the group select_group picks
-        bids = {int(m): float(row[m]) for m in np.flatnonzero(row > 0)}
+        bids = {m: row[m] for m in range(n) if row[m] > 0}
         fresh = False
-        for m in np.flatnonzero(row_k > 0):
-            m = int(m)
-            if m != i and m not in bids and (m == k or s_k[m] > self.s[m]):
-                bids[m] = float(row_k[m])
+        for m in range(n):
+            if row_k[m] > 0 and m != i and m not in bids and fresher[m]:
+                bids[m] = row_k[m]
                 fresh = True
-        if fresh or (row != before).any():
+        if fresh or row != before:
             chosen = self.select_group(j, bids)
-            row[:] = 0.0
+            row = [0.0] * n
             for m in chosen:
                 row[m] = bids[m]
-        # planned starts follow whoever knows the member better
-        for m in np.flatnonzero(row > 0):
-            m = int(m)
-            if m != i and row_k[m] == row[m] and (m == k or s_k[m] > self.s[m]):
-                starts[m] = starts_k[m]
-        for m in np.flatnonzero(row <= 0):
-            if m != i:
+        # planned times follow whoever knows the member better
+        for m in range(n):
+            if row[m] > 0:
+                if m != i and row_k[m] == row[m] and fresher[m]:
+                    starts[m] = starts_k[m]
+            elif m != i:
                 starts[m] = 0.0
-        if (starts != starts_before).any():
-            return True
-        return bool((row != before).any())
+        changed = row != before or starts != starts_before
+        if changed:
+            self.x[j] = row
+            self.t[j] = starts
+        return changed
 
     # -- releases -----------------------------------------------------------------------
     def release_outbid(self) -> bool:

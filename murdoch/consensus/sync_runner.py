@@ -2,12 +2,14 @@
 
 A round: every agent (quits stalled group tasks, then) builds its bundle; every agent sends its
 state to each neighbour; every agent merges its neighbours' messages in index order; every
-agent releases what it was outbid on. Timestamps are round numbers.
+agent releases what it was outbid on (and, in CBGA, re-plans against its partners' times).
+Timestamps are round numbers.
 
-Measured: **comm_steps** = the last round in which any agent's bids (y, z or X) or bundle
-changed; **messages** = agent-to-neighbour transmissions in rounds 1..comm_steps; **bytes** =
-the encoded size (`messages.encode`) of those transmissions. The run stops once nothing has
-changed for (graph diameter + 1) rounds and no task-quitting timer is pending, or at
+Measured: **comm_steps** = the last round in which any agent's bids (y, z, or CBGA's X and
+its group members' planned times) or bundle changed; **messages** = agent-to-neighbour
+transmissions in rounds 1..comm_steps; **bytes** = the encoded size (`messages.encode`) of
+those transmissions. The run stops once nothing has changed for (graph diameter + 1) rounds
+and no task-quitting timer is pending, or at
 `max_rounds` (then `converged` is false).
 """
 

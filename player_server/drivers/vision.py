@@ -61,6 +61,10 @@ class CameraDriver(Driver):
         raise Unsupported(f"camera request {subtype}")
 
 
+def _u32(value: float) -> int:
+    return max(int(value), 0)
+
+
 class BlobfinderDriver(Driver):
     interf = int(Interface.BLOBFINDER)
 
@@ -73,8 +77,11 @@ class BlobfinderDriver(Driver):
         self.height = int(cam.height_px) if cam is not None else 0
 
     def data(self) -> Sequence[tuple[int, Any]]:
+        # pixel quantities are whole non-negative numbers on the wire (u32), whatever
+        # numeric type the simulator hands over
         blobs = tuple(
-            sm.BlobfinderBlob(b.id, b.colour & 0xFFFFFF, b.area, b.x, b.y, b.l, b.r, b.t, b.b,
+            sm.BlobfinderBlob(_u32(b.id), int(b.colour) & 0xFFFFFF, _u32(b.area), _u32(b.x),
+                              _u32(b.y), _u32(b.l), _u32(b.r), _u32(b.t), _u32(b.b),
                               float(b.range_m))
             for b in self.sim.blobs(self.robot.name)
         )

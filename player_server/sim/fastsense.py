@@ -8,6 +8,7 @@ sensors; each tick only evaluates them.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,10 +21,6 @@ from worlds import RobotSpec
 F64 = NDArray[np.float64]
 C128 = NDArray[np.complex128]
 _LIM = float(np.radians(89.0))
-# Edge angles are kept off +-90 deg on their outer side: left and top below +89 deg, right and
-# bottom above -89 deg (per row of the (4, n) edge arrays).
-_ANGLE_MIN = np.array([[-np.inf], [-_LIM], [-np.inf], [-_LIM]])
-_ANGLE_MAX = np.array([[_LIM], [np.inf], [_LIM], [np.inf]])
 
 
 @dataclass(frozen=True)
@@ -50,9 +47,11 @@ class RangePlan:
     max_range: F64
     counts: tuple[int, ...]
     groups: tuple[int, ...]  # rays per reading (sonar cones)
+    own: NDArray[np.int64]  # footprint of the robot's body when the ray starts inside, or -1
 
     @staticmethod
-    def build(keys: tuple[tuple[int, str], ...], robots: tuple[RobotSpec, ...]) -> RangePlan:
+    def build(keys: tuple[tuple[int, str], ...], robots: tuple[RobotSpec, ...],
+              wa: WorldArrays) -> RangePlan:
         parts = []
         for idx, kind in keys:
             d = getattr(robots[idx].devices, kind)
@@ -69,16 +68,19 @@ class RangePlan:
                 z = d.pose.z
             parts.append((idx, local, np.exp(1j * la), z, d.min_range_m, d.max_range_m, k))
         counts = tuple(p[1].size for p in parts)
+        robot = np.repeat([p[0] for p in parts], counts).astype(np.int64)
+        local = np.concatenate([p[1] for p in parts])
         return RangePlan(
             keys=keys,
-            robot=np.repeat([p[0] for p in parts], counts).astype(np.int64),
-            local=np.concatenate([p[1] for p in parts]),
+            robot=robot,
+            local=local,
             unit=np.concatenate([p[2] for p in parts]),
             z=np.repeat([p[3] for p in parts], counts).astype(np.float64),
             min_range=np.repeat([p[4] for p in parts], counts).astype(np.float64),
             max_range=np.repeat([p[5] for p in parts], counts).astype(np.float64),
             counts=counts,
             groups=tuple(p[6] for p in parts),
+            own=wa.own_body(robot, local),
         )
 
     def rays(self, frame: Frame) -> tuple[C128, C128]:
@@ -146,10 +148,11 @@ class BlobPlan:
     dz_top: F64
     dz_bottom: F64
     circle: NDArray[np.bool_]
-    half_size: F64  # (4, pairs): width/2, width/2, height/2, height/2 (pixel edge origins)
-    edge_min: F64  # (4, pairs): 0, -inf, 0, -inf
-    edge_max: F64  # (4, pairs): inf, width - 1, inf, height - 1
-    meta: NDArray[np.int64]  # (3, pairs): camera slot, channel, colour
+    # Per pair for projecting: width/2, height/2, field of view, tilt, dz_top, dz_bottom,
+    # min_area, width - 1, height - 1; and robot, camera slot, channel, colour.
+    consts: F64
+    meta: NDArray[np.int64]
+    own: NDArray[np.int64]  # footprint of the robot's body when its camera is inside, or -1
 
     @staticmethod
     def build(cams: tuple[int, ...], wa: WorldArrays) -> BlobPlan:
@@ -157,8 +160,6 @@ class BlobPlan:
         slot, target = np.nonzero(ch >= 0)
         robot = np.array(cams, dtype=np.int64)[slot] if cams else slot
         cam = wa.cam[robot]
-        zero = np.zeros(slot.size)
-        inf = np.full(slot.size, np.inf)
         return BlobPlan(
             cams=cams,
             slot=slot,
@@ -181,10 +182,13 @@ class BlobPlan:
             dz_top=wa.t_z_top[target] - cam[:, 2],
             dz_bottom=wa.t_z_bottom[target] - cam[:, 2],
             circle=wa.t_radius[target] > 0,
-            half_size=np.stack([cam[:, 6] / 2, cam[:, 6] / 2, cam[:, 7] / 2, cam[:, 7] / 2]),
-            edge_min=np.stack([zero, -inf, zero, -inf]),
-            edge_max=np.stack([inf, cam[:, 6] - 1, inf, cam[:, 7] - 1]),
-            meta=np.stack([slot, ch[slot, target], wa.t_colour[target]]).astype(np.int64),
+            consts=np.column_stack([cam[:, 6] / 2, cam[:, 7] / 2, cam[:, 5], cam[:, 4],
+                                    wa.t_z_top[target] - cam[:, 2],
+                                    wa.t_z_bottom[target] - cam[:, 2],
+                                    np.maximum(cam[:, 9], 1.0), cam[:, 6] - 1, cam[:, 7] - 1]),
+            meta=np.column_stack([robot, slot, ch[slot, target],
+                                  wa.t_colour[target]]).astype(np.int64),
+            own=wa.own_body(robot, cam[:, 0] + 1j * cam[:, 1]),
         )
 
     def pending(self, frame: Frame, t_pos: C128, t_head: C128, pan: F64, zoom: F64,
@@ -222,46 +226,36 @@ class BlobPlan:
         """Pinhole boxes of the visible pending pairs, per camera slot (sorted by channel,
         then area, largest first)."""
         out: list[list[Blob]] = [[] for _ in self.cams]
-        idx = p.pair[visible]
-        if idx.size:
-            r = self.robot[idx]
-            zr = zoom[r]
-            fov = np.where(zr > 0, zr, self.fov[idx])
-            f = self.half_size[0, idx] / np.tan(fov / 2)
-            b, half = p.bearing[visible], p.half[visible]
-            near = p.near[visible]
+        sel = np.flatnonzero(visible)
+        if sel.size == 0:
+            return [() for _ in self.cams]
+        # A few blobs per camera: plain Python per blob costs less than numpy calls on them.
+        idx = p.pair[sel]
+        seen = np.vstack([p.bearing, p.half, p.near, p.dist])[:, sel].T.tolist()
+        consts = self.consts[idx].tolist()
+        meta = self.meta[idx].tolist()
+        zoom_l, tilt_l = zoom.tolist(), tilt.tolist()
+        tan, ceil, floor, atan2 = math.tan, math.ceil, math.floor, math.atan2
+        lim = _LIM
+        for (b, half, near, dist), (hw, hh, fov_c, tilt_c, dz_t, dz_b, min_area, w1, h1), \
+                (r, sl, ch, col) in zip(seen, consts, meta, strict=True):
+            z = zoom_l[r]
+            f = hw / tan((z if z > 0 else fov_c) / 2)
+            # Horizontal: the angular edges (left is the larger angle, hence smaller x).
+            left = max(ceil(hw - f * tan(min(b + half, lim))), 0)
+            right = min(floor(hw - f * tan(max(b - half, -lim))), w1)
             # Vertical: the top edge is the top at the near side when above the camera, else
             # at the far side; the bottom edge likewise.
-            cos_b = np.maximum(np.cos(b), 1e-3)
+            cos_b = max(math.cos(b), 1e-3)
             near_d = near * cos_b
-            far_d = (2.0 * p.dist[visible] - near) * cos_b
-            dz_t, dz_b = self.dz_top[idx], self.dz_bottom[idx]
-            tilt_all = self.tilt[idx] + tilt[r]
-            # The four edge angles: left, right (the larger angle is the smaller x), top,
-            # bottom; then pixel edges, rounded inwards and clipped to the image.
-            ang = np.empty((4, idx.size))
-            np.add(b, half, out=ang[0])
-            np.subtract(b, half, out=ang[1])
-            np.arctan2(dz_t, np.where(dz_t > 0, near_d, far_d), out=ang[2])
-            np.arctan2(dz_b, np.where(dz_b < 0, near_d, far_d), out=ang[3])
-            ang[2:] -= tilt_all
-            np.clip(ang, _ANGLE_MIN, _ANGLE_MAX, out=ang)
-            edge = np.tan(ang)
-            edge *= f
-            np.subtract(self.half_size[:, idx], edge, out=edge)
-            np.ceil(edge[0::2], out=edge[0::2])
-            np.floor(edge[1::2], out=edge[1::2])
-            np.clip(edge, self.edge_min[:, idx], self.edge_max[:, idx], out=edge)
-            span = edge[1::2] - edge[0::2]
-            span += 1
-            np.maximum(span, 0, out=span)
-            area = span[0] * span[1]
-            sel = np.flatnonzero(area >= self.min_area[idx])
-            if sel.size:
-                vals = np.vstack([edge[:, sel], area[sel], near[sel]]).T.tolist()
-                meta = self.meta[:, idx[sel]].T.tolist()
-                for (sl, ch, col), (lf, rt, tp, bt, ar, rng) in zip(meta, vals, strict=True):
-                    li, ri, ti, bi = int(lf), int(rt), int(tp), int(bt)
-                    out[sl].append(Blob(ch, col, int(ar), (li + ri) // 2, (ti + bi) // 2, li,
-                                        ri, ti, bi, rng))
+            far_d = (2.0 * dist - near) * cos_b
+            tilt_all = tilt_c + tilt_l[r]
+            e_top = atan2(dz_t, near_d if dz_t > 0 else far_d) - tilt_all
+            e_bot = atan2(dz_b, near_d if dz_b < 0 else far_d) - tilt_all
+            top = max(ceil(hh - f * tan(min(e_top, lim))), 0)
+            bottom = min(floor(hh - f * tan(max(e_bot, -lim))), h1)
+            area = max(right - left + 1, 0) * max(bottom - top + 1, 0)
+            if area >= min_area:
+                out[sl].append(Blob(ch, col, area, (left + right) // 2, (top + bottom) // 2,
+                                    left, right, top, bottom, near))
         return [tuple(sorted(bl, key=lambda b: (b.id, -b.area, b.x))) for bl in out]

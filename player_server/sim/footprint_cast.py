@@ -13,8 +13,11 @@ however many rays and footprints there are:
    leaves it unseen, as a sensor inside its own body must), a quadratic per circle, then the
    nearest hit per ray (``np.minimum.at``).
 
-It agrees with the face caster of ``raycast`` (the reference in the tests) to float noise,
-and costs per tick about as much as a few passes over (rays x footprints) bytes.
+It agrees with the face caster of ``raycast`` (the reference in the tests) to that caster's
+float32 noise, and with brute-force float64 geometry to 1e-9 m. Its cost grows with
+rays x footprints only through the product and four elementwise passes; pairs whose ray
+starts inside the footprint (a sensor in its own body, when the caller names it) are dropped
+before the exact tests.
 """
 
 from __future__ import annotations
@@ -64,14 +67,12 @@ class Footprints:
         w = self._cull.get("w")
         if w is None:
             k = self.count
-            c = self.centre
+            cf = self.centre.view(np.float64).reshape(-1, 2)
             w = np.empty((2 * k, 4))
-            np.negative(c.real, out=w[:k, 0])
-            np.negative(c.imag, out=w[:k, 1])
+            np.negative(cf, out=w[:k, :2])  # behind: -(c.d) + o.d
+            np.multiply(cf[:, ::-1], (-1.0, 1.0), out=w[k:, :2])  # beside: c x d - o x d
             w[:k, 2:] = (1.0, 0.0)
-            np.negative(c.imag, out=w[k:, 0])
-            w[k:, 1] = c.real
-            w[k:, 2:] = (0.0, -1.0)
+            w[k:, 2:] = (0.0, 1.0)
             self._cull["w"] = w
         return w
 
@@ -100,15 +101,17 @@ class Footprints:
 def room_exit(o: C128, d: C128, room: Room) -> F64:
     """Distance along each unit ray (origin o, direction d) to the room's walls (inf where a
     ray starting outside the room never meets a wall's inner face)."""
-    ox, oy, dx, dy = o.real, o.imag, d.real, d.imag
     with np.errstate(divide="ignore", invalid="ignore"):
-        tx = np.copysign(room.half_x, dx)
-        tx -= ox
-        tx /= dx
-        ty = np.copysign(room.half_y, dy)
-        ty -= oy
-        ty /= dy
-        out = np.fmin(tx, ty)
+        return _room_exit(np.ascontiguousarray(o), np.ascontiguousarray(d), room)
+
+
+def _room_exit(o: C128, d: C128, room: Room) -> F64:
+    ov = o.view(np.float64).reshape(-1, 2)
+    dv = d.view(np.float64).reshape(-1, 2)
+    t = np.copysign((room.half_x, room.half_y), dv)  # the wall ahead on each axis
+    t -= ov
+    t /= dv
+    out = np.fmin(t[:, 0], t[:, 1])
     if out.size and not out.min() >= 0.0:  # an origin outside the room (or nan): no wall
         out[~(out >= 0.0)] = np.inf
     return out
@@ -118,75 +121,91 @@ class FootprintCaster:
     """Casts batches of rays against Footprints and a Room (owns no state between calls)."""
 
     def cast(self, o: C128, d: C128, limit: F64, z: F64, fp: Footprints,
-             room: Room | None) -> F64:
+             room: Room | None, own: I64 | None = None) -> F64:
         """Distance along each unit ray (origin o, direction d, height z) to the nearest
-        footprint (or wall) at least as tall as z, or ``limit`` when nothing is nearer."""
+        footprint (or wall) at least as tall as z, or ``limit`` when nothing is nearer.
+
+        own (optional, per ray): a footprint the ray starts inside (its sensor's own body),
+        or -1. It cannot be hit anyway; naming it spares its pair the exact test.
+        """
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            return self._cast(np.ascontiguousarray(o), np.ascontiguousarray(d), limit, z, fp,
+                              room, own)
+
+    def _cast(self, o: C128, d: C128, limit: F64, z: F64, fp: Footprints,
+              room: Room | None, own: I64 | None) -> F64:
         best = np.array(limit, dtype=np.float64, copy=True)
         n = best.shape[0]
         if n == 0:
             return best
         if room is not None:
-            walls = room_exit(o, d, room)
+            walls = _room_exit(o, d, room)
             if float(z.max()) > room.top:
                 walls[z > room.top] = np.inf
             np.minimum(best, walls, out=best)
         k = fp.count
         if k == 0:
             return best
-        # Per-ray features [dx, dy, o.d, o x d] and per-footprint weights give, per pair,
-        # how far the centre lies behind the origin, -(c - o).d, and beside the ray,
-        # (c - o) x d. A candidate's bounding circle touches the ray's half-line.
-        od = o * np.conjugate(d)  # o.d - i (o x d)
+        # Per-ray features [dx, dy, o.d, -(o x d)] (the last two: o conj(d)) and
+        # per-footprint weights give, per pair, how far the centre lies behind the origin,
+        # -(c - o).d, and beside the ray, (c - o) x d. A candidate's bounding circle touches
+        # the ray's half-line.
         feat = np.empty((4, n))
-        feat[0] = d.real
-        feat[1] = d.imag
-        feat[2] = od.real
-        np.negative(od.imag, out=feat[3])
+        feat[:2] = d.view(np.float64).reshape(-1, 2).T
+        feat[2:] = (o * np.conjugate(d)).view(np.float64).reshape(-1, 2).T
         w = fp.cull_weights()
         radius = fp.radius[:, None]
         chunk = max(1, _CHUNK_ELEMENTS // k)
-        flats: list[I64] = []
-        alongs: list[F64] = []
-        besides: list[F64] = []
+        n_rect = fp.n_rect
+        parts: list[tuple[I64, I64, F64, F64]] = []  # rectangle pairs, then circle pairs
+        circle_parts: list[tuple[I64, I64, F64, F64]] = []
         for start in range(0, n, chunk):
             stop = min(n, start + chunk)
             m = np.matmul(w, feat[:, start:stop])
             test = np.abs(m[k:])
             np.maximum(test, m[:k], out=test)
-            flat = np.flatnonzero(test <= radius)
-            if flat.size:
-                mf = m.ravel()
-                alongs.append(np.negative(mf[flat]))
-                besides.append(mf[flat + k * (stop - start)])
-                if stop - start < n:  # re-index into the (k, n) layout of all rays
-                    fi, ri = np.divmod(flat, stop - start)
-                    flat = fi * n + (ri + start)
-                flats.append(flat)
-        if not flats:
+            cand = test <= radius
+            if own is not None:
+                sub = own[start:stop]
+                j = np.flatnonzero(sub >= 0)
+                cand.ravel()[sub[j] * (stop - start) + j] = False
+            flat = np.flatnonzero(cand)  # sorted: rectangles' pairs come first
+            if flat.size == 0:
+                continue
+            mf = m.ravel()
+            fi, ri = np.divmod(flat, stop - start)
+            if start:
+                ri += start
+            along = np.negative(mf[flat])
+            # v = (c - o) conj(d) per pair: along + i (o - c) x d.
+            flat += k * (stop - start)
+            other = np.negative(mf[flat])
+            split = int(np.searchsorted(fi, n_rect))
+            if split:
+                parts.append((fi[:split], ri[:split], along[:split], other[:split]))
+            if split < fi.shape[0]:
+                circle_parts.append((fi[split:], ri[split:], along[split:], other[split:]))
+        n_rect_parts = len(parts)
+        parts += circle_parts
+        if not parts:
             return best
-        if len(flats) > 1:
-            flat = np.concatenate(flats)
-            order = np.argsort(flat, kind="stable")
-            flat = flat[order]
-            along, beside = np.concatenate(alongs)[order], np.concatenate(besides)[order]
+        if len(parts) == 1:
+            fi, ri, along, other = parts[0]
         else:
-            flat, along, beside = flats[0], alongs[0], besides[0]
-        # v = (c - o) conj(d) per pair: along + i (o - c) x d.
-        val = np.empty(flat.shape[0], dtype=np.complex128)
+            fi, ri, along, other = (np.concatenate([p[j] for p in parts]) for j in range(4))
+        val = np.empty(fi.shape[0], dtype=np.complex128)
         val.real = along
-        np.negative(beside, out=val.imag)
-        fi, ri = np.divmod(flat, n)
-        split = int(np.searchsorted(fi, fp.n_rect))
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            if split == flat.shape[0]:
-                dist = _rect_hits(d, fp, fi, ri, val)
-            elif split == 0:
-                dist = _circle_hits(fp, fi, val)
-            else:
-                dist = np.concatenate([_rect_hits(d, fp, fi[:split], ri[:split], val[:split]),
-                                       _circle_hits(fp, fi[split:], val[split:])])
-            if fp.top.min() < z.max():  # footprints lower than a ray pass under it
-                dist[fp.top[fi] < z[ri]] = np.inf
+        val.imag = other
+        split = sum(p[0].shape[0] for p in parts[:n_rect_parts])
+        if split == fi.shape[0]:
+            dist = _rect_hits(d, fp, fi, ri, val)
+        elif split == 0:
+            dist = _circle_hits(fp, fi, val)
+        else:
+            dist = np.concatenate([_rect_hits(d, fp, fi[:split], ri[:split], val[:split]),
+                                   _circle_hits(fp, fi[split:], val[split:])])
+        if fp.top.min() < z.max():  # footprints lower than a ray pass under it
+            dist[fp.top[fi] < z[ri]] = np.inf
         np.minimum.at(best, ri, dist)
         return best
 

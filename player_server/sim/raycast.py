@@ -1,4 +1,8 @@
-"""A vectorised 2-D ray caster over footprints (pure numpy).
+"""A vectorised 2-D ray caster over one-sided faces (pure numpy): the general reference.
+
+The simulation casts with ``footprint_cast`` (whole rectangles and circles, culled per ray,
+in float64); this caster handles arbitrary faces densely in float32 and serves as the
+independent reference it is tested against.
 
 Footprints are one-sided faces (segments with an outward normal) and circles. A face is hit
 only from its front side, so a ray that starts inside a convex footprint (a sensor inside its

@@ -585,6 +585,7 @@ class Simulation:
         dirs: list[np.ndarray] = []
         maxr: list[np.ndarray] = []
         zs: list[np.ndarray] = []
+        own: list[np.ndarray] = []
         plan = None
         if rkeys:
             plan = self._range_plan(rkeys)
@@ -593,6 +594,7 @@ class Simulation:
             dirs.append(d)
             maxr.append(plan.max_range)
             zs.append(plan.z)
+            own.append(plan.own)
         n_range = sum(o.size for o in origins)
         bplan = pending = None
         if cams:
@@ -610,6 +612,7 @@ class Simulation:
                 dirs.append(pending.direction)
                 maxr.append(pending.dist)
                 zs.append(self._zeros_for(pending.pair.size))
+                own.append(bplan.own[pending.pair])
         t1 = self._now()
         hits = np.zeros(0)
         if origins:
@@ -617,7 +620,8 @@ class Simulation:
             d = np.concatenate(dirs) if len(dirs) > 1 else dirs[0]
             hits = self._caster.cast(o, d, np.concatenate(maxr) if len(maxr) > 1 else maxr[0],
                                      np.concatenate(zs) if len(zs) > 1 else zs[0],
-                                     self._footprints(), self._arrays.room)
+                                     self._footprints(), self._arrays.room,
+                                     np.concatenate(own) if len(own) > 1 else own[0])
         t2 = self._now()
         if plan is not None:
             cache["ranges"].update(plan.split(hits[:n_range]))
@@ -636,7 +640,8 @@ class Simulation:
     def _range_plan(self, keys: tuple[tuple[int, str], ...]) -> RangePlan:
         plan = self._range_plans.get(keys)
         if plan is None:
-            plan = self._range_plans[keys] = RangePlan.build(keys, self.spec.robots)
+            plan = self._range_plans[keys] = RangePlan.build(keys, self.spec.robots,
+                                                              self._arrays)
         return plan
 
     def _zeros_for(self, n: int) -> np.ndarray:

@@ -39,6 +39,7 @@ class WorldArrays:
     fp_circle_radius: F64  # static cylinders then objects
     fp_circle_top: F64
     rect_half_x: F64  # robots then boxes
+    body_offset: F64  # robots: body centre ahead of the axle centre
     rect_half_y: F64
     rect_top: F64
     obj_radius: F64
@@ -113,6 +114,7 @@ class WorldArrays:
             fp_circle_radius=_arr([o.radius_m for o in cyl_static]
                                   + [o.radius_m for o in objects]),
             fp_circle_top=_arr([o.height_m for o in cyl_static] + [o.height_m for o in objects]),
+            body_offset=_arr([r.body.offset_x_m for r in robots]),
             rect_half_x=_arr([r.body.length_m / 2 for r in robots]
                              + [b.size_x_m / 2 for b in boxes]),
             rect_half_y=_arr([r.body.width_m / 2 for r in robots]
@@ -132,6 +134,15 @@ class WorldArrays:
             cam=cam,
             channels=tuple(channels),
         )
+
+    def own_body(self, robot: NDArray[np.int64], local: NDArray[np.complex128]
+                 ) -> NDArray[np.int64]:
+        """Footprint index of the body of each robot when the robot-frame point ``local``
+        (axle frame) lies strictly inside it, else -1: a ray from there cannot see it."""
+        p = local - self.body_offset[robot]
+        inside = (np.abs(p.real) < self.rect_half_x[robot]) & \
+            (np.abs(p.imag) < self.rect_half_y[robot])
+        return np.where(inside, self.n_static_rects + robot, -1).astype(np.int64)
 
     def cameras(self, idx: NDArray[np.int64], rx: F64, ry: F64, ryaw: F64,
                 pan: F64, tilt: F64, zoom: F64) -> Cameras:

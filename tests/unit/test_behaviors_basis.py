@@ -182,3 +182,33 @@ def test_back_off_reverses_then_stops() -> None:
     mark = Mark(T, None, None)
     assert b.decide(Snapshot(T, mark=mark), T + 0.5).vx_mps < 0
     assert b.decide(Snapshot(T, mark=mark), T + 1.0).signal == "backed-off"
+
+
+def test_view_of_end_backs_away_then_turns_towards_the_far_end() -> None:
+    b = basis.ViewOfEnd(RED, aim_fraction=0.2, min_range_m=1.4)
+    # The left end is in view and nearly ahead: nothing to do.
+    ok = b.decide(Snapshot(T, camera=view(blob(70, 150, range_m=0.4))), T)
+    assert ok.signal == "in-view" and ok.vx_mps == 0.0 and ok.vyaw_radps == 0.0
+    # Close up with the left end beyond the image edge: back straight away first.
+    close = b.decide(Snapshot(T, camera=view(blob(0, 120, range_m=0.5))), T)
+    assert close.vx_mps < 0 and close.vyaw_radps == 0.0 and close.signal == ""
+    # Far enough back: turn left, towards that end.
+    far = b.decide(Snapshot(T, camera=view(blob(0, 120, range_m=1.6))), T)
+    assert far.vx_mps == 0.0 and far.vyaw_radps > 0
+    # The end in view but well off to the left: turn towards it.
+    off = b.decide(Snapshot(T, camera=view(blob(5, 60, range_m=1.6))), T)
+    assert off.vyaw_radps > 0 and off.signal == ""
+    # Box not in view at all (too close to see): back away.
+    lost = b.decide(Snapshot(T, camera=view()), T)
+    assert lost.vx_mps < 0
+    assert not b.decide(Snapshot(T), T).active
+
+
+def test_cruise_on_heading_turns_first_then_drives_straight() -> None:
+    b = basis.CruiseOnHeading(0.5, speed_mps=0.2)
+    off = b.decide(Snapshot(T, odometry=odo(yaw=-0.5)), T)
+    assert off.vx_mps == 0.0 and off.vyaw_radps > 0
+    on = b.decide(Snapshot(T, odometry=odo(yaw=0.45)), T)
+    assert on.vx_mps == 0.2 and on.signal == "on-heading" and on.vyaw_radps > 0
+    assert not b.decide(Snapshot(T), T).active
+    assert basis.Cruise(0.1).decide(Snapshot(T), T).vx_mps == 0.1

@@ -35,6 +35,7 @@ BEHAVIOURS = [
     basis.BackOff(),
     basis.Hold(),
     basis.Cruise(speed_mps=0.15),
+    basis.CruiseOnHeading(0.5),
     basis.ViewOfEnd(RED, aim_fraction=0.2),
     basis.ViewOfEnd(GREEN),
 ]

@@ -112,3 +112,67 @@ def test_many_rays_are_cast_in_chunks() -> None:
                                                   z[i:i + 1], fp, Room(10.0, 10.0, 1.0))[0]
                            for i in range(0, n, 50)])
     assert all_at_once[::50] == pytest.approx(one_by_one)
+
+
+def _reference(o: complex, a: float, rects: np.ndarray, circles: np.ndarray,
+               max_range: float) -> float:
+    """Slow, obvious ray/segment and ray/circle intersections in float64."""
+    dx, dy = math.cos(a), math.sin(a)
+    best = max_range
+    for cx, cy, yaw, hx, hy, _ in rects:
+        c, s = math.cos(yaw), math.sin(yaw)
+        corners = [(cx + c * px - s * py, cy + s * px + c * py)
+                   for px, py in ((hx, hy), (-hx, hy), (-hx, -hy), (hx, -hy))]
+        for (x1, y1), (x2, y2) in zip(corners, corners[1:] + corners[:1], strict=True):
+            ex, ey = x2 - x1, y2 - y1
+            den = dx * ey - dy * ex
+            if abs(den) < 1e-12:
+                continue
+            t = ((x1 - o.real) * ey - (y1 - o.imag) * ex) / den
+            u = ((x1 - o.real) * dy - (y1 - o.imag) * dx) / den
+            if t > 0 and 0 <= u <= 1:
+                best = min(best, t)
+    for cx, cy, r, _ in circles:
+        wx, wy = cx - o.real, cy - o.imag
+        b = wx * dx + wy * dy
+        disc = r * r - (wx * wx + wy * wy - b * b)
+        if disc >= 0 and b - math.sqrt(disc) > 0:
+            best = min(best, b - math.sqrt(disc))
+    return best
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(min_value=0, max_value=2**31 - 1))
+def test_matches_brute_force_to_float64_noise(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    rects = np.column_stack([rng.uniform(-4, 4, (4, 2)), rng.uniform(-3, 3, 4),
+                             rng.uniform(0.1, 0.8, (4, 2)), np.ones(4)])
+    circles = np.column_stack([rng.uniform(-4, 4, (3, 2)), rng.uniform(0.05, 0.5, 3),
+                               np.ones(3)])
+    o = complex(*rng.uniform(-5, 5, 2))
+    for cx, cy, yaw, hx, hy, _ in rects:  # origins inside a footprint are ignored by design
+        p = (o - complex(cx, cy)) * complex(math.cos(yaw), -math.sin(yaw))
+        if abs(p.real) <= hx and abs(p.imag) <= hy:
+            return
+    if any(abs(o - complex(cx, cy)) <= r for cx, cy, r, _ in circles):
+        return
+    angles = np.linspace(-math.pi, math.pi, 73)
+    got = cast(o.real, o.imag, angles, footprints(rects, circles), None, max_range=12.0)
+    want = [_reference(o, a, rects, circles, 12.0) for a in angles]
+    assert np.allclose(got, want, rtol=0, atol=1e-9)
+
+
+def test_naming_the_own_footprint_changes_nothing() -> None:
+    rng = np.random.default_rng(5)
+    rects = np.column_stack([rng.uniform(-3, 3, (6, 2)), rng.uniform(-3, 3, 6),
+                             np.full((6, 2), 0.3), np.ones(6)])
+    fp = footprints(rects, np.array([0.5, 0.5, 0.2, 1.0]))
+    # Fans from the centres of the first three rectangles, and one from open space.
+    o = np.repeat(np.append(rects[:3, 0] + 1j * rects[:3, 1], 4.5 + 0j), 90)
+    d = np.exp(1j * np.tile(np.linspace(-math.pi, math.pi, 90, endpoint=False), 4))
+    own = np.repeat([0, 1, 2, -1], 90)
+    lim, z = np.full(o.size, 9.0), np.zeros(o.size)
+    room = Room(5.0, 5.0, 1.0)
+    caster = FootprintCaster()
+    assert np.array_equal(caster.cast(o, d, lim, z, fp, room, own),
+                          caster.cast(o, d, lim, z, fp, room))
