@@ -45,7 +45,7 @@ from murdoch.consensus.cbba import (
 )
 from murdoch.consensus.conflict import NONE, apply_actions, resolve_many
 from murdoch.consensus.messages import KIND_CBGA, ConsensusMessage
-from murdoch.consensus.scoring import Problem, path_times
+from murdoch.consensus.scoring import _EPS, Problem, path_times
 
 
 @dataclass(frozen=True)
@@ -74,6 +74,7 @@ class CbgaAgent:
         self.times = np.zeros(0)
         self.assigned_at = np.full(problem.n_tasks, np.nan)
         self.banned = np.full(problem.n_tasks, -1, dtype=np.int64)
+        self.yielding: dict[int, bool] = {}  # a late group task kept one round (see below)
         self.needs_build = True
         self.active = True
         self._refresh_static()
@@ -140,11 +141,16 @@ class CbgaAgent:
         return cand if cand.any() else None
 
     def not_before(self) -> np.ndarray | None:
-        """Per task, the latest planned start of the other members of its group."""
+        """Per task, the latest planned start of the other members of its group.
+
+        A member that cannot itself be there inside the window is left out: it is the one
+        that makes the group late, and it gives the task up (its own `refresh_times` finds
+        its path infeasible). Only that member leaves; the punctual ones keep the task."""
         if not self.group_idx.size:
             return None
         others = self.x > 0
         others[:, self.index] = False
+        others &= self.t <= self.problem.window_end[:, None] + _EPS
         lb = np.where(others, self.t, 0.0).max(axis=1)
         lb[self.single_idx] = 0.0
         return lb
@@ -171,10 +177,17 @@ class CbgaAgent:
 
     def refresh_times(self) -> bool:
         """Re-plan start times against the partners' latest plans; drop a group task that
-        can no longer start in its window. True if anything changed."""
+        can no longer start in its window. True if anything changed.
+
+        Two members can wait on each other across two group tasks they hold in opposite
+        orders (each late for one task because it waits for the other at another). Ties go
+        to the higher agent index: a member made late by waiting for a lower-index partner
+        keeps its plan for one round so that the partner, made late by waiting for it,
+        gives its task up first; if the plan is still infeasible a round later it drops."""
         if not self.group_idx.size or not self.active:
             return False
         dropped = False
+        held = False
         while True:
             times, ok = path_times(self.problem, self.index, self.path,
                                    self._lower_bounds(self.path))
@@ -182,10 +195,17 @@ class CbgaAgent:
                 break
             bad = self._first_infeasible()
             j = self.path[bad]
+            blamed = self._blamed_partner(bad)
+            if blamed is not None and blamed < self.index and not self.yielding.get(j):
+                self.yielding = {j: True}
+                held = True
+                break
             self.x[j, self.index] = 0.0
             self.bundle.remove(j)
             self.path.remove(j)
             dropped = True
+        if not held:
+            self.yielding = {}
         moved = dropped or times.shape != self.times.shape or bool((times != self.times).any())
         self.times = times
         self._publish_times()
@@ -199,6 +219,23 @@ class CbgaAgent:
             if not path_times(self.problem, self.index, prefix, self._lower_bounds(prefix))[1]:
                 return n - 1
         return len(self.path) - 1
+
+    def _blamed_partner(self, bad: int) -> int | None:
+        """The partner this agent last waited for on a group task before path[bad] (None
+        when it waited for nobody there)."""
+        lb = self.not_before()
+        if lb is None:
+            return None
+        ready: list[float] = []
+        path_times(self.problem, self.index, self.path[:bad], self._lower_bounds(self.path),
+                   ready)
+        for n in range(bad - 1, -1, -1):
+            g = self.path[n]
+            if not self.single[g] and lb[g] > ready[n]:
+                row = np.where(self.x[g] > 0, self.t[g], -np.inf)
+                row[self.index] = -np.inf
+                return int(np.argmax(row))
+        return None
 
     def take(self, gains: np.ndarray, pos: np.ndarray, now: float) -> bool:
         p, i = self.problem, self.index

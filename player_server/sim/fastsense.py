@@ -153,6 +153,9 @@ class BlobPlan:
     consts: F64
     meta: NDArray[np.int64]
     own: NDArray[np.int64]  # footprint of the robot's body when its camera is inside, or -1
+    half_xx: F64  # (pairs, 2): target half length, twice
+    half_yy: F64  # (pairs, 2): target half width, twice
+    radius2: F64  # (pairs, 2): target radius (circles), twice
 
     @staticmethod
     def build(cams: tuple[int, ...], wa: WorldArrays) -> BlobPlan:
@@ -189,6 +192,9 @@ class BlobPlan:
             meta=np.column_stack([robot, slot, ch[slot, target],
                                   wa.t_colour[target]]).astype(np.int64),
             own=wa.own_body(robot, cam[:, 0] + 1j * cam[:, 1]),
+            half_xx=np.repeat(wa.t_half_x[target][:, None], 2, axis=1),
+            half_yy=np.repeat(wa.t_half_y[target][:, None], 2, axis=1),
+            radius2=np.repeat(wa.t_radius[target][:, None], 2, axis=1),
         )
 
     def pending(self, frame: Frame, t_pos: C128, t_head: C128, pan: F64, zoom: F64,
@@ -204,22 +210,26 @@ class BlobPlan:
         v = t_pos[self.target] - origin
         dist = np.abs(v)
         unit = v / np.maximum(dist, 1e-9)
-        # The target's orientation relative to the line of sight (for rectangles).
+        # The target's orientation relative to the line of sight (for rectangles): with
+        # cs = (|cos|, |sin|), half width and depth are hx |sin| + hy |cos| and
+        # hx |cos| + hy |sin| (plus the radius of a circle, whose hx = hy = 0).
         rel = t_head[self.target] * unit.conjugate()
-        c, s = np.abs(rel.real), np.abs(rel.imag)
-        half_w = np.where(self.circle, self.radius, self.half_x * s + self.half_y * c)
-        depth = np.where(self.circle, self.radius, self.half_x * c + self.half_y * s)
-        near = dist - depth
-        half = np.arcsin(np.minimum(half_w / np.maximum(dist, 1e-6), 1.0))
+        cs = np.abs(rel.view(np.float64).reshape(-1, 2))
+        wd = self.half_xx * cs[:, ::-1]
+        wd += self.half_yy * cs
+        wd += self.radius2
+        near = dist - wd[:, 1]
+        half = np.arcsin(np.minimum(wd[:, 0] / np.maximum(dist, 1e-6), 1.0))
         cam_yaw = frame.yaw[r] + self.mount_yaw + pan[r]
         bearing = np.angle(unit * np.exp(-1j * cam_yaw))
-        fov = np.where(zoom[r] > 0, zoom[r], self.fov)
+        zr = zoom[r]
+        fov = np.where(zr > 0, zr, self.fov)
         keep = (near <= self.max_range) & (np.abs(bearing) - half < fov / 2) & (near > 1e-3)
         if hidden is not None:
             keep &= ~hidden[self.target]
-        idx = np.nonzero(keep)[0]
-        return Pending(idx, origin[idx], unit[idx], dist[idx], near[idx], bearing[idx],
-                       half[idx])
+        idx = np.flatnonzero(keep)
+        out = np.vstack([dist, near, bearing, half])[:, idx]
+        return Pending(idx, origin[idx], unit[idx], out[0], out[1], out[2], out[3])
 
     def project(self, p: Pending, visible: NDArray[np.bool_], pan: F64, tilt: F64,
                 zoom: F64) -> list[tuple[Blob, ...]]:

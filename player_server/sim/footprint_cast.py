@@ -157,8 +157,10 @@ class FootprintCaster:
         radius = fp.radius[:, None]
         chunk = max(1, _CHUNK_ELEMENTS // k)
         n_rect = fp.n_rect
-        parts: list[tuple[I64, I64, F64, F64]] = []  # rectangle pairs, then circle pairs
-        circle_parts: list[tuple[I64, I64, F64, F64]] = []
+        # Candidate pairs per chunk: (footprint, ray, v) with v = (c - o) conj(d), i.e.
+        # along the ray + i (o - c) x d; rectangles' pairs and circles' pairs apart.
+        rects: list[tuple[I64, I64, C128]] = []
+        circles: list[tuple[I64, I64, C128]] = []
         for start in range(0, n, chunk):
             stop = min(n, start + chunk)
             m = np.matmul(w, feat[:, start:stop])
@@ -176,37 +178,27 @@ class FootprintCaster:
             fi, ri = np.divmod(flat, stop - start)
             if start:
                 ri += start
-            along = np.negative(mf[flat])
-            # v = (c - o) conj(d) per pair: along + i (o - c) x d.
+            v = np.empty(flat.shape[0], dtype=np.complex128)
+            np.negative(mf[flat], out=v.real)
             flat += k * (stop - start)
-            other = np.negative(mf[flat])
+            np.negative(mf[flat], out=v.imag)
             split = int(np.searchsorted(fi, n_rect))
             if split:
-                parts.append((fi[:split], ri[:split], along[:split], other[:split]))
+                rects.append((fi[:split], ri[:split], v[:split]))
             if split < fi.shape[0]:
-                circle_parts.append((fi[split:], ri[split:], along[split:], other[split:]))
-        n_rect_parts = len(parts)
-        parts += circle_parts
-        if not parts:
-            return best
-        if len(parts) == 1:
-            fi, ri, along, other = parts[0]
-        else:
-            fi, ri, along, other = (np.concatenate([p[j] for p in parts]) for j in range(4))
-        val = np.empty(fi.shape[0], dtype=np.complex128)
-        val.real = along
-        val.imag = other
-        split = sum(p[0].shape[0] for p in parts[:n_rect_parts])
-        if split == fi.shape[0]:
-            dist = _rect_hits(d, fp, fi, ri, val)
-        elif split == 0:
-            dist = _circle_hits(fp, fi, val)
-        else:
-            dist = np.concatenate([_rect_hits(d, fp, fi[:split], ri[:split], val[:split]),
-                                   _circle_hits(fp, fi[split:], val[split:])])
-        if fp.top.min() < z.max():  # footprints lower than a ray pass under it
-            dist[fp.top[fi] < z[ri]] = np.inf
-        np.minimum.at(best, ri, dist)
+                circles.append((fi[split:], ri[split:], v[split:]))
+        low = bool(fp.top.min() < z.max())  # footprints lower than a ray pass under it
+        for is_rect, parts in ((True, rects), (False, circles)):
+            if not parts:
+                continue
+            if len(parts) == 1:
+                fi, ri, v = parts[0]
+            else:
+                fi, ri, v = (np.concatenate([p[j] for p in parts]) for j in range(3))
+            dist = _rect_hits(d, fp, fi, ri, v) if is_rect else _circle_hits(fp, fi, v)
+            if low:
+                dist[fp.top[fi] < z[ri]] = np.inf
+            np.minimum.at(best, ri, dist)
         return best
 
 
