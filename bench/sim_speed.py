@@ -40,7 +40,8 @@ def scaled_world(spec: WorldSpec, n_robots: int) -> WorldSpec:
     return dataclasses.replace(spec, arena=arena, robots=tuple(robots))
 
 
-def one_run(spec: WorldSpec, fidelity: str, ticks: int, seed: int) -> tuple[float, dict]:  # type: ignore[type-arg]
+def one_run(spec: WorldSpec, fidelity: str, ticks: int,
+            seed: int) -> tuple[float, dict[str, float]]:
     sim = Simulation(spec, fidelity=fidelity, profile_clock=time.perf_counter)
     try:
         driver = WanderDriver(sim, np.random.default_rng(seed), sense_all=True)

@@ -186,7 +186,7 @@ class CbgaAgent:
         gives its task up first; if the plan is still infeasible a round later it drops."""
         if not self.group_idx.size or not self.active:
             return False
-        dropped = False
+        dropped = self._drop_crossed_orders()
         held = False
         while True:
             times, ok = path_times(self.problem, self.index, self.path,
@@ -212,6 +212,33 @@ class CbgaAgent:
         if moved:
             self.needs_build = True
         return moved
+
+    def _drop_crossed_orders(self) -> bool:
+        """Give up a group task this agent plans in the opposite order to a higher-index
+        partner: if both hold g and h, this agent doing g first and the partner h first (its
+        own times say so), each would wait for the other. Ties go to the higher index, so
+        the lower-index member drops the later task of the pair; True if it dropped any."""
+        i = self.index
+        shared = [(n, j) for n, j in enumerate(self.path) if not self.single[j]]
+        if len(shared) < 2:
+            return False
+        x, t = self.x, self.t
+        drop: set[int] = set()
+        for a, (_, g) in enumerate(shared):
+            if g in drop:
+                continue
+            for _, h in shared[a + 1:]:
+                if h in drop:
+                    continue
+                both = (x[g] > 0) & (x[h] > 0) & (t[g] > 0) & (t[h] > 0)
+                both[: i + 1] = False
+                if (both & (t[h] < t[g])).any():
+                    drop.add(h)
+        for j in drop:
+            self.x[j, i] = 0.0
+            self.bundle.remove(j)
+            self.path.remove(j)
+        return bool(drop)
 
     def _first_infeasible(self) -> int:
         for n in range(1, len(self.path) + 1):
@@ -383,8 +410,15 @@ class CbgaAgent:
                 changed = bool(moved.any())
         if group_idx.size:
             t_k = np.zeros_like(x_k) if t_k is None else t_k
-            differ = group_idx[((x_i[group_idx] != x_k[group_idx])
-                                | (self.t[group_idx] != t_k[group_idx])).any(axis=1)]
+            # Algorithm 2 only takes from the sender what it knows better (members it heard
+            # from more recently, or itself) and never this agent's own entry; a row that
+            # differs in nothing else cannot change (non-members' times are always 0).
+            fresher_a = s_k[:-1] > self.s[:-1]
+            fresher_a[k] = True
+            fresher_a[i] = False
+            differ = group_idx[(((x_i[group_idx] != x_k[group_idx])
+                                 | (self.t[group_idx] != t_k[group_idx]))
+                                & fresher_a).any(axis=1)]
             if differ.size:
                 fresher = (s_k[:-1] > self.s[:-1]).tolist()
                 fresher[k] = True

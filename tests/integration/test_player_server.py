@@ -340,5 +340,9 @@ def test_free_running_speedup_paces_time() -> None:
         t_sim0, t0 = pos.data_time_s, time.monotonic()
         for _ in range(10):
             cl.read()
-        rate = (pos.data_time_s - t_sim0) / (time.monotonic() - t0)  # type: ignore[operator]
-        assert 1.0 < rate < 6.5  # paced near 5x, never as fast as possible
+        advanced_s = pos.data_time_s - t_sim0  # type: ignore[operator]
+        rate = advanced_s / (time.monotonic() - t0)
+        # Paced at (at most) 5x: never as fast as possible. A loaded machine may lag behind the
+        # pace, so only the upper bound is a property of the server.
+        assert advanced_s > 0.0
+        assert rate < 6.5
