@@ -12,7 +12,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 run: $(STAMP)
-	$(BIN)/murdoch run longterm
+	$(BIN)/murdoch run longterm --until 30m
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

@@ -274,15 +274,18 @@ def consensus_batch(receivers: np.ndarray, senders: np.ndarray, y: np.ndarray, z
     z_k = z_msg[senders]
     s_k = s_msg[senders].copy()
     s_k[np.arange(len(senders)), senders] = now
-    differ = (z_k != z_i) | (y_k != y_i)
-    if differ.any():  # equal beliefs never change anything: only timestamps move
-        actions = resolve_many(receivers, senders, y_k, z_k, y_i, z_i, s_k, s[receivers])
-        apply_actions(actions, y_i, z_i, y_k, z_k)
-        changed = ((y_i != y[receivers]) | (z_i != z[receivers])).any(axis=1)
-        y[receivers] = y_i
-        z[receivers] = z_i
-    else:
-        changed = np.zeros(len(receivers), dtype=bool)
+    # equal beliefs never change anything (only timestamps move): resolve only the
+    # receivers whose message differs from what they hold
+    rows = np.flatnonzero(((z_k != z_i) | (y_k != y_i)).any(axis=1))
+    changed = np.zeros(len(receivers), dtype=bool)
+    if rows.size:
+        r_i = receivers[rows]
+        y_r, z_r, y_kr, z_kr = y_i[rows], z_i[rows], y_k[rows], z_k[rows]
+        actions = resolve_many(r_i, senders[rows], y_kr, z_kr, y_r, z_r, s_k[rows], s[r_i])
+        apply_actions(actions, y_r, z_r, y_kr, z_kr)
+        changed[rows] = ((y_r != y[r_i]) | (z_r != z[r_i])).any(axis=1)
+        y[r_i] = y_r
+        z[r_i] = z_r
     s_new = np.maximum(s[receivers], s_k)
     s_new[np.arange(len(senders)), senders] = now
     s_new[np.arange(len(receivers)), receivers] = np.maximum(
