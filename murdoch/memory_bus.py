@@ -25,7 +25,13 @@ from dataclasses import dataclass
 from typing import Any
 
 from murdoch.auth import TeamKey
-from murdoch.transport import Callback, Clock, Counters, EndpointCore, Subscription
+from murdoch.transport import (
+    Callback,
+    Clock,
+    EndpointBacked,
+    EndpointCore,
+    Subscription,
+)
 from murdoch.wire import Codec
 
 
@@ -137,7 +143,7 @@ class MemoryBus:
         return sum(len(t._inbox) for t in self._endpoints.values())
 
 
-class MemoryTransport:
+class MemoryTransport(EndpointBacked):
     """One endpoint on a `MemoryBus`; implements the `Transport` interface."""
 
     def __init__(
@@ -151,22 +157,6 @@ class MemoryTransport:
                                   instance=instance)
         self._inbox: list[tuple[float, int, bytes]] = []
         self.closed = False
-
-    @property
-    def sender_id(self) -> str:
-        return self._core.sender_id
-
-    @property
-    def instance(self) -> str:
-        return self._core.instance
-
-    @property
-    def counters(self) -> Counters:
-        return self._core.counters
-
-    @property
-    def codec(self) -> Codec:
-        return self._core.codec
 
     def publish(self, subjects: Iterable[str] | str, message: Any) -> int:
         if self.closed:

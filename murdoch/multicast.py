@@ -22,7 +22,13 @@ from dataclasses import dataclass
 from typing import Any
 
 from murdoch.auth import TeamKey
-from murdoch.transport import Callback, Clock, Counters, EndpointCore, Subscription
+from murdoch.transport import (
+    Callback,
+    Clock,
+    EndpointBacked,
+    EndpointCore,
+    Subscription,
+)
 from murdoch.wire import Codec
 
 log = logging.getLogger(__name__)
@@ -79,7 +85,7 @@ def open_multicast_socket(config: MulticastConfig) -> socket.socket:
     return sock
 
 
-class MulticastTransport:
+class MulticastTransport(EndpointBacked):
     """A `Transport` over one UDP multicast group and port."""
 
     def __init__(
@@ -100,26 +106,6 @@ class MulticastTransport:
         self._sock = open_multicast_socket(self.config)
         self._dest = (self.config.group, self.config.port)
         self.closed = False
-
-    @property
-    def sender_id(self) -> str:
-        return self._core.sender_id
-
-    @property
-    def instance(self) -> str:
-        return self._core.instance
-
-    @property
-    def counters(self) -> Counters:
-        return self._core.counters
-
-    @property
-    def codec(self) -> Codec:
-        return self._core.codec
-
-    @property
-    def core(self) -> EndpointCore:
-        return self._core
 
     def fileno(self) -> int:
         return self._sock.fileno()

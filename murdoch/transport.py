@@ -313,3 +313,29 @@ class EndpointCore:
         if self.frame_tap is not None:
             self.frame_tap(frame, len(datagram))
         return frame
+
+
+class EndpointBacked:
+    """The read-only identity and counters every transport exposes from its `EndpointCore`."""
+
+    _core: EndpointCore
+
+    @property
+    def sender_id(self) -> str:
+        return self._core.sender_id
+
+    @property
+    def instance(self) -> str:
+        return self._core.instance
+
+    @property
+    def counters(self) -> Counters:
+        return self._core.counters
+
+    @property
+    def codec(self) -> Codec:
+        return self._core.codec
+
+    @property
+    def core(self) -> EndpointCore:
+        return self._core

@@ -186,8 +186,8 @@ class SonarSpec:
 
 
 @dataclass(frozen=True)
-class LaserSpec:
-    """A scanning range finder (SICK LMS200 by default: 181 readings over 180 deg, 8 m)."""
+class ScanSpec:
+    """Geometry of a planar scanning range finder: readings evenly spaced over an arc."""
 
     pose: Mount
     min_angle_rad: float = -math.pi / 2
@@ -211,28 +211,13 @@ class LaserSpec:
 
 
 @dataclass(frozen=True)
-class RangerSpec:
+class LaserSpec(ScanSpec):
+    """A scanning laser (SICK LMS200 by default: 181 readings over 180 deg, 8 m)."""
+
+
+@dataclass(frozen=True)
+class RangerSpec(ScanSpec):
     """A generic scanning ranger (Player ranger interface); same geometry as a laser."""
-
-    pose: Mount
-    min_angle_rad: float = -math.pi / 2
-    max_angle_rad: float = math.pi / 2
-    samples: int = 181
-    min_range_m: float = 0.0
-    max_range_m: float = 8.0
-    range_res_m: float = 0.001
-    frequency_hz: float = 10.0
-
-    @property
-    def resolution_rad(self) -> float:
-        if self.samples < 2:
-            return 0.0
-        return (self.max_angle_rad - self.min_angle_rad) / (self.samples - 1)
-
-    def angles_rad(self) -> tuple[float, ...]:
-        return tuple(
-            self.min_angle_rad + i * self.resolution_rad for i in range(self.samples)
-        )
 
 
 @dataclass(frozen=True)
