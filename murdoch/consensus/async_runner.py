@@ -187,7 +187,7 @@ class ConsensusSwarm:
     """Steps nodes period by period until nothing has changed for `quiet_periods`."""
 
     def __init__(self, scenario: Scenario, algorithm: str, nodes: Sequence[ConsensusNode],
-                 deliver: Callable[[], None], advance: Callable[[], None]) -> None:
+                 deliver: Callable[[], object], advance: Callable[[], None]) -> None:
         self.scenario = scenario
         self.algorithm = algorithm
         self.nodes = list(nodes)
@@ -276,8 +276,11 @@ def run_on_memory_bus(scenario: Scenario, algorithm: str, rng: random.Random,
     transports = [bus.endpoint(a.id, CONSENSUS_CODEC) for a in scenario.agents]
     nodes = make_nodes(scenario, algorithm, options, transports, clock,
                        session_name(scenario.name))
-    swarm = ConsensusSwarm(scenario, algorithm, nodes, bus.deliver_due,
-                           lambda: clock.advance(period_s))
+
+    def advance() -> None:
+        clock.advance(period_s)
+
+    swarm = ConsensusSwarm(scenario, algorithm, nodes, bus.deliver_due, advance)
     try:
         return swarm.run(max_periods, quiet_periods)
     finally:

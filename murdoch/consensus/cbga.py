@@ -21,7 +21,11 @@ keep this agent in it (room left, or outbidding the weakest replaceable member).
 Group members wait for each other (the paper's eq. 8, with paths instead of straight lines):
 each agent also keeps T[j, m], the time member m can be at group task j on its own, sends it
 with its bids, and plans its own start on j no earlier than the latest of its partners'.
-A group task that can no longer start in its window after a partner's news is dropped.
+A group task that can no longer start in its window after a partner's news is dropped, by
+the member that makes the group late only (a partner already past the window is not waited
+for). Deadlock-free tie handling, ties to the higher agent index: of two group tasks a pair
+of members plan in opposite orders, the lower-index member gives up the later one (see
+`refresh_times`).
 
 Options: task quitting (leave a group task still incomplete `quit_after` rounds after joining
 it, and do not rejoin until more agents have joined) and team reward (a group-task bid adds
@@ -75,6 +79,8 @@ class CbgaAgent:
         self.assigned_at = np.full(problem.n_tasks, np.nan)
         self.banned = np.full(problem.n_tasks, -1, dtype=np.int64)
         self.yielding: dict[int, bool] = {}  # a late group task kept one round (see below)
+        # group tasks given up to a higher-index partner -> the other members then
+        self.yielded: dict[int, frozenset[int]] = {}
         self.needs_build = True
         self.active = True
         self._refresh_static()
@@ -213,28 +219,36 @@ class CbgaAgent:
             self.needs_build = True
         return moved
 
-    def _drop_crossed_orders(self) -> bool:
-        """Give up a group task this agent plans in the opposite order to a higher-index
-        partner: if both hold g and h, this agent doing g first and the partner h first (its
-        own times say so), each would wait for the other. Ties go to the higher index, so
-        the lower-index member drops the later task of the pair; True if it dropped any."""
+    def _crossed(self, path: list[int]) -> set[int]:
+        """Group tasks of `path` planned in the opposite order to a higher-index partner: if
+        both hold g and h, this agent doing g first and the partner h first (its own times
+        say so), each would wait for the other. Returns the later task of each such pair."""
         i = self.index
-        shared = [(n, j) for n, j in enumerate(self.path) if not self.single[j]]
+        shared = [j for j in path if not self.single[j]]
         if len(shared) < 2:
-            return False
+            return set()
         x, t = self.x, self.t
-        drop: set[int] = set()
-        for a, (_, g) in enumerate(shared):
-            if g in drop:
+        later: set[int] = set()
+        for a, g in enumerate(shared):
+            if g in later:
                 continue
-            for _, h in shared[a + 1:]:
-                if h in drop:
+            for h in shared[a + 1:]:
+                if h in later:
                     continue
                 both = (x[g] > 0) & (x[h] > 0) & (t[g] > 0) & (t[h] > 0)
                 both[: i + 1] = False
                 if (both & (t[h] < t[g])).any():
-                    drop.add(h)
+                    later.add(h)
+        return later
+
+    def _drop_crossed_orders(self) -> bool:
+        """Ties go to the higher index: of a pair of group tasks planned in the opposite
+        order to a higher-index partner, this agent drops the later one and does not rejoin
+        it while the other members stay the same; True if it dropped any."""
+        i = self.index
+        drop = self._crossed(self.path)
         for j in drop:
+            self.yielded[j] = frozenset(int(m) for m in np.flatnonzero(self.x[j] > 0) if m != i)
             self.x[j, i] = 0.0
             self.bundle.remove(j)
             self.path.remove(j)
@@ -290,6 +304,10 @@ class CbgaAgent:
                 if len(members) <= self.banned[j]:
                     continue
                 self.banned[j] = -1
+            if j in self.yielded:
+                if self.yielded[j] == members.keys():
+                    continue
+                del self.yielded[j]
             size = int(p.required[j])
             bid = gains_l[j]
             if self.options.team_reward and size > 1:

@@ -68,7 +68,7 @@ def score_bars(rows: Sequence[Summary], experiment: str, path: Path) -> Path:
 
 def plot_experiment(rows: Sequence[Summary], experiment: str, out_dir: Path) -> list[Path]:
     out_dir.mkdir(parents=True, exist_ok=True)
-    paths = []
+    paths: list[Path] = []
     agent_counts = {r.n_agents for r in rows if r.experiment == experiment}
     if not agent_counts:
         return paths

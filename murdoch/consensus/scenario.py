@@ -236,9 +236,9 @@ def parse_scenario(data: object, source: str = "<scenario>") -> Scenario:
         ))
     _check_unique(r, "tasks", [t.id for t in tasks])
     task_ids = {t.id for t in tasks}
-    for n, t in enumerate(tasks):
-        for p in t.prerequisites:
-            if p not in task_ids or p == t.id:
+    for n, task in enumerate(tasks):
+        for p in task.prerequisites:
+            if p not in task_ids or p == task.id:
                 raise r.fail(f"tasks[{n}].prerequisites", "ids of other tasks", p)
     dims = {len(a.pos) for a in agents} | {len(t.pos) for t in tasks}
     if len(dims) > 1:

@@ -379,7 +379,7 @@ def evaluate_plan(p: Problem, paths: list[list[int]]) -> Evaluation:
                     queues[k].remove(blocked)
                     remaining -= 1
     score = 0.0
-    for j in np.flatnonzero(completed):
+    for j in np.flatnonzero(completed).tolist():
         score += float(len(group[j]) * task_scores(p, np.array([j]), np.array([start_of[j]]))[0])
     starts = tuple(
         tuple(float(per_agent_start[i].get(j, np.nan)) for j in path)
