@@ -3,8 +3,9 @@
 In service a robot works and bids. Whenever it is idle (between tasks) it checks its charge;
 below `low_percent` it leaves service: it drops all its subjects, docks at the nearest charger,
 charges until `resume_percent` (or `max_charge_s` passes), backs off the pad and returns to
-service. The agent feeds it the latest power reading and whether it is idle, and carries out
-the returned action.
+service. A robot that stops receiving charge before it is full (pushed off the pad, say) for
+`off_pad_grace_s` docks again. The agent feeds it the latest power reading and whether it is
+idle, and carries out the returned action.
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ class BatteryPolicy:
     resume_percent: float = 95.0
     max_charge_s: float = math.inf
     max_age_s: float = 1.0
+    off_pad_grace_s: float = 5.0
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.low_percent < self.resume_percent <= 100.0:
@@ -51,6 +53,7 @@ class BatteryPolicy:
 class BatteryState:
     phase: BatteryPhase = BatteryPhase.SERVICE
     since_s: float = 0.0
+    off_pad_since_s: float | None = None  # while charging: when charge stopped flowing
 
 
 def battery_step(
@@ -83,6 +86,14 @@ def battery_step(
         full = fresh and power is not None and power.percent >= policy.resume_percent
         if full or now - state.since_s >= policy.max_charge_s:
             return BatteryState(BatteryPhase.LEAVING, now), BatteryAction.CHARGE_DONE
+        if fresh and power is not None and power.charging <= 0:
+            off_since = state.off_pad_since_s if state.off_pad_since_s is not None else now
+            if now - off_since >= policy.off_pad_grace_s:  # off the pad: dock again
+                return BatteryState(BatteryPhase.TO_CHARGER, now), BatteryAction.DOCK_FAILED
+            if state.off_pad_since_s is None:
+                return BatteryState(phase, state.since_s, now), BatteryAction.NONE
+        elif state.off_pad_since_s is not None:
+            return BatteryState(phase, state.since_s), BatteryAction.NONE
         return state, BatteryAction.NONE
     # LEAVING
     if task_outcome in ("done", "failed"):

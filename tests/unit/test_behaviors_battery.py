@@ -65,3 +65,24 @@ def test_charging_gives_up_after_max_charge_time_and_docking_can_fail() -> None:
 def test_policy_is_checked() -> None:
     with pytest.raises(ValueError, match="low_percent"):
         BatteryPolicy(low_percent=95.0, resume_percent=90.0)
+
+
+def test_pushed_off_the_pad_while_charging_docks_again_after_a_grace_period() -> None:
+    s = BatteryState(BatteryPhase.CHARGING, 0.0)
+    s, a = battery_step(POLICY, s, p(50, 10.0, charging=0), 10.0, idle=False)
+    assert a is BatteryAction.NONE and s.phase is BatteryPhase.CHARGING
+    assert s.off_pad_since_s == 10.0
+    # charge flows again within the grace period: the off-pad clock is cleared
+    s, a = battery_step(POLICY, s, p(51, 12.0, charging=1), 12.0, idle=False)
+    assert a is BatteryAction.NONE and s.off_pad_since_s is None
+    s, a = battery_step(POLICY, s, p(51, 13.0, charging=0), 13.0, idle=False)
+    s, a = battery_step(POLICY, s, p(51, 17.9, charging=0), 17.9, idle=False)
+    assert a is BatteryAction.NONE and s.phase is BatteryPhase.CHARGING
+    s, a = battery_step(POLICY, s, p(51, 18.0, charging=0), 18.0, idle=False)
+    assert a is BatteryAction.DOCK_FAILED and s.phase is BatteryPhase.TO_CHARGER
+
+
+def test_stale_power_while_charging_does_not_start_the_off_pad_clock() -> None:
+    s = BatteryState(BatteryPhase.CHARGING, 0.0)
+    s, a = battery_step(POLICY, s, p(50, 1.0, charging=0), 30.0, idle=False)
+    assert a is BatteryAction.NONE and s.off_pad_since_s is None
