@@ -37,7 +37,7 @@ from behaviors.library import TaskSpec, task_spec
 from behaviors.params import ParamError
 from behaviors.profile import RobotProfile
 from behaviors.runner import BehaviourFailed, BehaviourRunner, BehaviourStalled
-from behaviors.snapshot import EMPTY, Mark, Snapshot
+from behaviors.snapshot import EMPTY, Mark, Snapshot, slot_maker
 from behaviors.task import TaskExecution
 
 logger = logging.getLogger(__name__)
@@ -68,6 +68,10 @@ class AgentStatus:
     progress: float = 0.0
     battery_percent: float = math.nan
     subjects: frozenset[str] = frozenset()
+
+
+_make_status = slot_maker(AgentStatus)
+_NO_SUBJECTS: frozenset[str] = frozenset()
 
 
 @dataclass(frozen=True, slots=True)
@@ -227,6 +231,8 @@ class RobotAgent:
             self._finish(now, ev.TASK_FAILED, result.reason)
 
     def _handle_requests(self, snapshot: Snapshot, now: float) -> None:
+        if not self._requests:
+            return  # a request appended meanwhile is handled at the next tick
         with self._lock:
             requests = list(self._requests)
             self._requests.clear()
@@ -323,16 +329,16 @@ class RobotAgent:
         else:
             state = "idle"
         power = self._snapshot.power
-        self._status = AgentStatus(
-            self.name,
+        self._status = _make_status(
+            self.profile.name,
             state,
             now,
-            task="" if execution is None else self._task_name,
-            task_id="" if execution is None else self._task_id,
-            stage="" if execution is None else execution.view.stage_name,
-            progress=0.0 if execution is None else execution.progress(),
-            battery_percent=math.nan if power is None else power.percent,
-            subjects=frozenset() if charging else self.profile.subjects,
+            "" if execution is None else self._task_name,
+            "" if execution is None else self._task_id,
+            "" if execution is None else execution.view.stage_name,
+            0.0 if execution is None else execution.progress(),
+            math.nan if power is None else power.percent,
+            _NO_SUBJECTS if charging else self.profile.subjects,
         )
 
     def _emit(self, now: float, kind: str, detail: tuple[tuple[str, Any], ...] = (),

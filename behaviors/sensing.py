@@ -14,16 +14,23 @@ from dataclasses import dataclass
 from typing import TypeVar
 
 from behaviors.snapshot import (
-    Blob,
     BlobView,
     Bumpers,
     Gripper,
     Mark,
     Odometry,
-    Pose2D,
     Power,
     RangeScan,
     Snapshot,
+    make_blob,
+    make_blob_view,
+    make_bumpers,
+    make_gripper,
+    make_odometry,
+    make_pose,
+    make_power,
+    make_scan,
+    make_snapshot,
     wrap_angle,
 )
 from player_server.client import (
@@ -85,13 +92,28 @@ class PlayerRobotIO:
         self.interfaces: frozenset[str] = frozenset()
         self.proxies: dict[str, Proxy] = {}
         self._position: Position2dProxy | None = None
-        self._cache: dict[str, tuple[int, object]] = {}
         self._sonar_geometry: tuple[tuple[float, ...], tuple[float, ...]] = ((), ())
         self._laser_pose = (0.0, 0.0, 0.0)
         self._laser_bearings: dict[tuple[float, float, int], tuple[tuple[float, ...],
                                                                    tuple[float, ...]]] = {}
         self._bumper_front: tuple[bool, ...] = ()
         self._last_command: tuple[float, float] | None = None
+        # per-reading caches: (proxy's data_count when built, the reading)
+        self._odo_hit: tuple[int, Odometry | None] = (-1, None)
+        self._sonar_hit: tuple[int, RangeScan | None] = (-1, None)
+        self._laser_hit: tuple[int, RangeScan | None] = (-1, None)
+        self._blob_hit: tuple[int, BlobView | None] = (-1, None)
+        self._bumper_hit: tuple[int, Bumpers | None] = (-1, None)
+        self._power_hit: tuple[int, Power | None] = (-1, None)
+        self._sonar_proxy: SonarProxy | None = None
+        self._laser_proxy: LaserProxy | RangerProxy | None = None
+        self._blob_proxy: BlobfinderProxy | None = None
+        self._bumper_proxy: BumperProxy | None = None
+        self._power_proxy: PowerProxy | None = None
+        self._gripper_proxy: GripperProxy | None = None
+        self._resolved: dict[str, Proxy] = {}
+        self._sonar_spread: tuple[float, ...] = ()
+        self._offset_trig: tuple[FrameOffset, float, float] | None = None
 
     # -- discovery ---------------------------------------------------------------------------
 
@@ -112,10 +134,28 @@ class PlayerRobotIO:
             self.proxies[name] = proxy
         self.interfaces = frozenset(found - {"simulation", "player"})
         self._read_geometry()
-        position = self.proxies.get("position2d")
-        self._position = position if isinstance(position, Position2dProxy) else None
+        self._resolve()
         logger.info("devices: %s; subscribed: %s", sorted(found), sorted(self.proxies))
         return self.interfaces
+
+    def _resolve(self) -> None:
+        """Pick each reading's proxy once, so a tick does no lookups or type checks."""
+        proxies = self.proxies
+        position = proxies.get("position2d")
+        self._position = position if isinstance(position, Position2dProxy) else None
+        sonar = proxies.get("sonar")
+        laser = proxies.get("laser") or proxies.get("ranger")
+        blobs = proxies.get("blobfinder")
+        bumper = proxies.get("bumper")
+        power = proxies.get("power")
+        gripper = proxies.get("gripper")
+        self._sonar_proxy = sonar if isinstance(sonar, SonarProxy) else None
+        self._laser_proxy = laser if isinstance(laser, LaserProxy | RangerProxy) else None
+        self._blob_proxy = blobs if isinstance(blobs, BlobfinderProxy) else None
+        self._bumper_proxy = bumper if isinstance(bumper, BumperProxy) else None
+        self._power_proxy = power if isinstance(power, PowerProxy) else None
+        self._gripper_proxy = gripper if isinstance(gripper, GripperProxy) else None
+        self._resolved = dict(proxies)
 
     def _geometry(self, fetch: Callable[[], T], what: str) -> T | None:
         try:
@@ -161,61 +201,75 @@ class PlayerRobotIO:
         return self.snapshot(mark)
 
     def snapshot(self, mark: Mark | None) -> Snapshot:
-        """The proxies' latest values as a snapshot (no I/O)."""
-        proxies = self.proxies
-        t = self.client.data_time_s or 0.0
-        return Snapshot(
-            time_s=t,
-            odometry=self._odometry(proxies.get("position2d")),
-            sonar=self._sonar(proxies.get("sonar")),
-            laser=self._laser(proxies.get("laser") or proxies.get("ranger")),
-            camera=self._blobs(proxies.get("blobfinder")),
-            bumpers=self._bumpers(proxies.get("bumper")),
-            power=self._power(proxies.get("power")),
-            gripper=self._gripper(proxies.get("gripper")),
-            mark=mark,
+        """The proxies' latest values as a snapshot (no I/O).
+
+        Each reading is rebuilt only when its device sent new data since the last snapshot
+        (the proxy's data count moved); otherwise the previous, frozen reading is reused.
+        """
+        if self.proxies != self._resolved:
+            self._resolve()
+        return make_snapshot(
+            self.client.data_time_s or 0.0,
+            self._odometry(),
+            self._sonar(),
+            self._laser(),
+            self._blobs(),
+            self._bumpers(),
+            self._power(),
+            self._gripper(),
+            mark,
         )
 
-    def _cached(self, key: str, proxy: Proxy) -> object | None:
-        hit = self._cache.get(key)
-        if hit is not None and hit[0] == proxy.data_count:
-            return hit[1]
-        return None
-
-    def _store(self, key: str, proxy: Proxy, value: object) -> None:
-        self._cache[key] = (proxy.data_count, value)
-
-    def _odometry(self, proxy: Proxy | None) -> Odometry | None:
-        if not isinstance(proxy, Position2dProxy) or proxy.state is None:
+    def _odometry(self) -> Odometry | None:
+        proxy = self._position
+        if proxy is None:
             return None
-        hit = self._cached("odometry", proxy)
-        if hit is not None:
-            return hit  # type: ignore[return-value]
+        count = proxy.data_count
+        hit = self._odo_hit
+        if hit[0] == count:
+            return hit[1]
         st = proxy.state
-        x, y, yaw = st.pos.px, st.pos.py, st.pos.pa
-        if self.odometry_offset is not None:
-            x, y, yaw = self.odometry_offset.apply(x, y, yaw)
-        value = Odometry(Pose2D(x, y, yaw), st.vel.px, st.vel.pa, bool(st.stall),
-                         proxy.data_time_s or 0.0)
-        self._store("odometry", proxy, value)
+        if st is None:
+            return None
+        pos = st.pos
+        x, y, yaw = pos.px, pos.py, pos.pa
+        offset = self.odometry_offset
+        if offset is not None:
+            trig = self._offset_trig
+            if trig is None or trig[0] is not offset:
+                trig = self._offset_trig = (offset, math.cos(offset.yaw_rad),
+                                            math.sin(offset.yaw_rad))
+            c, s = trig[1], trig[2]
+            x, y, yaw = (offset.x_m + c * x - s * y, offset.y_m + s * x + c * y,
+                         wrap_angle(offset.yaw_rad + yaw))
+        vel = st.vel
+        value = make_odometry(make_pose(x, y, yaw), vel.px, vel.pa, bool(st.stall),
+                              proxy.data_time_s or 0.0)
+        self._odo_hit = (count, value)
         return value
 
-    def _sonar(self, proxy: Proxy | None) -> RangeScan | None:
-        if not isinstance(proxy, SonarProxy) or not proxy.fresh:
+    def _sonar(self) -> RangeScan | None:
+        proxy = self._sonar_proxy
+        if proxy is None:
             return None
-        hit = self._cached("sonar", proxy)
-        if hit is not None:
-            return hit  # type: ignore[return-value]
+        count = proxy.data_count
+        hit = self._sonar_hit
+        if hit[0] == count:
+            return hit[1]
+        if not count:
+            return None
         ranges = proxy.ranges
         bearings, offsets = self._sonar_geometry
         if len(bearings) != len(ranges):
             # No geometry: spread the transducers evenly around the robot.
             n = len(ranges)
-            bearings = tuple(wrap_angle(2 * math.pi * i / n) for i in range(n)) if n else ()
+            if len(self._sonar_spread) != n:
+                self._sonar_spread = tuple(wrap_angle(2 * math.pi * i / n) for i in range(n))
+            bearings = self._sonar_spread
             offsets = ()
-        value = RangeScan(ranges, bearings, max(ranges, default=0.0), proxy.data_time_s or 0.0,
-                          offsets)
-        self._store("sonar", proxy, value)
+        value = make_scan(ranges, bearings, max(ranges, default=0.0),
+                          proxy.data_time_s or 0.0, offsets, 0)
+        self._sonar_hit = (count, value)
         return value
 
     def _bearings(self, min_angle: float, resolution: float, n: int) -> tuple[
@@ -231,75 +285,105 @@ class PlayerRobotIO:
             self._laser_bearings[key] = hit
         return hit
 
-    def _laser(self, proxy: Proxy | None) -> RangeScan | None:
-        if proxy is None or not proxy.fresh:
+    def _laser(self) -> RangeScan | None:
+        proxy = self._laser_proxy
+        if proxy is None:
             return None
-        hit = self._cached("laser", proxy)
-        if hit is not None:
-            return hit  # type: ignore[return-value]
-        if isinstance(proxy, LaserProxy) and proxy.scan is not None:
+        count = proxy.data_count
+        hit = self._laser_hit
+        if hit[0] == count:
+            return hit[1]
+        if not count:
+            return None
+        value: RangeScan | None
+        if isinstance(proxy, LaserProxy):
             scan = proxy.scan
+            if scan is None:
+                return None
             bearings, offsets = self._bearings(scan.min_angle, scan.resolution, len(scan.ranges))
-            value = RangeScan(scan.ranges, bearings, scan.max_range, proxy.data_time_s or 0.0,
+            value = make_scan(scan.ranges, bearings, scan.max_range, proxy.data_time_s or 0.0,
                               offsets, scan.id)
-        elif isinstance(proxy, RangerProxy) and proxy.config is not None:
-            cfg = proxy.config
-            bearings, offsets = self._bearings(cfg.min_angle, cfg.angular_res, len(proxy.ranges))
-            value = RangeScan(proxy.ranges, bearings, cfg.max_range, proxy.data_time_s or 0.0,
-                              offsets)
         else:
-            return None
-        self._store("laser", proxy, value)
+            cfg = proxy.config
+            if cfg is None:
+                return None
+            bearings, offsets = self._bearings(cfg.min_angle, cfg.angular_res, len(proxy.ranges))
+            value = make_scan(proxy.ranges, bearings, cfg.max_range, proxy.data_time_s or 0.0,
+                              offsets, 0)
+        self._laser_hit = (count, value)
         return value
 
-    def _blobs(self, proxy: Proxy | None) -> BlobView | None:
-        if not isinstance(proxy, BlobfinderProxy) or proxy.state is None:
+    def _blobs(self) -> BlobView | None:
+        proxy = self._blob_proxy
+        if proxy is None:
             return None
-        hit = self._cached("blobs", proxy)
-        if hit is not None:
-            return hit  # type: ignore[return-value]
+        count = proxy.data_count
+        hit = self._blob_hit
+        if hit[0] == count:
+            return hit[1]
         st = proxy.state
-        blobs = tuple(
-            Blob(b.color & 0xFFFFFF, b.area, float(b.x), float(b.y), b.left, b.right, b.top,
-                 b.bottom, b.range if b.range > 0 else math.inf)
+        if st is None:
+            return None
+        inf = math.inf
+        blobs = tuple([
+            make_blob(b.color & 0xFFFFFF, b.area, float(b.x), float(b.y), b.left, b.right,
+                      b.top, b.bottom, b.range if b.range > 0 else inf)
             for b in st.blobs
-        )
-        value = BlobView(st.width, st.height, blobs, self.camera_fov_rad,
-                         proxy.data_time_s or 0.0)
-        self._store("blobs", proxy, value)
+        ])
+        value = make_blob_view(st.width, st.height, blobs, self.camera_fov_rad,
+                               proxy.data_time_s or 0.0)
+        self._blob_hit = (count, value)
         return value
 
-    def _bumpers(self, proxy: Proxy | None) -> Bumpers | None:
-        if not isinstance(proxy, BumperProxy) or not proxy.fresh:
+    def _bumpers(self) -> Bumpers | None:
+        proxy = self._bumper_proxy
+        if proxy is None:
             return None
-        hit = self._cached("bumpers", proxy)
-        if hit is not None:
-            return hit  # type: ignore[return-value]
-        value = Bumpers(proxy.bumpers, proxy.data_time_s or 0.0, self._bumper_front)
-        self._store("bumpers", proxy, value)
+        count = proxy.data_count
+        hit = self._bumper_hit
+        if hit[0] == count:
+            return hit[1]
+        if not count:
+            return None
+        value = make_bumpers(proxy.bumpers, proxy.data_time_s or 0.0, self._bumper_front)
+        self._bumper_hit = (count, value)
         return value
 
-    def _power(self, proxy: Proxy | None) -> Power | None:
-        if not isinstance(proxy, PowerProxy) or proxy.state is None:
+    def _power(self) -> Power | None:
+        proxy = self._power_proxy
+        if proxy is None:
             return None
-        hit = self._cached("power", proxy)
-        if hit is not None:
-            return hit  # type: ignore[return-value]
+        count = proxy.data_count
+        hit = self._power_hit
+        if hit[0] == count:
+            return hit[1]
         st = proxy.state
-        value = Power(st.percent, st.volts, st.charging, proxy.data_time_s or 0.0)
-        self._store("power", proxy, value)
+        if st is None:
+            return None
+        value = make_power(st.percent, st.volts, st.charging, proxy.data_time_s or 0.0)
+        self._power_hit = (count, value)
         return value
 
-    def _gripper(self, proxy: Proxy | None) -> Gripper | None:
-        if not isinstance(proxy, GripperProxy) or proxy.state_data is None:
+    def _gripper(self) -> Gripper | None:
+        proxy = self._gripper_proxy
+        if proxy is None or proxy.state_data is None:
             return None
         st = proxy.state_data
-        return Gripper(st.state, st.beams, st.stored, proxy.data_time_s or 0.0)
+        return make_gripper(st.state, st.beams, st.stored, proxy.data_time_s or 0.0)
 
     def command(self, vx_mps: float, vyaw_radps: float) -> None:
-        """Send a velocity command (every tick: in lockstep a command marks the tick done)."""
+        """Send a velocity command (every tick: in lockstep a command marks the tick done).
+
+        The command leaves with the next message the client sends (the next round's
+        REQ DATA, in order before it), so a tick costs one send; `flush()` sends it now.
+        """
         if self._position is not None:
-            self._position.set_velocity(vx_mps, vyaw_radps)
+            self._position.set_velocity(vx_mps, vyaw_radps, defer=True)
+
+    def flush(self) -> None:
+        """Send a command still held back (see `command`)."""
+        if self.client.connected:
+            self.client.flush()
 
     def close(self) -> None:
         try:

@@ -11,8 +11,33 @@ bearings are counter-clockwise positive (a blob on the right has a negative bear
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import Any, TypeVar
+
+T = TypeVar("T")
+
+
+def slot_maker(cls: type[T]) -> Callable[..., T]:
+    """A positional constructor for a frozen, slotted dataclass that fills the slots directly.
+
+    The generated ``__init__`` of a frozen dataclass calls ``object.__setattr__`` once per
+    field; per-tick readings are built every data round, so they are made by setting the
+    slot descriptors instead. The object is equal to, and as frozen as, ``cls(*args)``.
+    Defaults are not applied: every field must be passed, in declaration order.
+    """
+    names = [f.name for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
+    ns: dict[str, Any] = {"_new": object.__new__, "_cls": cls}
+    lines = [f"def make({', '.join(f'a{i}' for i in range(len(names)))}):",
+             "    o = _new(_cls)"]
+    for i, name in enumerate(names):
+        ns[f"_s{i}"] = cls.__dict__[name].__set__
+        lines.append(f"    _s{i}(o, a{i})")
+    lines.append("    return o")
+    exec("\n".join(lines), ns)
+    return ns["make"]  # type: ignore[no-any-return]
 
 
 @dataclass(frozen=True, slots=True)
@@ -188,3 +213,13 @@ class Snapshot:
 
 
 EMPTY = Snapshot(time_s=0.0)
+
+make_pose = slot_maker(Pose2D)
+make_odometry = slot_maker(Odometry)
+make_scan = slot_maker(RangeScan)
+make_blob = slot_maker(Blob)
+make_blob_view = slot_maker(BlobView)
+make_bumpers = slot_maker(Bumpers)
+make_power = slot_maker(Power)
+make_gripper = slot_maker(Gripper)
+make_snapshot = slot_maker(Snapshot)

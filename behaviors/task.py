@@ -17,7 +17,7 @@ from typing import Any, Literal
 
 from behaviors.arbiter import Arbiter, ArbiterMode, Layer
 from behaviors.proposal import Proposal
-from behaviors.snapshot import Mark, Snapshot
+from behaviors.snapshot import Mark, Snapshot, slot_maker
 
 
 class TickView:
@@ -134,6 +134,7 @@ class TickResult:
 
 
 _NO_EVENTS: tuple[tuple[str, tuple[tuple[str, Any], ...]], ...] = ()
+_make_result = slot_maker(TickResult)
 
 
 class TaskExecution:
@@ -225,7 +226,7 @@ class TaskExecution:
         if outcome != "running":
             self.outcome, self.reason = outcome, reason
             vx = vyaw = 0.0
-        return TickResult(vx, vyaw, outcome, reason, tuple(events) if events else _NO_EVENTS)
+        return _make_result(vx, vyaw, outcome, reason, tuple(events) if events else _NO_EVENTS)
 
     def _advance(
         self,

@@ -87,6 +87,7 @@ class PlayerClient:
         self._events: deque[Message | Undecodable] = deque()
         self._io_lock = threading.RLock()
         self._send_lock = threading.Lock()
+        self._pending: list[bytes] = []
         self._round_outstanding = False
         self.proxies: dict[tuple[int, int], Proxy] = {}
         self.banner = ""
@@ -140,6 +141,9 @@ class PlayerClient:
         return self
 
     def close(self) -> None:
+        if self._pending and self._sock is not None:
+            with contextlib.suppress(PlayerConnectionError):
+                self.flush()
         sock, self._sock = self._sock, None
         if sock is not None:
             with contextlib.suppress(OSError):
@@ -163,6 +167,10 @@ class PlayerClient:
         if sock is None:
             raise PlayerConnectionError("not connected")
         with self._send_lock:
+            if self._pending:
+                self._pending.append(wire)
+                wire = b"".join(self._pending)
+                self._pending.clear()
             try:
                 sock.sendall(wire)
             except OSError as exc:
@@ -269,9 +277,24 @@ class PlayerClient:
         """The client's clock (header timestamps of what it sends)."""
         return self._clock()
 
-    def send_encoded(self, wire: bytes) -> None:
-        """Send one already encoded message (header and body), e.g. a prepacked CMD."""
+    def send_encoded(self, wire: bytes, *, defer: bool = False) -> None:
+        """Send one already encoded message (header and body), e.g. a prepacked CMD.
+
+        ``defer=True`` holds it until the next message goes out (in a PULL client's
+        ``read()``: the REQ DATA, so a tick's command and the request for the next round
+        leave in one system call and one segment, in that order), or until ``flush()`` or
+        ``close()``. ``read()`` flushes before waiting in any case.
+        """
+        if defer:
+            with self._send_lock:
+                self._pending.append(wire)
+            return
         self._send(wire)
+
+    def flush(self) -> None:
+        """Send any deferred messages now."""
+        if self._pending:
+            self._send(b"")
 
     def command(self, interf: int, index: int, subtype: int, body: Any = None) -> None:
         """Send a CMD (never answered)."""
@@ -350,6 +373,8 @@ class PlayerClient:
                 self._round_outstanding = True
                 ack_wait = True
                 ack_deadline = self._deadline(timeout_s, self.timeout_s)
+            elif self._pending:
+                self.flush()
             updated: list[Proxy] = []
             proxies = self.proxies
             got_data = synched = False
@@ -367,15 +392,18 @@ class PlayerClient:
                             self._fill(deadline)
                     msg = events.popleft()
                 h = msg.header
-                t = h.type
+                t = h[4]  # type
                 if t == _DATA:
-                    proxy = proxies.get((h.interf, h.index))
+                    # (interf, index) -> proxy; subtype, timestamp by position (a named
+                    # tuple's fields are its items)
+                    proxy = proxies.get((h[2], h[3]))
                     got_data = True
                     if proxy is None:
                         log.debug("data for %d:%d without a proxy", h.interf, h.index)
                     else:
-                        proxy._on_data(h.subtype, msg.body, h.timestamp)
-                        self.data_time_s = h.timestamp
+                        stamp = h[6]
+                        proxy._on_data(h[5], msg.body, stamp)
+                        self.data_time_s = stamp
                         if proxy not in updated:
                             updated.append(proxy)
                     if not pull:

@@ -72,7 +72,9 @@ class Position2dProxy(Proxy):
         return bool(self.state.stall) if self.state else False
 
     def set_velocity(self, vx_mps: float, vyaw_radps: float, vy_mps: float = 0.0,
-                     enable: bool = True) -> None:
+                     enable: bool = True, *, defer: bool = False) -> None:
+        """Command a velocity; ``defer=True`` sends it with the client's next message
+        (see ``PlayerClient.send_encoded``)."""
         # sent every tick by a controller: header and body packed in one go (the same
         # bytes as encoding Position2dCmdVel(Pose2d(vx, vy, vyaw), enable))
         client = self.client
@@ -83,7 +85,7 @@ class Position2dProxy(Proxy):
         except struct.error as exc:
             raise EncodeError(f"Position2dCmdVel: cannot encode ({vx_mps!r}, {vy_mps!r}, "
                               f"{vyaw_radps!r}, {enable!r}): {exc}") from exc
-        client.send_encoded(wire)
+        client.send_encoded(wire, defer=defer)
 
     def stop(self) -> None:
         self.set_velocity(0.0, 0.0)

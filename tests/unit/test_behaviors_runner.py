@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import os
 import threading
 
 import pytest
@@ -82,3 +83,33 @@ def test_no_behaviours_no_threads() -> None:
     assert runner.tick(Snapshot(1.0), 1.0) == []
     runner.close()
     runner.close()
+
+
+def _open_descriptors() -> int:
+    return len(os.listdir("/proc/self/fd"))
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self/fd"), reason="needs /proc")
+def test_replacing_sets_releases_their_descriptors() -> None:
+    before = _open_descriptors()
+    with BehaviourRunner("r") as runner:
+        for t in range(20):
+            runner.set_behaviours([Echo(f"a{t}"), Echo(f"b{t}"), Hold()])
+            assert [p.vx_mps for p in runner.tick(Snapshot(1.0), 1.0)][:2] == [1.0, 1.0]
+    assert _open_descriptors() == before
+
+
+def test_a_stalled_set_is_replaced_and_the_late_thread_ends_harmlessly() -> None:
+    gate = threading.Event()
+    runner = BehaviourRunner("r", stall_timeout_s=0.2)
+    runner.set_behaviours([Echo("first"), Sleepy(gate), Echo("last")])
+    with pytest.raises(BehaviourStalled, match="sleepy"):
+        runner.tick(Snapshot(1.0), 1.0)
+    with pytest.raises(BehaviourStalled):
+        runner.tick(Snapshot(2.0), 2.0)  # broken until replaced
+    runner.set_behaviours([Echo("next")])  # the sleeper is still deciding: logged, left open
+    gate.set()
+    for t in range(3, 8):
+        assert runner.tick(Snapshot(float(t)), float(t))[0].vx_mps == t
+    runner.close()
+    assert runner.thread_count == 0

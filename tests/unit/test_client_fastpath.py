@@ -104,3 +104,30 @@ def test_set_velocity_nan_and_bad_values() -> None:
     with pytest.raises(EncodeError):
         Position2dProxy(cl).set_velocity("fast", 0.0)  # type: ignore[arg-type]
     assert len(sent) == 1
+
+
+def test_a_deferred_command_leaves_with_the_next_request_for_data() -> None:
+    seen: list[tuple[int, int, int]] = []
+
+    def script(p: Any) -> None:
+        p.answer_handshake()
+        p.send(dev_ack(p, p.expect()))
+        for x in (1.0, 2.0):
+            cmd = p.expect()
+            seen.append((cmd.type, cmd.subtype, round(cmd.body.vel.px * 10)))
+            m = p.expect()  # the REQ DATA, after the command
+            seen.append((m.type, m.subtype, 0))
+            p.send(p.ack(m), pos_data(x, x / 10), SYNCH)
+        cmd = p.expect()  # held back until close
+        seen.append((cmd.type, cmd.subtype, round(cmd.body.vel.px * 10)))
+
+    with peer(script) as (port, errors), PlayerClient("127.0.0.1", port) as cl:
+        pos = cl.subscribe(Position2dProxy)
+        pos.set_velocity(0.3, 0.0, defer=True)
+        assert cl.read() == [pos] and pos.x == 1.0
+        pos.set_velocity(0.4, 0.0, defer=True)
+        assert cl.read() == [pos] and pos.x == 2.0
+        pos.set_velocity(0.5, 0.0, defer=True)
+        cl.close()
+    assert not errors
+    assert seen == [(2, 1, 3), (3, 4, 0), (2, 1, 4), (3, 4, 0), (2, 1, 5)]  # CMD VEL, REQ DATA
