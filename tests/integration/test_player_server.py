@@ -133,7 +133,16 @@ def test_laser_and_sonar_match_the_world(client: PlayerClient) -> None:
     assert (geom.pose.px, geom.pose.pz) == pytest.approx((0.16, 0.25))
 
 
-def test_command_motion_changes_the_pose(client: PlayerClient) -> None:
+def test_command_motion_changes_the_pose() -> None:
+    # A lockstep server advances only as this client reads. A free-running one at full speed
+    # runs the lone robot's battery flat within seconds of wall time, and a flat robot stops.
+    with serve("simple", config=CoreConfig(lockstep=True)) as srv, PlayerClient(
+        "127.0.0.1", srv.ports["robot1"], timeout_s=5.0, read_timeout_s=10.0
+    ) as client:
+        _command_motion_changes_the_pose(client)
+
+
+def _command_motion_changes_the_pose(client: PlayerClient) -> None:
     sim = client.subscribe(SimulationProxy)
     pos = client.subscribe(Position2dProxy)
     sim.set_pose2d("robot1", -1.0, -2.0, 0.0)
