@@ -26,11 +26,9 @@ from typing import Any
 
 from murdoch.auth import TeamKey
 from murdoch.transport import (
-    Callback,
     Clock,
     EndpointBacked,
     EndpointCore,
-    Subscription,
 )
 from murdoch.wire import Codec
 
@@ -164,14 +162,6 @@ class MemoryTransport(EndpointBacked):
         data = self._core.encode(subjects, message)
         self._bus.broadcast(data, self.sender_id)
         return len(data)
-
-    def subscribe(
-        self,
-        subjects: Iterable[str] | str | None,
-        callback: Callback | None = None,
-        queue_limit: int = 4096,
-    ) -> Subscription:
-        return self._core.subscribe(subjects, callback, queue_limit)
 
     def poll(self, timeout_s: float = 0.0) -> int:
         """Deliver datagrams due by now (never waits: time is the injected clock's)."""

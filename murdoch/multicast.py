@@ -23,11 +23,9 @@ from typing import Any
 
 from murdoch.auth import TeamKey
 from murdoch.transport import (
-    Callback,
     Clock,
     EndpointBacked,
     EndpointCore,
-    Subscription,
 )
 from murdoch.wire import Codec
 
@@ -127,14 +125,6 @@ class MulticastTransport(EndpointBacked):
                 self._core.counters.count_dropped("send_blocked")
                 return
             self._sock.sendto(datagram, self._dest)
-
-    def subscribe(
-        self,
-        subjects: Iterable[str] | str | None,
-        callback: Callback | None = None,
-        queue_limit: int = 4096,
-    ) -> Subscription:
-        return self._core.subscribe(subjects, callback, queue_limit)
 
     def poll(self, timeout_s: float = 0.0, max_datagrams: int = 10_000) -> int:
         if self.closed:

@@ -316,7 +316,8 @@ class EndpointCore:
 
 
 class EndpointBacked:
-    """The read-only identity and counters every transport exposes from its `EndpointCore`."""
+    """What every transport exposes straight from its `EndpointCore`: identity, counters
+    and subscriptions."""
 
     _core: EndpointCore
 
@@ -339,3 +340,11 @@ class EndpointBacked:
     @property
     def core(self) -> EndpointCore:
         return self._core
+
+    def subscribe(
+        self,
+        subjects: Iterable[str] | str | None,
+        callback: Callback | None = None,
+        queue_limit: int = 4096,
+    ) -> Subscription:
+        return self._core.subscribe(subjects, callback, queue_limit)

@@ -27,7 +27,31 @@ def new_timestamps(n_agents: int) -> np.ndarray:
     return np.full(n_agents + 1, -np.inf)
 
 
-class CbbaAgent:
+class BundleBuilding:
+    """Phase 1 entry points shared by the CBBA and CBGA agents (see `build_bundles`)."""
+
+    problem: Problem
+    bundle: list[int]
+    needs_build: bool
+    active: bool
+    _blocked: np.ndarray
+
+    def build_bundle(self, now: float = 0.0) -> bool:
+        """Add tasks greedily while a valid bid exists; True if the bundle grew."""
+        before = len(self.bundle)
+        build_bundles([self], now)  # type: ignore[list-item]
+        return len(self.bundle) > before
+
+    def start_build(self) -> bool:
+        """Begin a bundle construction; False when there is nothing to do."""
+        if not self.needs_build or not self.active:
+            return False
+        self.needs_build = False
+        self._blocked = np.zeros(self.problem.n_tasks, dtype=bool)
+        return True
+
+
+class CbbaAgent(BundleBuilding):
     """One agent's CBBA state and its two phases."""
 
     kind = KIND_CBBA
@@ -46,20 +70,6 @@ class CbbaAgent:
         self.active = True
 
     # -- phase 1 ------------------------------------------------------------------------
-    def build_bundle(self, now: float = 0.0) -> bool:
-        """Add tasks greedily while a valid bid exists; True if the bundle grew."""
-        before = len(self.bundle)
-        build_bundles([self], now)
-        return len(self.bundle) > before
-
-    def start_build(self) -> bool:
-        """Begin a bundle construction; False when there is nothing to do."""
-        if not self.needs_build or not self.active:
-            return False
-        self.needs_build = False
-        self._blocked = np.zeros(self.problem.n_tasks, dtype=bool)
-        return True
-
     def candidates(self) -> np.ndarray | None:
         """Tasks to evaluate for the next insertion, or None when the bundle is complete."""
         if len(self.bundle) >= self.problem.max_depth:

@@ -42,7 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from murdoch.consensus.cbba import (
-    build_bundles,
+    BundleBuilding,
     merge_timestamps,
     message_stamps,
     new_timestamps,
@@ -58,7 +58,7 @@ class CbgaOptions:
     team_reward: bool = True
 
 
-class CbgaAgent:
+class CbgaAgent(BundleBuilding):
     """One agent's CBGA state: X (M, N), timestamps, bundle, path, quit bookkeeping."""
 
     kind = KIND_CBGA
@@ -123,18 +123,6 @@ class CbgaAgent:
         return self.problem.task_equipment[j] <= covered
 
     # -- phase 1 ------------------------------------------------------------------------
-    def build_bundle(self, now: float = 0.0) -> bool:
-        before = len(self.bundle)
-        build_bundles([self], now)
-        return len(self.bundle) > before
-
-    def start_build(self) -> bool:
-        if not self.needs_build or not self.active:
-            return False
-        self.needs_build = False
-        self._blocked = np.zeros(self.problem.n_tasks, dtype=bool)
-        return True
-
     def candidates(self) -> np.ndarray | None:
         if len(self.bundle) >= self.problem.max_depth:
             return None
