@@ -39,7 +39,7 @@ class ViewerProcess:
         *,
         web_port: int = 0,
         zmq_port: int = 0,
-        start_timeout_s: float = 20.0,
+        start_timeout_s: float = 60.0,
         python: str = sys.executable,
     ) -> None:
         args = [python, "-u", "-m", "player_server.viz.bridge",

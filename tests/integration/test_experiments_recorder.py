@@ -52,7 +52,7 @@ def test_recorded_run_with_live_view(tmp_path: Path) -> None:
             rec.tick()
         rec.event(sim.time_s, ev.TASK_OUTCOME, task="t1", robot=robot, outcome=ev.COMPLETED)
         rec.sample_processes(sim.time_s, {"runner": __import__("os").getpid()})
-        deadline = time.monotonic() + 5
+        deadline = time.monotonic() + 20
         while rec.live.stats().frames < 5 and time.monotonic() < deadline:
             time.sleep(0.02)
         assert rec.live.stats().viewer_errors == 0

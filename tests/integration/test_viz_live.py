@@ -18,7 +18,7 @@ from player_server.viz.live import LiveView
 from player_server.viz.server import ViewerProcess, ViewerUnavailable, ZmqChannel
 from worlds import load_world, world_path
 
-pytestmark = pytest.mark.timeout(60)
+pytestmark = pytest.mark.timeout(120)
 
 
 def _listening_sockets(pid: int) -> list[tuple[str, str, int]]:
@@ -146,7 +146,7 @@ def test_live_view_never_blocks_the_offering_thread_and_survives_a_dead_viewer()
             view.offer({robot: (0.001 * i, 0.0, 0.0)})
             offered += 1
         elapsed = time.monotonic() - t0
-        deadline = time.monotonic() + 5.0
+        deadline = time.monotonic() + 20.0
         while view.stats().viewer_errors < 1 and time.monotonic() < deadline:
             time.sleep(0.05)
     finally:
