@@ -143,6 +143,9 @@ class ServerCore:
         self._mutations = 0
         self.participants_seen = 0
         self.counters = CoreCounters()
+        #: called with a session as soon as one of its rounds is queued (the front end
+        #: writes it at once, so a client can start on its round while later ones are built)
+        self.round_ready: Callable[[Session], None] | None = None
 
     # -- sessions -------------------------------------------------------------------------
     def open_session(self, endpoint: Endpoint, peer: str = "") -> Session:
@@ -444,6 +447,8 @@ class ServerCore:
         s.round_pending = False
         s.last_round = self.round_seq
         s.counters.rounds += 1
+        if self.round_ready is not None:
+            self.round_ready(s)
         return True
 
     def publish(self) -> None:
@@ -462,6 +467,8 @@ class ServerCore:
                         s.queue.push_data(
                             dkey, wire, rule == c.PLAYER_PLAYER_MSG_REPLACE_RULE_REPLACE)
                 s.last_round = self.round_seq
+                if self.round_ready is not None:
+                    self.round_ready(s)
 
     def rounds_wanted(self) -> bool:
         """Is some PULL client waiting for a round newer than the current one?"""

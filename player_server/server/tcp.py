@@ -41,6 +41,8 @@ class TcpFrontEnd:
         self._sel = selectors.DefaultSelector()
         self._listeners: list[socket.socket] = []
         self._conns: dict[int, _Conn] = {}
+        self._by_session: dict[int, _Conn] = {}
+        core.round_ready = self._round_ready
         self._rview = memoryview(bytearray(_RECV_SIZE))
         self._wake_r, self._wake_w = socket.socketpair()
         self._wake_r.setblocking(False)
@@ -152,6 +154,7 @@ class TcpFrontEnd:
             sock.setblocking(False)
             conn = _Conn(sock, session)
             self._conns[sock.fileno()] = conn
+            self._by_session[session.id] = conn
             self._sel.register(sock, selectors.EVENT_READ, ("conn", conn))
             log.info("client %s connected to %s (port %d)", peer, ep.name, ep.port)
 
@@ -173,6 +176,11 @@ class TcpFrontEnd:
             self._drop(conn, conn.session.closing)
         elif not conn.session.round_pending:
             self._write(conn)  # replies leave at once; a pending round joins its ACK later
+
+    def _round_ready(self, session: Session) -> None:
+        conn = self._by_session.get(session.id)
+        if conn is not None and not conn.out and session.closing is None:
+            self._write(conn)
 
     def _write(self, conn: _Conn) -> None:
         while True:
@@ -214,6 +222,7 @@ class TcpFrontEnd:
         for k, v in list(self._conns.items()):
             if v is conn:
                 del self._conns[k]
+        self._by_session.pop(conn.session.id, None)
         conn.sock.close()
         self.core.close_session(conn.session)
         self.closed_connections += 1
