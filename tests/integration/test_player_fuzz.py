@@ -31,8 +31,9 @@ KEYS = sorted(REGISTRY)
 def live() -> Iterator[tuple[PlayerServer, PlayerClient]]:
     spec = load_world(world_path("simple"))
     sim = Simulation(spec)
+    # paced, so that the serving thread leaves this process's interpreter lock to the test
     server = PlayerServer(sim, world_endpoints(spec, sim, 0), interval_s=sim.interval_s,
-                          clock=time.monotonic, speedup=0.0)
+                          clock=time.monotonic, speedup=20.0)
     server.start()
     observer = PlayerClient("127.0.0.1", server.ports["robot1"]).connect()
     observer.subscribe(LaserProxy)

@@ -57,7 +57,9 @@ def serve(world: str = "simple", *, speedup: float = 0.0, paused: bool = False,
 
 @pytest.fixture(scope="module")
 def server() -> Iterator[PlayerServer]:
-    with serve("simple", speedup=0.0) as srv:
+    # Paced (200 ticks a second), not flat out: a serving thread that never waits would
+    # hold the interpreter lock against the clients of this same process.
+    with serve("simple", speedup=20.0) as srv:
         yield srv
 
 
