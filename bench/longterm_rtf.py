@@ -6,12 +6,19 @@ Runs `murdoch run longterm --sim-hours H --speedup 0` into a temporary directory
 resident memory of every process at the start and at the end of the run, and as its last line
 `sim_hours=H wall_s=<x> rtf=<y> tasks_completed=<n> charge_trips=<c>`.
 Target on a 2-core machine: 3 simulated hours in at most 5 minutes (rtf >= 36).
+
+Before it, the CPU time of the whole run (the runner with its serving thread and every robot
+process) per simulated second, and the real-time factor that CPU time would allow if the
+machine's cores were kept busy all the time (``cpu_bound_rtf``): the gap between the two is
+time lost waiting along the lockstep chain.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -29,7 +36,10 @@ def main() -> int:
     murdoch = Path(sys.executable).parent / "murdoch"
     cmd = [str(murdoch), "run", "longterm", "--sim-hours", str(args.sim_hours), "--speedup", "0",
            "--seed", str(args.seed), "--out", str(out), "--no-replay"]
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     proc = subprocess.run(cmd, stdout=subprocess.DEVNULL, check=False)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu_s = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     try:
         (run,) = out.iterdir()
         s = json.loads((run / "summary.json").read_text())
@@ -37,6 +47,11 @@ def main() -> int:
             print(f"memory {name}: start {mem['rss_first_bytes'] / 2**20:.1f} MiB, "
                   f"end {mem['rss_last_bytes'] / 2**20:.1f} MiB, "
                   f"peak {mem['peak_rss_bytes'] / 2**20:.1f} MiB")
+        cores = os.cpu_count() or 1
+        per_sim_s = cpu_s / max(s["sim_time_s"], 1e-9)
+        print(f"cpu_s={cpu_s:.1f} cpu_ms_per_sim_s={1e3 * per_sim_s:.1f} "
+              f"cores_busy={cpu_s / max(s['wall_time_s'], 1e-9):.2f} "
+              f"cpu_bound_rtf={cores / max(per_sim_s, 1e-9):.1f} (on {cores} cores)")
         print(f"sim_hours={s['sim_time_s'] / 3600:g} wall_s={s['wall_time_s']:.1f} "
               f"rtf={s['real_time_factor']:.1f} tasks_completed={s['tasks']['executed']} "
               f"charge_trips={s['charging_trips']}")
