@@ -129,10 +129,14 @@ def _stop_robot(rp: RobotProcess, *, kill: bool = False, timeout_s: float = 5.0)
               help="boxpush: the box has arrived when its centre is this close to the goal "
                    "marker (metres, default 2.5).")
 @click.option("--no-replay", is_flag=True, help="Do not write replay.html.")
+@click.option("--pipelined/--no-pipelined", default=True, show_default=True,
+              help="Lockstep: the server sends each round before it steps and computes the "
+                   "next one while the robots work (their commands act one tick later).")
 def run(experiment: str, sim_hours: float | None, until: str | None, speedup: float, seed: int,
         meshcat: bool, out: Path, world: str | None, task_interval: float,
         kills: tuple[str, ...], restarts: tuple[str, ...], switch_offs: tuple[str, ...],
-        switch_ons: tuple[str, ...], goal_radius: float | None, no_replay: bool) -> None:
+        switch_ons: tuple[str, ...], goal_radius: float | None, no_replay: bool,
+        pipelined: bool) -> None:
     """Run EXPERIMENT end to end and leave a run directory behind."""
     if sim_hours is not None and until is not None:
         raise click.UsageError("give --sim-hours or --until, not both")
@@ -145,6 +149,7 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
         restarts=[parse_at(r) for r in restarts], replay=not no_replay,
         switch_offs=[parse_at(r) for r in switch_offs],
         switch_ons=[parse_at(r) for r in switch_ons], goal_radius_m=goal_radius,
+        pipelined=pipelined,
     )
     sys.exit(code)
 
@@ -155,6 +160,7 @@ def run_experiment(
     restarts: list[tuple[str, float]], replay: bool,
     switch_offs: list[tuple[str, float]] | None = None,
     switch_ons: list[tuple[str, float]] | None = None, goal_radius_m: float | None = None,
+    pipelined: bool = True,
 ) -> int:
     from behaviors.library import TASKS
     from experiments import boxpush as bp
@@ -196,6 +202,7 @@ def run_experiment(
         "experiment": experiment, "seed": seed, "world": str(spec.source),
         "duration_s": duration_s, "speedup": speedup, "lockstep": lockstep,
         "task_interval_s": task_interval_s, "multicast_port": mcast_port,
+        "pipelined": lockstep and pipelined,
         "kills": [f"{r}@{t:g}s" for r, t in kills],
         "restarts": [f"{r}@{t:g}s" for r, t in restarts],
     }
@@ -219,7 +226,7 @@ def run_experiment(
         speedup=speedup, quit_time_s=duration_s,
         config=CoreConfig(lockstep=lockstep,
                           lockstep_clients=max(1, sum(1 for e in endpoints if e.mobile)),
-                          lockstep_timeout_s=5.0),
+                          lockstep_timeout_s=5.0, pipelined=pipelined),
     )
     robots: dict[str, RobotProcess] = {}
     tails: dict[str, JsonlTail] = {}

@@ -50,6 +50,9 @@ class Driver:
     interf: ClassVar[int] = 0
     #: CMD subtypes handled by ``handle_command``
     commands: ClassVar[frozenset[int]] = frozenset()
+    #: CMD subtypes that only set targets the simulation acts on at its next step: the
+    #: device's DATA (and every other device's) stays what it was until then
+    deferred_commands: ClassVar[frozenset[int]] = frozenset()
     #: REQ subtypes handled by ``handle_request``
     requests: ClassVar[frozenset[int]] = frozenset()
 

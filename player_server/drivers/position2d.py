@@ -38,6 +38,7 @@ class Position2dDriver(Driver):
 
     interf = int(Interface.POSITION2D)
     commands = frozenset({1, 2, 3, 4})
+    deferred_commands = commands  # velocity targets and goals, followed from the next step
     requests = frozenset(range(1, 10))
 
     def __init__(self, sim: Any, robot: Any, index: int = 0) -> None:

@@ -122,6 +122,7 @@ class FiducialDriver(Driver):
 class PtzDriver(Driver):
     interf = int(Interface.PTZ)
     commands = frozenset({c.PLAYER_PTZ_CMD_STATE})
+    deferred_commands = commands  # pan/tilt/zoom targets, approached from the next step
     requests = frozenset({c.PLAYER_PTZ_REQ_CONTROL_MODE, c.PLAYER_PTZ_REQ_GEOM,
                           c.PLAYER_PTZ_REQ_STATUS})
 

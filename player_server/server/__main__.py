@@ -29,6 +29,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "(default: the world's)")
     p.add_argument("--lockstep", action="store_true",
                    help="advance a tick only when every lockstep client asked for it")
+    p.add_argument("--pipelined", action="store_true",
+                   help="lockstep: send each round before stepping and compute the next one "
+                        "while the clients work (commands act one tick later)")
     p.add_argument("--lockstep-clients", type=int, default=1, metavar="N",
                    help="in lockstep, do not start before N participants connected")
     p.add_argument("--lockstep-timeout", type=float, default=30.0, metavar="S",
@@ -68,7 +71,8 @@ def main(argv: list[str] | None = None) -> int:
         host=args.host,
         speedup=world.sim.speedup if args.speedup is None else args.speedup,
         config=CoreConfig(lockstep=args.lockstep, lockstep_clients=args.lockstep_clients,
-                          lockstep_timeout_s=args.lockstep_timeout),
+                          lockstep_timeout_s=args.lockstep_timeout,
+                          pipelined=args.pipelined),
         quit_time_s=world.sim.quit_time_s if args.quit_time is None else args.quit_time,
     )
     try:
@@ -77,7 +81,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"player-server: cannot listen: {exc}", file=sys.stderr)
         sim.close()
         return 1
-    mode = "lockstep" if args.lockstep else f"speedup {server.speedup:g}"
+    mode = ("pipelined lockstep" if args.pipelined else "lockstep") if args.lockstep \
+        else f"speedup {server.speedup:g}"
     print(f"world {world.name!r} ({world.source}), {mode}", flush=True)
     print(server.table(), flush=True)
 

@@ -20,6 +20,12 @@ and every current participant has consumed the current round and asked for the n
 one. A participant that holds the gate for longer than ``lockstep_timeout_s`` (four
 times that before its first round) is demoted to a monitor until its next REQ DATA
 (logged). Monitors never hold the gate.
+
+Pipelined lockstep (``pipelined``): when the gate opens, the round of the current state
+goes out first and the simulation steps after it, then the next round's data is computed
+(``prepare``) while the clients work on theirs. The commands a client sends after round k
+act in the step that leads from round k+1 to k+2 (one tick of actuation delay); the
+schedule is fixed, so a seeded run still repeats exactly.
 """
 
 from __future__ import annotations
@@ -70,6 +76,9 @@ class CoreConfig:
     lockstep: bool = False
     lockstep_clients: int = 1
     lockstep_timeout_s: float = 30.0
+    #: lockstep only: publish the current round first, then step and prepare the next one
+    #: while the clients work on theirs (a command acts one tick later; runs still repeat)
+    pipelined: bool = False
     queue_limit: int = 1024
     max_message_size: int = c.MAX_MESSAGE_SIZE
     #: stop reading from a client while this many replies wait unsent
@@ -251,7 +260,8 @@ class ServerCore:
             return
         key = (h.interf, h.index)
         driver = s.endpoint.drivers.get(key)
-        self._mutations += 1
+        if h.type != _CMD or driver is None or h.subtype not in driver.deferred_commands:
+            self._mutations += 1  # state may have changed: data is read afresh
         if h.type == _REQ:
             s.counters.requests += 1
             if driver is None:
@@ -469,6 +479,15 @@ class ServerCore:
                 s.last_round = self.round_seq
                 if self.round_ready is not None:
                     self.round_ready(s)
+
+    def prepare(self) -> None:
+        """Compute (and cache) the data of the next round for every PULL session now, so that
+        publishing it later only sends bytes already made. Commands that only set targets
+        keep the cache valid; anything else handled in between makes it read afresh."""
+        for s in list(self.sessions.values()):
+            if s.closing is None and s.mode == c.PLAYER_DATAMODE_PULL and s.subs:
+                for _ in self._round_items(s):
+                    pass
 
     def rounds_wanted(self) -> bool:
         """Is some PULL client waiting for a round newer than the current one?"""

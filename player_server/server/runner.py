@@ -71,6 +71,8 @@ class PlayerServer:
         self.ticks = 0
         self._drivers: list[Driver] = []
         self._eager_step = False
+        #: pipelined lockstep: the simulation is one step ahead of the last round published
+        self._ahead = False
         #: ticks stepped right after the input that completed them (lockstep)
         self._eager_steps = 0
 
@@ -126,12 +128,24 @@ class PlayerServer:
             self.finished.set()
 
     def _step_and_publish(self) -> None:
+        core = self.core
+        if core.config.pipelined and core.config.lockstep:
+            if not self._ahead:
+                self._step()  # the state after round 0 (which went out on first request)
+            core.publish()  # the state stepped last time; its data was prepared since
+            self._step()
+            core.prepare()
+            self._ahead = True
+        else:
+            self._step()
+            core.publish()
+        self.ticks += 1
+
+    def _step(self) -> None:
         if not self.sim.paused:
             for d in self._drivers:
                 d.before_step()
             self.sim.step()
-        self.core.publish()
-        self.ticks += 1
 
     def _paused_rounds(self) -> None:
         """While paused, serve waiting rounds at once (in the same write as their ACK)."""

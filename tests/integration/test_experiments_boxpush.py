@@ -48,14 +48,14 @@ def _box_track(run: Path, box: str = "bigbox") -> list[tuple[float, float, float
 
 
 def test_two_pushers_get_the_box_to_the_goal(tmp_path: Path) -> None:
-    proc, run, events, summary = _run(tmp_path, "--until", "700s")
+    proc, run, events, summary = _run(tmp_path, "--until", "1200s")
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     assert not any(terminal_state_problems(events).values())
     (reached,) = [e for e in events if e["kind"] == ev.GOAL_REACHED]
     assert reached["distance_m"] <= reached["radius_m"]
     # the run ended soon after the box arrived, well before --until
     assert summary["goal"]["reached"] and not summary["goal"]["unachievable"]
-    assert summary["sim_time_s"] < reached["t"] + 30.0 < 730.0
+    assert summary["sim_time_s"] < reached["t"] + 30.0 < 1230.0
     # the ground truth agrees: the box moved several metres towards the goal marker
     _, x0, y0 = _box_track(run)[0]
     goal_x, goal_y = 5.0, 1.0

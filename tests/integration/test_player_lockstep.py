@@ -42,13 +42,15 @@ open(out, "w").write("\\n".join(lines) + "\\n")
 """
 
 
-def run_once(tmp: Path, delays: tuple[float, float], tag: str) -> tuple[str, str, int]:
+def run_once(tmp: Path, delays: tuple[float, float], tag: str,
+             pipelined: bool = False) -> tuple[str, str, int]:
     spec = load_world(world_path("boxpush"))
     sim = Simulation(spec, seed=11)
     server = PlayerServer(
         sim, world_endpoints(spec, sim, 0), interval_s=sim.interval_s, clock=time.monotonic,
         speedup=0.0,
-        config=CoreConfig(lockstep=True, lockstep_clients=2, lockstep_timeout_s=20.0),
+        config=CoreConfig(lockstep=True, lockstep_clients=2, lockstep_timeout_s=20.0,
+                          pipelined=pipelined),
     )
     server.start()
     try:
@@ -73,15 +75,49 @@ def run_once(tmp: Path, delays: tuple[float, float], tag: str) -> tuple[str, str
     return outs[0].read_text(), outs[1].read_text(), ticks
 
 
-def test_two_robot_processes_repeat_exactly(tmp_path: Path) -> None:
-    a1, b1, ticks1 = run_once(tmp_path, (0.0, 0.01), "first")
-    a2, b2, ticks2 = run_once(tmp_path, (0.01, 0.0), "second")
+@pytest.mark.parametrize("pipelined", [False, True], ids=["lockstep", "pipelined"])
+def test_two_robot_processes_repeat_exactly(tmp_path: Path, pipelined: bool) -> None:
+    a1, b1, ticks1 = run_once(tmp_path, (0.0, 0.01), "first", pipelined)
+    a2, b2, ticks2 = run_once(tmp_path, (0.01, 0.0), "second", pipelined)
     for text in (a1, b1):
         stamps = [float(line.split()[0]) for line in text.splitlines()]
         assert stamps == pytest.approx([0.1 * i for i in range(TICKS)])  # every tick, none twice
     assert a1 == a2 and b1 == b2
     assert a1 != b1
     assert ticks1 == ticks2 == TICKS - 1
+
+
+def _poses_after_one_command(pipelined: bool) -> list[float]:
+    """x of a robot over 4 rounds; after round 0 it is told to drive (and never again)."""
+    spec = load_world(world_path("simple"))
+    sim = Simulation(spec, seed=1)
+    server = PlayerServer(
+        sim, world_endpoints(spec, sim, 0), interval_s=sim.interval_s, clock=time.monotonic,
+        speedup=0.0, config=CoreConfig(lockstep=True, pipelined=pipelined))
+    server.start()
+    try:
+        with PlayerClient("127.0.0.1", server.ports["robot1"], read_timeout_s=20.0) as cl:
+            pos = cl.subscribe(Position2dProxy)
+            xs = []
+            for i in range(4):
+                cl.read()
+                xs.append(pos.x)
+                pos.set_velocity(0.5 if i < 2 else 0.0, 0.0)
+    finally:
+        server.stop()
+        sim.close()
+    return xs
+
+
+def test_pipelined_commands_act_one_tick_later() -> None:
+    plain = _poses_after_one_command(False)
+    piped = _poses_after_one_command(True)
+    assert plain[2] > plain[1] > plain[0]
+    # the same start: the first step of both already has the first command
+    assert piped[:3] == plain[:3]
+    # the stop sent after round 2 shapes round 3 at once in plain lockstep; pipelined, the
+    # step to round 3 was taken before it arrived, still at full speed
+    assert piped[3] > plain[3]
 
 
 def test_simulation_waits_for_the_expected_clients() -> None:

@@ -339,3 +339,41 @@ def test_disconnect_unsubscribes() -> None:
     assert core.participants() == [a]
     core.close_session(a)
     assert core.participants() == [] and a.subs == {}
+
+
+class CountingPosition(FakePosition):
+    """Counts how often its data is read; velocity commands only set a target."""
+
+    deferred_commands = frozenset({1})
+
+    def __init__(self, world: dict[str, float]) -> None:
+        super().__init__(world)
+        self.reads = 0
+
+    def data(self) -> list[tuple[int, Any]]:
+        self.reads += 1
+        return super().data()
+
+
+def test_prepared_round_survives_deferred_commands_only() -> None:
+    world = {"t": 0.0}
+    drv = CountingPosition(world)
+    ep = Endpoint("r1", {(4, 0): drv, (31, 0): Silent()}, port=7001)
+    core = ServerCore([ep], lambda: world["t"], CoreConfig(lockstep=True, pipelined=True))
+    s = connect(core, ep)
+    core.receive(s, sub(4) + sub(31))
+    out(core, s)
+    world["t"] = 0.1
+    core.prepare()
+    assert drv.reads == 1
+    vel = encode_message(4, 0, 2, 1, am.Position2dCmdVel(Pose2d(0.2, 0, 0.1), 1))
+    core.receive(s, vel + DATA)  # a target for the next step: the prepared data still holds
+    core.publish()
+    msgs = out(core, s)
+    assert drv.reads == 1 and drv.cmds and msgs[-2].body.pos.px == 0.1
+    world["t"] = 0.2
+    core.prepare()
+    core.receive(s, req(31, 0, 1) + DATA)  # any request may change state: read afresh
+    core.publish()
+    out(core, s)
+    assert drv.reads == 3
