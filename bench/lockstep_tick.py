@@ -83,7 +83,8 @@ SIM_READERS = ("odometry", "sonar", "laser", "ranger", "blobs", "bumpers", "grip
                "power", "overhead", "snapshot", "get_pose", "camera_image")
 
 
-def run_once(ticks: int, warmup: int, profile: bool) -> dict[str, float]:
+def run_once(ticks: int, warmup: int, profile: bool, pipelined: bool = False
+             ) -> dict[str, float]:
     from player_server.server.assembly import world_endpoints
     from player_server.server.core import CoreConfig
     from player_server.server.runner import PlayerServer
@@ -94,7 +95,8 @@ def run_once(ticks: int, warmup: int, profile: bool) -> dict[str, float]:
     sim = Simulation(world, seed=1)
     endpoints = world_endpoints(world, sim, 0)
     server = PlayerServer(sim, endpoints, interval_s=sim.interval_s, clock=time.monotonic,
-                          speedup=0.0, config=CoreConfig(lockstep=True, lockstep_clients=7))
+                          speedup=0.0, config=CoreConfig(lockstep=True, lockstep_clients=7,
+                                                         pipelined=pipelined))
     step_t, publish_t, data_t = _Timer(), _Timer(), _Timer()
     sim_step = sim.step
     sim.step = step_t.wrap(sim_step)  # type: ignore[method-assign]
@@ -174,6 +176,9 @@ def main() -> int:
     ap.add_argument("--ticks", type=int, default=300, help="measured ticks per run")
     ap.add_argument("--warmup", type=int, default=30)
     ap.add_argument("--profile", action="store_true", help="cProfile the serving thread")
+    ap.add_argument("--pipelined", action="store_true",
+                    help="pipelined lockstep (the next round is prepared after the step; the "
+                         "breakdown then counts that preparation under I/O)")
     ap.add_argument("--client", type=int, default=None, help=argparse.SUPPRESS)
     ap.add_argument("--overhead", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
@@ -181,7 +186,7 @@ def main() -> int:
         return client_main(args.client, args.ticks, args.overhead)
     ticks: list[float] = []
     for run in range(args.runs):
-        r = run_once(args.ticks, args.warmup, args.profile)
+        r = run_once(args.ticks, args.warmup, args.profile, args.pipelined)
         ticks.append(r["tick_ms"])
         cpu = r["server_cpu_ms"]
         sim_ms = r["step_ms"] + r["sense_ms"]
