@@ -132,11 +132,8 @@ class ConsensusNode:
             return
         self._inbox.append(msg)
 
-    def _state(self) -> tuple[bytes, tuple[int, ...]]:
-        a = self.agent
-        data = (a.x.tobytes() + a.t.tobytes() if isinstance(a, CbgaAgent)
-                else a.y.tobytes() + a.z.tobytes())
-        return data, tuple(a.bundle)
+    def _state(self) -> object:
+        return self.agent.state_key()
 
     def step(self) -> bool:
         """One period: merge, release, quit, build, publish. True if the state changed."""

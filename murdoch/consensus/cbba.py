@@ -7,39 +7,52 @@ marginal gains.
 
 An agent holds winning bids y (M,), winners z (M,) (-1 = none), timestamps s (N + 1,) whose
 last entry stays -inf (looked up for "no winner"), its bundle (insertion order), its path
-(execution order) and the path's start times. The arrays may be rows of larger arrays owned by
-a runner, which then resolves many receivers at once with `consensus_batch`.
+(execution order) and the path's start times, all as plain lists: the problems are small and
+per-element Python is cheaper than array calls here. Marginal gains are cached per path
+(`gains.PathGains`), so rebuilding a bundle whose path did not change costs only the tasks
+not yet evaluated.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any, Protocol
+import math
 
-import numpy as np
-
-from murdoch.consensus.conflict import NONE, apply_actions, resolve_many
+from murdoch.consensus.conflict import NONE, resolve_lists
+from murdoch.consensus.gains import PathGains
 from murdoch.consensus.messages import KIND_CBBA, ConsensusMessage
-from murdoch.consensus.scoring import Problem, insertion_gains_batch, path_times
+from murdoch.consensus.scoring import Problem, path_starts
+
+_KNOWN_PATHS = 256  # gains of this many paths are kept per agent
 
 
-def new_timestamps(n_agents: int) -> np.ndarray:
-    return np.full(n_agents + 1, -np.inf)
+def new_timestamps(n_agents: int) -> list[float]:
+    return [-math.inf] * (n_agents + 1)
 
 
 class BundleBuilding:
-    """Phase 1 entry points shared by the CBBA and CBGA agents (see `build_bundles`)."""
+    """Phase 1 shared by the CBBA and CBGA agents: add the best valid task until none is
+    left or the bundle is full (`_add_best` is the algorithm's choice of one task)."""
 
     problem: Problem
+    index: int
     bundle: list[int]
+    path: list[int]
+    times: list[float]
     needs_build: bool
     active: bool
-    _blocked: np.ndarray
+    _blocked: list[bool]
+    _gains: PathGains | None
+    _bounds: dict[int, tuple[float, float]] | None = None
+    _known_paths: dict[tuple[tuple[int, ...], tuple[float, ...]], PathGains]
 
     def build_bundle(self, now: float = 0.0) -> bool:
         """Add tasks greedily while a valid bid exists; True if the bundle grew."""
+        if not self.start_build():
+            return False
         before = len(self.bundle)
-        build_bundles([self], now)  # type: ignore[list-item]
+        limit = self.problem.max_depth
+        while len(self.bundle) < limit and self._add_best(now):
+            pass
         return len(self.bundle) > before
 
     def start_build(self) -> bool:
@@ -47,8 +60,57 @@ class BundleBuilding:
         if not self.needs_build or not self.active:
             return False
         self.needs_build = False
-        self._blocked = np.zeros(self.problem.n_tasks, dtype=bool)
+        self._blocked = [False] * self.problem.n_tasks
         return True
+
+    def _add_best(self, now: float) -> bool:
+        raise NotImplementedError
+
+    def path_gains(self) -> PathGains:
+        """The insertion gains of the current path (kept until the path changes; paths
+        met again after a release are looked up)."""
+        if self._gains is None:
+            key = (tuple(self.path), tuple(self.times))
+            known = self._known_paths
+            gains = known.get(key)
+            if gains is None:
+                if len(known) >= _KNOWN_PATHS:
+                    known.clear()
+                gains = known[key] = PathGains(self.problem, self.index, self.path,
+                                               self.times, self._bounds)
+            self._gains = gains
+            self._bounds = None
+        return self._gains
+
+    def _set_path(self, path: list[int], times: list[float], grown: bool = False) -> None:
+        """A new path; `grown` when it is the old one with a task inserted. What bounds the
+        old path's gains bounds the new one's when no task starts earlier than before
+        (checked: group tasks may start earlier when partners' times changed since)."""
+        self._bounds = None
+        if grown and self._gains is not None and _no_earlier(self.path, self.times, path,
+                                                            times):
+            self._bounds = self._gains.bounds()
+        self.path = path
+        self.times = times
+        self._gains = None
+
+    def _forget_paths(self) -> None:
+        """The problem changed: no cached gains hold."""
+        self._known_paths = {}
+        self._gains = None
+
+
+def _no_earlier(old_path: list[int], old_times: list[float], path: list[int],
+                times: list[float]) -> bool:
+    """Whether every task of old_path starts no earlier on path (a superset in the same
+    order)."""
+    k = 0
+    for j, t in zip(path, times, strict=True):
+        if k < len(old_path) and j == old_path[k]:
+            if t < old_times[k]:
+                return False
+            k += 1
+    return True
 
 
 class CbbaAgent(BundleBuilding):
@@ -56,94 +118,94 @@ class CbbaAgent(BundleBuilding):
 
     kind = KIND_CBBA
 
-    def __init__(self, problem: Problem, index: int, y: np.ndarray | None = None,
-                 z: np.ndarray | None = None, s: np.ndarray | None = None) -> None:
+    def __init__(self, problem: Problem, index: int) -> None:
         self.problem = problem
         self.index = index
-        self.y = np.zeros(problem.n_tasks) if y is None else y
-        self.z = np.full(problem.n_tasks, NONE, dtype=np.int64) if z is None else z
-        self.s = new_timestamps(problem.n_agents) if s is None else s
+        self.y: list[float] = [0.0] * problem.n_tasks
+        self.z: list[int] = [NONE] * problem.n_tasks
+        self.s = new_timestamps(problem.n_agents)
         self.bundle: list[int] = []
         self.path: list[int] = []
-        self.times = np.zeros(0)
+        self.times: list[float] = []
+        self._gains = None
+        self._known_paths = {}
+        self._blocked = []
         self.needs_build = True
         self.active = True
 
+    def state_key(self) -> tuple[tuple[float, ...], tuple[int, ...], tuple[int, ...]]:
+        """What `comm_steps` watches: bids, winners and bundle."""
+        return tuple(self.y), tuple(self.z), tuple(self.bundle)
+
     # -- phase 1 ------------------------------------------------------------------------
-    def candidates(self) -> np.ndarray | None:
-        """Tasks to evaluate for the next insertion, or None when the bundle is complete."""
-        if len(self.bundle) >= self.problem.max_depth:
-            return None
-        cand = self.problem.eligible[self.index] & ~self._blocked
-        cand &= self.problem.gain_bound[self.index] >= self.y
-        cand[self.bundle] = False
-        return cand if cand.any() else None
-
-    def not_before(self) -> np.ndarray | None:
-        return None
-
-    def take(self, gains: np.ndarray, pos: np.ndarray, now: float) -> bool:
+    def _add_best(self, now: float) -> bool:
         """Insert the best valid task; False when no valid bid remains."""
+        lst = self.problem.lists
         i = self.index
-        if self.bundle:
-            gains = np.minimum(gains, self.y[self.bundle[-1]])
-        valid = (gains > 0) & ((gains > self.y) | ((gains == self.y)
-                                                   & ((self.z > i) | (self.z == i))))
-        if not valid.any():
-            return False
-        j = int(np.argmax(np.where(valid, gains, -np.inf)))
-        if not self._insert(j, int(pos[j])):
-            self._blocked[j] = True
-            return True
-        self.y[j] = gains[j]
-        self.z[j] = i
-        return True
-
-    @staticmethod
-    def take_many(agents: Sequence[CbbaAgent], gains: np.ndarray, pos: np.ndarray,
-                  now: float) -> list[bool]:
-        """`take` for several agents, with the bid validity evaluated for all at once."""
-        idx = np.array([a.index for a in agents])[:, None]
-        y = np.stack([a.y for a in agents])
-        z = np.stack([a.z for a in agents])
-        cap = np.array([a.y[a.bundle[-1]] if a.bundle else np.inf for a in agents])
-        gains = np.minimum(gains, cap[:, None])
-        valid = (gains > 0) & ((gains > y) | ((gains == y) & (z >= idx)))
-        best = np.argmax(np.where(valid, gains, -np.inf), axis=1)
-        has = valid[np.arange(len(agents)), best]
-        out = []
-        for n, a in enumerate(agents):
-            if not has[n]:
-                out.append(False)
+        y, z, blocked = self.y, self.z, self._blocked
+        bound = lst.gain_bound[i]
+        eligible = lst.eligible[i]
+        held = set(self.bundle)
+        cap = y[self.bundle[-1]] if self.bundle else math.inf
+        gains = self.path_gains()
+        # candidates by their upper bound, highest first: once a bound is below the best
+        # valid bid found, no later candidate can win (equal bids: the lower index wins)
+        known = gains.bounds_known
+        order = []
+        for j in range(self.problem.n_tasks):
+            yj = y[j]
+            ub = bound[j]
+            if not eligible[j] or blocked[j] or ub < yj or j in held:
                 continue
-            j = int(best[n])
-            if a._insert(j, int(pos[n, j])):
-                a.y[j] = gains[n, j]
-                a.z[j] = a.index
-            else:
-                a._blocked[j] = True
-            out.append(True)
-        return out
+            hit = known.get(j)  # (not-before time, bound): always 0 here
+            if hit is not None and hit[1] < ub:
+                ub = hit[1]
+            if cap < ub:
+                ub = cap
+            if ub > 0.0 and ub >= yj:
+                order.append((-ub, j))
+        order.sort()
+        best = -math.inf
+        best_j = -1
+        best_pos = 0
+        for neg_ub, j in order:
+            if -neg_ub < best:
+                break
+            if -neg_ub == best and j > best_j:
+                continue
+            g, pos = gains.gain(j)
+            if g > cap:
+                g = cap
+            yj = y[j]
+            if g > 0.0 and (g > yj or (g == yj and z[j] >= i)) and (
+                    g > best or (g == best and j < best_j)):
+                best, best_j, best_pos = g, j, pos
+        if best_j < 0:
+            return False
+        if self._insert(best_j, best_pos):
+            y[best_j] = best
+            z[best_j] = i
+        else:
+            blocked[best_j] = True
+        return True
 
     def _insert(self, j: int, position: int) -> bool:
         path = [*self.path[:position], j, *self.path[position:]]
-        times, ok = path_times(self.problem, self.index, path)
+        times, ok = path_starts(self.problem, self.index, path)
         if not ok:
             return False
-        self.path = path
-        self.times = times
+        self._set_path(path, times, grown=True)
         self.bundle.append(j)
         return True
 
     # -- phase 2 ------------------------------------------------------------------------
     def message(self, now: float) -> ConsensusMessage:
-        s = self.s[:-1].copy()
+        s = self.s[:-1]
         s[self.index] = now
-        has = np.flatnonzero(self.z != NONE)
         return ConsensusMessage(
             self.kind, self.index, float(now),
-            tuple((int(j), int(self.z[j]), float(self.y[j])) for j in has),
-            tuple(float(x) for x in s))
+            tuple((j, m, self.y[j]) for j, m in enumerate(self.z) if m != NONE),
+            tuple(s))
 
     def receive(self, msg: ConsensusMessage, now: float,
                 tasks: tuple[int, int] | None = None, merge: bool = True) -> bool:
@@ -152,35 +214,33 @@ class CbbaAgent(BundleBuilding):
         `merge_stamps`, so that several parts of one message compare against the same ones."""
         if not self.active or msg.sender == self.index:
             return False
-        s_k = message_stamps(msg, self.s.size)
+        s_k = message_stamps(msg, len(self.s))
         if s_k is None:
             return False
-        y_k = np.zeros(self.problem.n_tasks)
-        z_k = np.full(self.problem.n_tasks, NONE, dtype=np.int64)
+        m_tasks, n_agents = self.problem.n_tasks, self.problem.n_agents
+        y_k = [0.0] * m_tasks
+        z_k = [NONE] * m_tasks
         for j, m, b in msg.entries:
-            if 0 <= j < self.problem.n_tasks and 0 <= m < self.problem.n_agents:
+            if 0 <= j < m_tasks and 0 <= m < n_agents:
                 y_k[j] = b
                 z_k[j] = m
-        y_i = self.y[None, :].copy()
-        z_i = self.z[None, :].copy()
-        actions = resolve_many(np.array([self.index]), np.array([msg.sender]), y_k[None, :],
-                               z_k[None, :], y_i, z_i, s_k[None, :], self.s[None, :])
-        if tasks is not None:
-            inside = np.zeros(self.problem.n_tasks, dtype=bool)
-            inside[tasks[0]:tasks[1]] = True
-            actions[0, ~inside] = 0
-        apply_actions(actions, y_i, z_i, y_k[None, :], z_k[None, :])
-        changed = bool((y_i[0] != self.y).any() or (z_i[0] != self.z).any())
-        self.y[:] = y_i[0]
-        self.z[:] = z_i[0]
+        first, end = (0, m_tasks) if tasks is None else tasks
+        return self.apply(msg.sender, y_k, z_k, s_k, now, first, end, merge)
+
+    def apply(self, k: int, y_k: list[float], z_k: list[int], s_k: list[float], now: float,
+              first: int = 0, end: int | None = None, merge: bool = True) -> bool:
+        """Resolve sender k's (y, z) for tasks [first, end) (s_k[k] must be the send time),
+        then merge the timestamps; True if y or z changed."""
+        changed = resolve_lists(self.index, k, self.y, self.z, self.s, y_k, z_k, s_k,
+                                first, end)
         if merge:
-            merge_timestamps(self.s, s_k, self.index, msg.sender, now)
+            merge_timestamps(self.s, s_k, self.index, k, now)
         if changed:
             self.needs_build = True
         return changed
 
     def merge_stamps(self, msg: ConsensusMessage, now: float) -> None:
-        s_k = message_stamps(msg, self.s.size)
+        s_k = message_stamps(msg, len(self.s))
         if s_k is not None and msg.sender != self.index:
             merge_timestamps(self.s, s_k, self.index, msg.sender, now)
 
@@ -201,105 +261,46 @@ class CbbaAgent(BundleBuilding):
             self.z[j] = NONE
         self.bundle = self.bundle[:n]
         drop = set(released)
-        self.path = [j for j in self.path if j not in drop]
-        self.times, _ = path_times(self.problem, self.index, self.path)
+        path = [j for j in self.path if j not in drop]
+        self._set_path(path, path_starts(self.problem, self.index, path)[0])
         self.needs_build = True
 
     def forget_agent(self, gone: int) -> None:
         """Another agent has left: its bids no longer hold."""
-        lost = self.z == gone
-        if lost.any():
-            self.y[lost] = 0.0
-            self.z[lost] = NONE
-            self.needs_build = True
+        for j, m in enumerate(self.z):
+            if m == gone:
+                self.y[j] = 0.0
+                self.z[j] = NONE
+                self.needs_build = True
+
+    def add_tasks(self, problem: Problem) -> None:
+        """The problem grew by new tasks (appended): no bids on them yet."""
+        extra = problem.n_tasks - self.problem.n_tasks
+        self.problem = problem
+        self.y.extend([0.0] * extra)
+        self.z.extend([NONE] * extra)
+        self._forget_paths()
+        self.needs_build = True
 
     def winners_view(self) -> list[frozenset[int]]:
-        return [frozenset() if z == NONE else frozenset((int(z),)) for z in self.z]
+        return [frozenset() if z == NONE else frozenset((z,)) for z in self.z]
 
 
-class Builder(Protocol):
-    problem: Problem
-    index: int
-    path: list[int]
-    times: np.ndarray
-
-    def start_build(self) -> bool: ...
-    def candidates(self) -> np.ndarray | None: ...
-    def not_before(self) -> np.ndarray | None: ...
-
-    @staticmethod
-    def take_many(agents: Sequence[Any], gains: np.ndarray, pos: np.ndarray,
-                  now: float) -> list[bool]: ...
-
-
-def build_bundles(agents: Sequence[Builder], now: float) -> None:
-    """Phase 1 for several agents in lock step: one batched gain evaluation per insertion."""
-    todo = [a for a in agents if a.start_build()]
-    while todo:
-        keep: list[Builder] = []
-        cands: list[np.ndarray] = []
-        for a in todo:
-            c = a.candidates()
-            if c is not None:
-                keep.append(a)
-                cands.append(c)
-        if not keep:
-            return
-        bounds = [a.not_before() for a in keep]
-        gains, pos = insertion_gains_batch(
-            keep[0].problem, [a.index for a in keep], [a.path for a in keep],
-            [a.times for a in keep], np.stack(cands),
-            None if all(b is None for b in bounds) else np.stack(
-                [np.zeros(keep[0].problem.n_tasks) if b is None else b for b in bounds]))
-        go_on = type(keep[0]).take_many(keep, gains, pos, now)
-        todo = [a for a, more in zip(keep, go_on, strict=True) if more]
-
-
-def message_stamps(msg: ConsensusMessage, size: int) -> np.ndarray | None:
-    """The sender's timestamps as an (N + 1,) row (sender's own = send time), or None when
-    the message was made for a different number of agents."""
-    s_k = np.append(np.asarray(msg.stamps, dtype=float), -np.inf)
-    if s_k.size != size or not 0 <= msg.sender < size - 1:
+def message_stamps(msg: ConsensusMessage, size: int) -> list[float] | None:
+    """The sender's timestamps as an (N + 1,) list (sender's own = send time, last -inf),
+    or None when the message was made for a different number of agents."""
+    if len(msg.stamps) + 1 != size or not 0 <= msg.sender < size - 1:
         return None
+    s_k = [float(v) for v in msg.stamps]
+    s_k.append(-math.inf)
     s_k[msg.sender] = max(s_k[msg.sender], msg.time)
     return s_k
 
 
-def merge_timestamps(s_i: np.ndarray, s_k: np.ndarray, i: int, k: int, now: float) -> None:
+def merge_timestamps(s_i: list[float], s_k: list[float], i: int, k: int, now: float) -> None:
     """s_in = max(s_in, s_kn) for every n, then s_ik = now (the last entry stays -inf)."""
-    np.maximum(s_i, s_k, out=s_i)
+    s_i[:] = map(max, s_i, s_k)
     s_i[k] = now
-    s_i[i] = max(s_i[i], now)
-    s_i[-1] = -np.inf
-
-
-def consensus_batch(receivers: np.ndarray, senders: np.ndarray, y: np.ndarray, z: np.ndarray,
-                    s: np.ndarray, y_msg: np.ndarray, z_msg: np.ndarray, s_msg: np.ndarray,
-                    now: float) -> np.ndarray:
-    """One message per receiver at once (receivers distinct). y, z, s are the runner's (N, ...)
-    arrays, *_msg the senders' values at send time. Returns the receivers whose y/z changed."""
-    y_i = y[receivers]
-    z_i = z[receivers]
-    y_k = y_msg[senders]
-    z_k = z_msg[senders]
-    s_k = s_msg[senders].copy()
-    s_k[np.arange(len(senders)), senders] = now
-    # equal beliefs never change anything (only timestamps move): resolve only the
-    # receivers whose message differs from what they hold
-    rows = np.flatnonzero(((z_k != z_i) | (y_k != y_i)).any(axis=1))
-    changed = np.zeros(len(receivers), dtype=bool)
-    if rows.size:
-        r_i = receivers[rows]
-        y_r, z_r, y_kr, z_kr = y_i[rows], z_i[rows], y_k[rows], z_k[rows]
-        actions = resolve_many(r_i, senders[rows], y_kr, z_kr, y_r, z_r, s_k[rows], s[r_i])
-        apply_actions(actions, y_r, z_r, y_kr, z_kr)
-        changed[rows] = ((y_r != y[r_i]) | (z_r != z[r_i])).any(axis=1)
-        y[r_i] = y_r
-        z[r_i] = z_r
-    s_new = np.maximum(s[receivers], s_k)
-    s_new[np.arange(len(senders)), senders] = now
-    s_new[np.arange(len(receivers)), receivers] = np.maximum(
-        s_new[np.arange(len(receivers)), receivers], now)
-    s_new[:, -1] = -np.inf
-    s[receivers] = s_new
-    return receivers[changed]
+    if now > s_i[i]:
+        s_i[i] = now
+    s_i[-1] = -math.inf

@@ -1,10 +1,10 @@
 """CBGA (Hunt, Meng, Hinde & Huang 2014): consensus on tasks that need groups of agents.
 
-Each agent keeps a winning-bid matrix X (tasks x agents): X[j, m] is the bid agent m made for
-task j as this agent believes it, 0 when m is not assigned. A task j needs L_j agents whose
-equipment together covers the task's list. Rows with L_j = 1 are resolved exactly as CBBA
-does (the row's single non-zero entry is y_j and z_j), so on scenarios without group tasks
-CBGA gives CBBA's result.
+Each agent keeps a winning-bid matrix X (tasks x agents, a list of rows): X[j][m] is the bid
+agent m made for task j as this agent believes it, 0 when m is not assigned. A task j needs
+L_j agents whose equipment together covers the task's list. Rows with L_j = 1 are resolved
+exactly as CBBA does (the row's single non-zero entry is y_j and z_j), so on scenarios
+without group tasks CBGA gives CBBA's result.
 
 Group rows follow the paper's Algorithm 2. First the receiver refreshes the members it
 believes in from the sender when the sender heard from that member more recently (or is that
@@ -19,13 +19,13 @@ Bundle construction is Algorithm 1: a group task is a valid choice when `select_
 keep this agent in it (room left, or outbidding the weakest replaceable member).
 
 Group members wait for each other (the paper's eq. 8, with paths instead of straight lines):
-each agent also keeps T[j, m], the time member m can be at group task j on its own, sends it
+each agent also keeps T[j][m], the time member m can be at group task j on its own, sends it
 with its bids, and plans its own start on j no earlier than the latest of its partners'.
 A group task that can no longer start in its window after a partner's news is dropped, by
 the member that makes the group late only (a partner already past the window is not waited
 for). Deadlock-free tie handling, ties to the higher agent index: of two group tasks a pair
-of members plan in opposite orders, the lower-index member gives up the later one (see
-`refresh_times`).
+of members plan in opposite orders, the lower-index member gives up the later one and
+stays out of it while that partner is in the group (see `refresh_times`).
 
 Options: task quitting (leave a group task still incomplete `quit_after` rounds after joining
 it, and do not rejoin until more agents have joined) and team reward (a group-task bid adds
@@ -36,10 +36,8 @@ bid of the task added before).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
 from dataclasses import dataclass
-
-import numpy as np
 
 from murdoch.consensus.cbba import (
     BundleBuilding,
@@ -47,9 +45,15 @@ from murdoch.consensus.cbba import (
     message_stamps,
     new_timestamps,
 )
-from murdoch.consensus.conflict import NONE, apply_actions, resolve_many
+from murdoch.consensus.conflict import NONE, resolve_lists
 from murdoch.consensus.messages import KIND_CBGA, ConsensusMessage
-from murdoch.consensus.scoring import _EPS, Problem, path_times
+from murdoch.consensus.scoring import _EPS, Problem, path_starts
+
+Matrix = list[list[float]]
+
+
+def zeros(rows: int, cols: int) -> Matrix:
+    return [[0.0] * cols for _ in range(rows)]
 
 
 @dataclass(frozen=True)
@@ -59,37 +63,47 @@ class CbgaOptions:
 
 
 class CbgaAgent(BundleBuilding):
-    """One agent's CBGA state: X (M, N), timestamps, bundle, path, quit bookkeeping."""
+    """One agent's CBGA state: X (M x N), T (M x N), timestamps, bundle, path, quit
+    bookkeeping (plain lists: the problems are small)."""
 
     kind = KIND_CBGA
 
-    def __init__(self, problem: Problem, index: int, options: CbgaOptions | None = None,
-                 x: np.ndarray | None = None, s: np.ndarray | None = None,
-                 t: np.ndarray | None = None) -> None:
+    def __init__(self, problem: Problem, index: int, options: CbgaOptions | None = None
+                 ) -> None:
         self.problem = problem
         self.index = index
         self.options = options or CbgaOptions()
-        self.x = np.zeros((problem.n_tasks, problem.n_agents)) if x is None else x
-        self.s = new_timestamps(problem.n_agents) if s is None else s
+        self.x = zeros(problem.n_tasks, problem.n_agents)
+        self.s = new_timestamps(problem.n_agents)
         # when each believed member can be at each group task on its own (0 = unknown)
-        self.t = np.zeros((problem.n_tasks, problem.n_agents)) if t is None else t
+        self.t = zeros(problem.n_tasks, problem.n_agents)
         self.bundle: list[int] = []
         self.path: list[int] = []
-        self.times = np.zeros(0)
-        self.assigned_at = np.full(problem.n_tasks, np.nan)
-        self.banned = np.full(problem.n_tasks, -1, dtype=np.int64)
+        self.times: list[float] = []
+        self._gains = None
+        self._known_paths = {}
+        self._blocked = []
+        self.assigned_at = [math.nan] * problem.n_tasks
+        self.banned = [-1] * problem.n_tasks
         self.yielding: dict[int, bool] = {}  # a late group task kept one round (see below)
         # group tasks given up to a higher-index partner -> the other members then
         self.yielded: dict[int, frozenset[int]] = {}
         self.needs_build = True
         self.active = True
+        self._partners: dict[int, float] | None = None
         self._refresh_static()
 
     def _refresh_static(self) -> None:
         p = self.problem
-        self.single = p.required == 1
-        self.single_idx = np.flatnonzero(self.single)
-        self.group_idx = np.flatnonzero(~self.single)
+        self.single: list[bool] = [int(r) == 1 for r in p.required]
+        self.single_idx = [j for j, one in enumerate(self.single) if one]
+        self.group_idx = [j for j, one in enumerate(self.single) if not one]
+        self._latest = [w + _EPS for w in p.lists.window_end]
+
+    def state_key(self) -> tuple[tuple[tuple[float, ...], ...], tuple[tuple[float, ...], ...],
+                                 tuple[int, ...]]:
+        """What `comm_steps` watches: bids, group members' times and bundle."""
+        return tuple(map(tuple, self.x)), tuple(map(tuple, self.t)), tuple(self.bundle)
 
     # -- equipment ----------------------------------------------------------------------
     def select_group(self, j: int, bids: dict[int, float]) -> list[int]:
@@ -100,22 +114,25 @@ class CbgaAgent(BundleBuilding):
         weakest member with the same equipment, and only with a higher bid."""
         p = self.problem
         need = p.task_equipment[j]
-        size = int(p.required[j])
+        size = p.lists.required[j]
+        order = sorted(bids, key=lambda m: (-bids[m], -m))
+        if not need:
+            return order[:size]
         chosen: list[int] = []
         covered: set[str] = set()
-        for m in sorted(bids, key=lambda m: (-bids[m], -m)):
+        for m in order:
             if len(chosen) >= size:
                 break
             eq = p.agent_equipment[m]
-            if need and len(need - covered - eq) > size - len(chosen) - 1:
+            if len(need - covered - eq) > size - len(chosen) - 1:
                 continue
             chosen.append(m)
             covered |= eq
         return chosen
 
     def complete(self, j: int) -> bool:
-        members = np.flatnonzero(self.x[j] > 0)
-        if len(members) < self.problem.required[j]:
+        members = [m for m, v in enumerate(self.x[j]) if v > 0]
+        if len(members) < self.problem.lists.required[j]:
             return False
         covered: set[str] = set()
         for m in members:
@@ -123,51 +140,70 @@ class CbgaAgent(BundleBuilding):
         return self.problem.task_equipment[j] <= covered
 
     # -- phase 1 ------------------------------------------------------------------------
-    def candidates(self) -> np.ndarray | None:
-        if len(self.bundle) >= self.problem.max_depth:
-            return None
-        p = self.problem
-        cand = p.eligible[self.index] & ~self._blocked
-        if self.single_idx.size:
-            rows = self.single_idx
-            cand[rows] &= p.gain_bound[self.index, rows] >= self.x[rows].max(axis=1)
-        cand[self.bundle] = False
-        return cand if cand.any() else None
-
-    def not_before(self) -> np.ndarray | None:
-        """Per task, the latest planned start of the other members of its group.
+    def partners_time(self, j: int) -> float:
+        """The latest planned start of the other members of group task j (0 when none).
 
         A member that cannot itself be there inside the window is left out: it is the one
         that makes the group late, and it gives the task up (its own `refresh_times` finds
         its path infeasible). Only that member leaves; the punctual ones keep the task."""
-        if not self.group_idx.size:
-            return None
-        others = self.x > 0
-        others[:, self.index] = False
-        others &= self.t <= self.problem.window_end[:, None] + _EPS
-        lb = np.where(others, self.t, 0.0).max(axis=1)
-        lb[self.single_idx] = 0.0
+        if self.single[j]:
+            return 0.0
+        cache = self._partners
+        if cache is not None:
+            hit = cache.get(j)
+            if hit is not None:
+                return hit
+        i = self.index
+        latest = self._latest[j]
+        lb = 0.0
+        trow = self.t[j]
+        for m, v in enumerate(self.x[j]):
+            if v > 0 and m != i:
+                at = trow[m]
+                if lb < at <= latest:
+                    lb = at
+        if cache is not None:
+            cache[j] = lb
         return lb
 
-    def _lower_bounds(self, path: list[int]) -> dict[int, float] | None:
-        if not self.group_idx.size:
+    def build_bundle(self, now: float = 0.0) -> bool:
+        # during a build only this agent's own rows change: partners' times are cached
+        self._partners = {}
+        try:
+            return super().build_bundle(now)
+        finally:
+            self._partners = None
+
+    def not_before(self) -> list[float] | None:
+        """`partners_time` of every task (None without group tasks)."""
+        if not self.group_idx:
             return None
-        lb = self.not_before()
-        assert lb is not None
-        return {j: float(lb[j]) for j in path if not self.single[j] and lb[j] > 0}
+        return [self.partners_time(j) for j in range(self.problem.n_tasks)]
+
+    def _lower_bounds(self, path: list[int]) -> dict[int, float] | None:
+        if not self.group_idx:
+            return None
+        out = {}
+        for j in path:
+            lb = self.partners_time(j)
+            if lb > 0:
+                out[j] = lb
+        return out
 
     def _publish_times(self) -> None:
         """Record when this agent can be at each of its group tasks on its own (what its
         partners wait for); the group starts at the latest of its members' times."""
-        if not self.group_idx.size:
+        if not self.group_idx:
             return
         i = self.index
         ready: list[float] = []
-        path_times(self.problem, i, self.path, self._lower_bounds(self.path), ready)
-        self.t[self.group_idx, i] = 0.0
+        path_starts(self.problem, i, self.path, self._lower_bounds(self.path), ready)
+        t = self.t
+        for j in self.group_idx:
+            t[j][i] = 0.0
         for j, at in zip(self.path, ready, strict=True):
             if not self.single[j]:
-                self.t[j, i] = at
+                t[j][i] = at
 
     def refresh_times(self) -> bool:
         """Re-plan start times against the partners' latest plans; drop a group task that
@@ -178,179 +214,248 @@ class CbgaAgent(BundleBuilding):
         to the higher agent index: a member made late by waiting for a lower-index partner
         keeps its plan for one round so that the partner, made late by waiting for it,
         gives its task up first; if the plan is still infeasible a round later it drops."""
-        if not self.group_idx.size or not self.active:
+        if not self.group_idx or not self.active:
             return False
         dropped = self._drop_crossed_orders()
         held = False
         while True:
-            times, ok = path_times(self.problem, self.index, self.path,
-                                   self._lower_bounds(self.path))
+            bad: list[int] = []
+            times, ok = path_starts(self.problem, self.index, self.path,
+                                    self._lower_bounds(self.path), bad_out=bad)
             if ok:
                 break
-            bad = self._first_infeasible()
-            j = self.path[bad]
-            blamed = self._blamed_partner(bad)
+            j = self.path[bad[0]]
+            blamed = self._blamed_partner(bad[0])
             if blamed is not None and blamed < self.index and not self.yielding.get(j):
                 self.yielding = {j: True}
                 held = True
                 break
-            self.x[j, self.index] = 0.0
+            self.x[j][self.index] = 0.0
             self.bundle.remove(j)
-            self.path.remove(j)
+            self.path = [q for q in self.path if q != j]
             dropped = True
         if not held:
             self.yielding = {}
-        moved = dropped or times.shape != self.times.shape or bool((times != self.times).any())
-        self.times = times
+        moved = dropped or times != self.times
+        if moved:
+            self._set_path(self.path, times)
         self._publish_times()
         if moved:
             self.needs_build = True
         return moved
 
-    def _crossed(self, path: list[int]) -> set[int]:
+    def _crossed(self, path: list[int]) -> dict[int, set[int]]:
         """Group tasks of `path` planned in the opposite order to a higher-index partner: if
         both hold g and h, this agent doing g first and the partner h first (its own times
-        say so), each would wait for the other. Returns the later task of each such pair."""
+        say so), each would wait for the other. Returns the later task of each such pair
+        and the partners it crosses."""
         i = self.index
         shared = [j for j in path if not self.single[j]]
+        later: dict[int, set[int]] = {}
         if len(shared) < 2:
-            return set()
+            return later
         x, t = self.x, self.t
-        later: set[int] = set()
+        n = self.problem.n_agents
         for a, g in enumerate(shared):
             if g in later:
                 continue
+            xg, tg = x[g], t[g]
             for h in shared[a + 1:]:
                 if h in later:
                     continue
-                both = (x[g] > 0) & (x[h] > 0) & (t[g] > 0) & (t[h] > 0)
-                both[: i + 1] = False
-                if (both & (t[h] < t[g])).any():
-                    later.add(h)
+                xh, th = x[h], t[h]
+                partners = {m for m in range(i + 1, n)
+                            if xg[m] > 0 and xh[m] > 0 and tg[m] > 0 and th[m] > 0
+                            and th[m] < tg[m]}
+                if partners:
+                    later[h] = partners
         return later
 
     def _drop_crossed_orders(self) -> bool:
         """Ties go to the higher index: of a pair of group tasks planned in the opposite
         order to a higher-index partner, this agent drops the later one and does not rejoin
-        it while the other members stay the same; True if it dropped any."""
+        it while any partner it crossed is still in that group (several lower-index
+        members may give way at once, so the group's other members are not a reliable
+        sign that anything changed); True if it dropped any."""
         i = self.index
         drop = self._crossed(self.path)
-        for j in drop:
-            self.yielded[j] = frozenset(int(m) for m in np.flatnonzero(self.x[j] > 0) if m != i)
-            self.x[j, i] = 0.0
+        for j, partners in drop.items():
+            self.yielded[j] = frozenset(partners)
+            self.x[j][i] = 0.0
             self.bundle.remove(j)
-            self.path.remove(j)
+        if drop:
+            self._set_path([q for q in self.path if q not in drop], self.times)
         return bool(drop)
-
-    def _first_infeasible(self) -> int:
-        for n in range(1, len(self.path) + 1):
-            prefix = self.path[:n]
-            if not path_times(self.problem, self.index, prefix, self._lower_bounds(prefix))[1]:
-                return n - 1
-        return len(self.path) - 1
 
     def _blamed_partner(self, bad: int) -> int | None:
         """The partner this agent last waited for on a group task before path[bad] (None
         when it waited for nobody there)."""
-        lb = self.not_before()
-        if lb is None:
+        if not self.group_idx:
             return None
         ready: list[float] = []
-        path_times(self.problem, self.index, self.path[:bad], self._lower_bounds(self.path),
-                   ready)
+        path_starts(self.problem, self.index, self.path[:bad], self._lower_bounds(self.path),
+                    ready)
         for n in range(bad - 1, -1, -1):
             g = self.path[n]
-            if not self.single[g] and lb[g] > ready[n]:
-                row = np.where(self.x[g] > 0, self.t[g], -np.inf)
-                row[self.index] = -np.inf
-                return int(np.argmax(row))
+            if not self.single[g] and self.partners_time(g) > ready[n]:
+                best, who = -math.inf, 0
+                for m, (v, at) in enumerate(zip(self.x[g], self.t[g], strict=True)):
+                    if v > 0 and m != self.index and at > best:
+                        best, who = at, m
+                return who
         return None
 
-    def take(self, gains: np.ndarray, pos: np.ndarray, now: float) -> bool:
+    def _add_best(self, now: float) -> bool:
+        """Algorithm 1, one step: insert the best task whose bid is valid (a single task
+        outbidding its winner; a group task whose `select_group` keeps this agent); False
+        when no valid bid remains (equal bids: the lower task index).
+
+        Tasks are tried in the order of an upper bound of their bid, and the search stops
+        at the first bound below the best valid bid found; a group task with a pending
+        quit ban or yield is always evaluated, since evaluating it may lift those."""
         p, i = self.problem, self.index
-        cand = gains > 0
-        if not cand.any():
-            return False
-        cap = self.x[self.bundle[-1], i] if self.bundle else np.inf
-        gains = np.minimum(gains, cap)
-        bids = gains.copy()
-        valid = np.zeros(p.n_tasks, dtype=bool)
-        replace: dict[int, list[int]] = {}
-        if self.single_idx.size:
-            xs = self.x[self.single_idx]
-            y = xs.max(axis=1)
-            z = np.where(y > 0, xs.argmax(axis=1), NONE)
-            g = gains[self.single_idx]
-            valid[self.single_idx] = cand[self.single_idx] & (
-                (g > y) | ((g == y) & ((z > i) | (z == i))))
-        group = self.group_idx[cand[self.group_idx]].tolist()
-        rows = self.x[group].tolist() if group else []
-        gains_l = gains.tolist()
-        for j, row in zip(group, rows, strict=True):
-            members = {m: v for m, v in enumerate(row) if v > 0 and m != i}
-            if self.banned[j] >= 0:
-                if len(members) <= self.banned[j]:
-                    continue
-                self.banned[j] = -1
-            if j in self.yielded:
-                if self.yielded[j] == members.keys():
-                    continue
-                del self.yielded[j]
-            size = int(p.required[j])
-            bid = gains_l[j]
-            if self.options.team_reward and size > 1:
-                others = min(len(members), size - 1)
-                bid = min(bid + p.team_reward[j] * others / (size - 1), cap)
-            chosen = self.select_group(j, {**members, i: bid})
-            if i not in chosen:
+        lst = p.lists
+        held = set(self.bundle)
+        blocked = self._blocked
+        eligible = lst.eligible[i]
+        bound = lst.gain_bound[i]
+        single = self.single
+        rows = self.x
+        gains = self.path_gains()
+        cap = rows[self.bundle[-1]][i] if self.bundle else math.inf
+        team = self.options.team_reward
+        required, team_reward = lst.required, lst.team_reward
+        forced: list[tuple[float, int, float]] = []
+        order: list[tuple[float, int, float]] = []
+        for j in range(p.n_tasks):
+            if not eligible[j] or blocked[j] or j in held:
                 continue
-            bids[j] = bid
-            valid[j] = True
-            dropped = [m for m in members if m not in chosen]
-            if dropped:
-                replace[j] = dropped
-        if not valid.any():
+            ub = bound[j]
+            if single[j]:
+                nb = 0.0
+                if ub < max(rows[j]):
+                    continue
+            else:
+                nb = self.partners_time(j)
+                if self.banned[j] >= 0 or j in self.yielded:
+                    forced.append((0.0, j, nb))
+                    continue
+            tighter = gains.upper_bound(j, nb)
+            if tighter < ub:
+                ub = tighter
+            if not single[j] and team and required[j] > 1:
+                others = sum(1 for m, v in enumerate(rows[j]) if v > 0 and m != i)
+                size = required[j]
+                ub += team_reward[j] * min(others, size - 1) / (size - 1)
+            if cap < ub:
+                ub = cap
+            if ub > 0.0:
+                order.append((-ub, j, nb))
+        order.sort()
+        best = -math.inf
+        best_j = -1
+        best_pos = 0
+        replace: list[int] = []
+        for neg_ub, j, nb in forced + order:
+            if neg_ub:  # (forced ones carry 0)
+                if -neg_ub < best:
+                    break
+                if -neg_ub == best and j > best_j:
+                    continue
+            g, pos = gains.gain(j, nb)
+            if not g > 0.0:
+                continue
+            if g > cap:
+                g = cap
+            row = rows[j]
+            dropped: list[int] = []
+            if single[j]:
+                yj = max(row)
+                zj = row.index(yj) if yj > 0 else NONE
+                if not (g > yj or (g == yj and zj >= i)):
+                    continue
+                bid = g
+            else:
+                maybe, dropped = self._group_bid(j, row, g, cap, team)
+                if maybe is None:
+                    continue
+                bid = maybe
+            if bid > best or (bid == best and j < best_j):
+                best, best_j, best_pos, replace = bid, j, pos, dropped
+        if best_j < 0:
             return False
-        j = int(np.argmax(np.where(valid, bids, -np.inf)))
-        if not self._insert(j, int(pos[j])):
-            self._blocked[j] = True
+        j = best_j
+        if not self._insert(j, best_pos):
+            blocked[j] = True
             return True
-        for m in replace.get(j, ()):
-            self.x[j, m] = 0.0
-        if self.single[j]:
-            self.x[j, :] = 0.0
-        self.x[j, i] = bids[j]
+        row = rows[j]
+        for m in replace:
+            row[m] = 0.0
+        if replace:
+            # a partner pushed out may have been the one j waited for: j can start earlier
+            # on the next path, so the bounds of this one do not carry over
+            self._bounds = None
+        if single[j]:
+            row[:] = [0.0] * len(row)
+        row[i] = best
         self.assigned_at[j] = now
+        if self._partners is not None:
+            self._partners.pop(j, None)
         return True
 
-    @staticmethod
-    def take_many(agents: Sequence[CbgaAgent], gains: np.ndarray, pos: np.ndarray,
-                  now: float) -> list[bool]:
-        return [a.take(gains[n], pos[n], now) for n, a in enumerate(agents)]
+    def _group_bid(self, j: int, row: list[float], gain: float, cap: float, team: bool
+                   ) -> tuple[float | None, list[int]]:
+        """This agent's bid on group task j if `select_group` would keep it (else None),
+        and the members it would push out. Clears a quit ban or a yield once the group's
+        other members have changed."""
+        i = self.index
+        members = [m for m, v in enumerate(row) if v > 0 and m != i]
+        if self.banned[j] >= 0:
+            if len(members) <= self.banned[j]:
+                return None, []
+            self.banned[j] = -1
+        if j in self.yielded:
+            if self.yielded[j].intersection(members):
+                return None, []
+            del self.yielded[j]
+        size = self.problem.lists.required[j]
+        bid = gain
+        if team and size > 1:
+            others = min(len(members), size - 1)
+            bid = min(bid + self.problem.lists.team_reward[j] * others / (size - 1), cap)
+        if len(members) < size and not self.problem.task_equipment[j]:
+            return bid, []  # room left and nothing to cover: select_group keeps everyone
+        bids = {m: row[m] for m in members}
+        bids[i] = bid
+        chosen = self.select_group(j, bids)
+        if i not in chosen:
+            return None, []
+        return bid, [m for m in members if m not in chosen]
 
     def _insert(self, j: int, position: int) -> bool:
         path = [*self.path[:position], j, *self.path[position:]]
-        times, ok = path_times(self.problem, self.index, path, self._lower_bounds(path))
+        times, ok = path_starts(self.problem, self.index, path, self._lower_bounds(path))
         if not ok:
             return False
-        self.path = path
-        self.times = times
+        self._set_path(path, times, grown=True)
         self.bundle.append(j)
         self._publish_times()
         return True
 
     # -- phase 2 ------------------------------------------------------------------------
     def message(self, now: float) -> ConsensusMessage:
-        s = self.s[:-1].copy()
+        s = self.s[:-1]
         s[self.index] = now
-        js, ms = np.nonzero(self.x)
-        starts = tuple((int(j), int(m), float(self.t[j, m]))
-                       for j, m in zip(js, ms, strict=True)
-                       if not self.single[j] and self.t[j, m] > 0)
-        return ConsensusMessage(
-            self.kind, self.index, float(now),
-            tuple((int(j), int(m), float(self.x[j, m])) for j, m in zip(js, ms, strict=True)),
-            tuple(float(v) for v in s), starts)
+        entries = []
+        starts = []
+        for j, (row, trow) in enumerate(zip(self.x, self.t, strict=True)):
+            for m, v in enumerate(row):
+                if v != 0:
+                    entries.append((j, m, v))
+                    if not self.single[j] and trow[m] > 0:
+                        starts.append((j, m, trow[m]))
+        return ConsensusMessage(self.kind, self.index, float(now), tuple(entries), tuple(s),
+                                tuple(starts))
 
     def receive(self, msg: ConsensusMessage, now: float,
                 tasks: tuple[int, int] | None = None, merge: bool = True) -> bool:
@@ -358,119 +463,118 @@ class CbgaAgent(BundleBuilding):
         if not self.active or msg.sender == self.index:
             return False
         p = self.problem
-        s_k = message_stamps(msg, self.s.size)
+        s_k = message_stamps(msg, len(self.s))
         if s_k is None:
             return False
-        x_k = np.zeros((p.n_tasks, p.n_agents))
+        x_k = zeros(p.n_tasks, p.n_agents)
         for j, m, b in msg.entries:
             if 0 <= j < p.n_tasks and 0 <= m < p.n_agents and b > 0:
-                x_k[j, m] = b
-        t_k = np.zeros((p.n_tasks, p.n_agents))
+                x_k[j][m] = b
+        t_k = zeros(p.n_tasks, p.n_agents)
         for j, m, start in msg.starts:
             if 0 <= j < p.n_tasks and 0 <= m < p.n_agents:
-                t_k[j, m] = start
-        rows = None
-        if tasks is not None:
-            rows = np.zeros(p.n_tasks, dtype=bool)
-            rows[tasks[0]:tasks[1]] = True
-        return self.receive_arrays(msg.sender, x_k, s_k, now, rows, merge, t_k)
+                t_k[j][m] = start
+        first, end = (0, p.n_tasks) if tasks is None else tasks
+        return self.receive_rows(msg.sender, x_k, t_k, s_k, now, first, end, merge)
 
     def merge_stamps(self, msg: ConsensusMessage, now: float) -> None:
-        s_k = message_stamps(msg, self.s.size)
+        s_k = message_stamps(msg, len(self.s))
         if s_k is not None and msg.sender != self.index:
             merge_timestamps(self.s, s_k, self.index, msg.sender, now)
 
-    def receive_arrays(self, k: int, x_k: np.ndarray, s_k: np.ndarray, now: float,
-                       rows: np.ndarray | None = None, merge: bool = True,
-                       t_k: np.ndarray | None = None) -> bool:
-        """Merge sender k's matrix and timestamps (s_k[k] must be the send time), for the
-        task rows selected by `rows` (all when None)."""
+    def receive_rows(self, k: int, x_k: Matrix, t_k: Matrix, s_k: list[float], now: float,
+                     first: int = 0, end: int | None = None, merge: bool = True) -> bool:
+        """Merge sender k's X, T and timestamps (s_k[k] must be the send time) for the
+        task rows [first, end); True if X or T changed."""
         i = self.index
-        x_i = self.x
+        x_i, t_i = self.x, self.t
+        stop = len(x_i) if end is None else end
+        single = self.single
         changed = False
-        single_idx, group_idx = self.single_idx, self.group_idx
-        if rows is not None:
-            single_idx = single_idx[rows[single_idx]]
-            group_idx = group_idx[rows[group_idx]]
-        if single_idx.size:
-            rows = single_idx
-            xs_i, xs_k = x_i[rows], x_k[rows]
-            differ = (xs_i != xs_k).any(axis=1)
-            if differ.any():
-                rows = rows[differ]
-                xs_i, xs_k = xs_i[differ], xs_k[differ]
-                y_i = xs_i.max(axis=1)
-                z_i = np.where(y_i > 0, xs_i.argmax(axis=1), NONE)
-                y_k = xs_k.max(axis=1)
-                z_k = np.where(y_k > 0, xs_k.argmax(axis=1), NONE)
-                y_new, z_new = y_i[None, :].copy(), z_i[None, :].copy()
-                actions = resolve_many(np.array([i]), np.array([k]), y_k[None, :],
-                                       z_k[None, :], y_new, z_new, s_k[None, :],
-                                       self.s[None, :])
-                apply_actions(actions, y_new, z_new, y_k[None, :], z_k[None, :])
-                moved = (y_new[0] != y_i) | (z_new[0] != z_i)
-                for r, y, z in zip(rows[moved], y_new[0][moved], z_new[0][moved], strict=True):
-                    x_i[r, :] = 0.0
-                    if z != NONE:
-                        x_i[r, z] = y
-                changed = bool(moved.any())
-        if group_idx.size:
-            t_k = np.zeros_like(x_k) if t_k is None else t_k
+        singles: list[int] = []
+        groups: list[int] = []
+        same = x_i == x_k and t_i == t_k  # nothing to merge: only the timestamps move
+        for j in range(first, first if same else stop):
+            if single[j]:
+                if x_i[j] != x_k[j]:
+                    singles.append(j)
+            elif x_i[j] != x_k[j] or t_i[j] != t_k[j]:
+                groups.append(j)
+        if singles:
+            changed = self._merge_single_rows(k, singles, x_k, s_k)
+        if groups:
             # Algorithm 2 only takes from the sender what it knows better (members it heard
             # from more recently, or itself) and never this agent's own entry; a row that
             # differs in nothing else cannot change (non-members' times are always 0).
-            fresher_a = s_k[:-1] > self.s[:-1]
-            fresher_a[k] = True
-            fresher_a[i] = False
-            differ = group_idx[(((x_i[group_idx] != x_k[group_idx])
-                                 | (self.t[group_idx] != t_k[group_idx]))
-                                & fresher_a).any(axis=1)]
-            if differ.size:
-                fresher = (s_k[:-1] > self.s[:-1]).tolist()
-                fresher[k] = True
-                for j in differ.tolist():
-                    changed |= self._merge_group_row(j, k, x_k[j].tolist(), fresher,
-                                                     t_k[j].tolist())
+            s_i = self.s
+            known = [m for m in range(len(s_i) - 1)
+                     if m != i and (m == k or s_k[m] > s_i[m])]
+            for j in groups:
+                xi, xk, ti, tk = x_i[j], x_k[j], t_i[j], t_k[j]
+                for m in known:
+                    if xi[m] != xk[m] or ti[m] != tk[m]:
+                        changed |= self._merge_group_row(j, xk, known, tk)
+                        break
         if merge:
             merge_timestamps(self.s, s_k, i, k, now)
         if changed:
             self.needs_build = True
         return changed
 
-    def _merge_group_row(self, j: int, k: int, row_k: list[float], fresher: list[bool],
+    def _merge_single_rows(self, k: int, rows: list[int], x_k: Matrix,
+                           s_k: list[float]) -> bool:
+        """CBBA's rules on single-agent rows (a row's one non-zero entry is y_j, z_j)."""
+        m_tasks = self.problem.n_tasks
+        y_i, y_k = [0.0] * m_tasks, [0.0] * m_tasks
+        z_i, z_k = [NONE] * m_tasks, [NONE] * m_tasks
+        for j in rows:
+            ri, rk = self.x[j], x_k[j]
+            y_i[j] = max(ri)
+            z_i[j] = ri.index(y_i[j]) if y_i[j] > 0 else NONE
+            y_k[j] = max(rk)
+            z_k[j] = rk.index(y_k[j]) if y_k[j] > 0 else NONE
+        y_new, z_new = list(y_i), list(z_i)
+        if not resolve_lists(self.index, k, y_new, z_new, self.s, y_k, z_k, s_k):
+            return False
+        for j in rows:
+            if y_new[j] != y_i[j] or z_new[j] != z_i[j]:
+                row = [0.0] * len(self.x[j])
+                if z_new[j] != NONE:
+                    row[z_new[j]] = y_new[j]
+                self.x[j] = row
+        return True
+
+    def _merge_group_row(self, j: int, row_k: list[float], known: list[int],
                          starts_k: list[float]) -> bool:
-        """Algorithm 2 for one group row (plain Python lists: rows are short).
-        `fresher[m]` says the sender knows member m better (m is the sender, or the sender
-        heard from m more recently)."""
-        i = self.index
-        n = len(row_k)
-        before = self.x[j].tolist()
-        starts_before = self.t[j].tolist()
+        """Algorithm 2 for one group row. `known` lists the members the sender knows
+        better than this agent (the sender itself, and those it heard from more recently);
+        this agent's own entry is never taken from a sender."""
+        before = self.x[j]
         row = list(before)
-        starts = list(starts_before)
         # phase 1: refresh what we believe from a sender who knows better
-        for m in range(n):
-            if row[m] > 0 and m != i and fresher[m]:
+        for m in known:
+            if row[m] > 0:
                 row[m] = row_k[m]
         # phase 2: add the sender's other members, then keep the group select_group picks
-        bids = {m: row[m] for m in range(n) if row[m] > 0}
+        bids = {m: v for m, v in enumerate(row) if v > 0}
         fresh = False
-        for m in range(n):
-            if row_k[m] > 0 and m != i and m not in bids and fresher[m]:
+        for m in known:
+            if row_k[m] > 0 and m not in bids:
                 bids[m] = row_k[m]
                 fresh = True
         if fresh or row != before:
             chosen = self.select_group(j, bids)
-            row = [0.0] * n
+            row = [0.0] * len(row)
             for m in chosen:
                 row[m] = bids[m]
-        # planned times follow whoever knows the member better
-        for m in range(n):
-            if row[m] > 0:
-                if m != i and row_k[m] == row[m] and fresher[m]:
-                    starts[m] = starts_k[m]
-            elif m != i:
-                starts[m] = 0.0
+        # planned times follow whoever knows the member better; non-members have none
+        i = self.index
+        starts_before = self.t[j]
+        starts = [a if v > 0 or m == i else 0.0
+                  for m, (v, a) in enumerate(zip(row, starts_before, strict=True))]
+        for m in known:
+            if row[m] > 0 and row_k[m] == row[m]:
+                starts[m] = starts_k[m]
         changed = row != before or starts != starts_before
         if changed:
             self.x[j] = row
@@ -481,7 +585,7 @@ class CbgaAgent(BundleBuilding):
     def release_outbid(self) -> bool:
         i = self.index
         for n, j in enumerate(self.bundle):
-            if self.x[j, i] <= 0:
+            if self.x[j][i] <= 0:
                 self._release_from(n, keep_first=True)
                 return True
         return False
@@ -492,15 +596,15 @@ class CbgaAgent(BundleBuilding):
             return False
         p = self.problem
         for j in self.bundle:
-            if self.single[j] or not np.isfinite(p.quit_after[j]):
+            if self.single[j] or not math.isfinite(p.quit_after[j]):
                 continue
             if now - self.assigned_at[j] >= p.quit_after[j] and not self.complete(j):
-                others = int((self.x[j] > 0).sum()) - 1
-                self.x[j, self.index] = 0.0
+                others = sum(1 for v in self.x[j] if v > 0) - 1
+                self.x[j][self.index] = 0.0
                 self.bundle.remove(j)
-                self.path.remove(j)
-                self.times, _ = path_times(p, self.index, self.path,
-                                           self._lower_bounds(self.path))
+                path = [q for q in self.path if q != j]
+                self._set_path(path, path_starts(p, self.index, path,
+                                                 self._lower_bounds(path))[0])
                 self._publish_times()
                 self.banned[j] = max(others, 0)
                 self.needs_build = True
@@ -510,11 +614,11 @@ class CbgaAgent(BundleBuilding):
     def next_quit_time(self) -> float:
         """When a pending quit would happen (inf when none is pending)."""
         if not self.options.task_quitting or not self.active:
-            return np.inf
+            return math.inf
         p = self.problem
-        best = np.inf
+        best = math.inf
         for j in self.bundle:
-            if (not self.single[j] and np.isfinite(p.quit_after[j])
+            if (not self.single[j] and math.isfinite(p.quit_after[j])
                     and not self.complete(j)):
                 best = min(best, float(self.assigned_at[j] + p.quit_after[j]))
         return best
@@ -525,21 +629,34 @@ class CbgaAgent(BundleBuilding):
         later = released[1:] if keep_first else released
         for j in later:
             if self.single[j]:
-                self.x[j, :] = 0.0
+                self.x[j] = [0.0] * len(self.x[j])
             else:
-                self.x[j, i] = 0.0
+                self.x[j][i] = 0.0
         self.bundle = self.bundle[:n]
         drop = set(released)
-        self.path = [j for j in self.path if j not in drop]
-        self.times, _ = path_times(self.problem, i, self.path, self._lower_bounds(self.path))
+        path = [j for j in self.path if j not in drop]
+        self._set_path(path, path_starts(self.problem, i, path, self._lower_bounds(path))[0])
         self._publish_times()
         self.needs_build = True
 
+    def add_tasks(self, problem: Problem) -> None:
+        """The problem grew by new tasks (appended): no bids on them yet."""
+        extra = problem.n_tasks - self.problem.n_tasks
+        self.problem = problem
+        self.x.extend(zeros(extra, problem.n_agents))
+        self.t.extend(zeros(extra, problem.n_agents))
+        self.assigned_at.extend([math.nan] * extra)
+        self.banned.extend([-1] * extra)
+        self._refresh_static()
+        self._forget_paths()
+        self.needs_build = True
+
     def forget_agent(self, gone: int) -> None:
-        if (self.x[:, gone] > 0).any():
-            self.x[:, gone] = 0.0
-            self.t[:, gone] = 0.0
+        if any(row[gone] > 0 for row in self.x):
+            for row, trow in zip(self.x, self.t, strict=True):
+                row[gone] = 0.0
+                trow[gone] = 0.0
             self.needs_build = True
 
     def winners_view(self) -> list[frozenset[int]]:
-        return [frozenset(int(m) for m in np.flatnonzero(r > 0)) for r in self.x]
+        return [frozenset(m for m, v in enumerate(row) if v > 0) for row in self.x]

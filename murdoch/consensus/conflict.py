@@ -11,8 +11,10 @@ Condition names (m is the rule's m, n is the receiver's winner in rule 12):
 - ``s_kn>s_in``: the sender heard from n more recently than the receiver did
 - ``s_im>s_km``: the receiver heard from m more recently than the sender did
 
-`resolve` evaluates one task with plain values (readable, used by the tests); `resolve_many`
-evaluates a batch of (receiver, task) pairs with numpy and must agree with it everywhere.
+`resolve` evaluates one task with plain values (readable, the reference); `resolve_lists`
+applies a whole message to an agent's (y, z) lists in place (what the allocators use);
+`resolve_many` evaluates a batch of (receiver, task) pairs with numpy. All three must agree
+everywhere (`test_consensus_conflict.py`, `test_consensus_gains.py`).
 """
 
 from __future__ import annotations
@@ -192,12 +194,59 @@ def resolve_many(i: np.ndarray, k: np.ndarray, y_k: np.ndarray, z_k: np.ndarray,
     return _LUT[rule_no, code]
 
 
-def apply_actions(actions: np.ndarray, y_i: np.ndarray, z_i: np.ndarray,
-                  y_k: np.ndarray, z_k: np.ndarray) -> None:
-    """Apply UPDATE / RESET in place to the receivers' (y, z)."""
-    upd = actions == Action.UPDATE
-    rst = actions == Action.RESET
-    y_i[upd] = y_k[upd]
-    z_i[upd] = z_k[upd]
-    y_i[rst] = 0.0
-    z_i[rst] = NONE
+# ------------------------------------------------------------- scalar evaluation on lists
+
+_TABLE_T: tuple[tuple[int, ...], ...] = tuple(map(tuple, _TABLE.tolist()))
+_LUT_T: tuple[tuple[int, ...], ...] = tuple(map(tuple, _LUT.tolist()))
+
+
+def resolve_lists(i: int, k: int, y_i: list[float], z_i: list[int], s_i: list[float],
+                  y_k: list[float], z_k: list[int], s_k: list[float],
+                  first: int = 0, end: int | None = None) -> bool:
+    """Apply sender k's (y, z) to receiver i's lists in place for tasks [first, end), the
+    same actions as `resolve_many`; True if anything changed. The timestamp lists hold one
+    entry per agent and a last -inf one (index NONE = -1 looks it up)."""
+    if y_k == y_i and z_k == z_i:
+        return False  # equal beliefs never change anything
+    stop = len(y_i) if end is None else end
+    changed = False
+    table, lut = _TABLE_T, _LUT_T
+    differ = [j for j in range(first, stop) if z_k[j] != z_i[j] or y_k[j] != y_i[j]]
+    for j in differ:
+        zk = z_k[j]
+        zi = z_i[j]
+        yk = y_k[j]
+        yi = y_i[j]
+        if zk == k:
+            sc = 0
+        elif zk == i:
+            sc = 1
+        elif zk == NONE:
+            sc = 3
+        else:
+            sc = 2
+        if zi == i:
+            rc = 0
+        elif zi == k:
+            rc = 1
+        elif zi == NONE:
+            rc = 4
+        elif sc == 2 and zi != zk:
+            rc = 3
+        else:
+            rc = 2
+        sk_zk = s_k[zk]
+        si_zk = s_i[zk]
+        beats = yk > yi or (yk == yi and zk != NONE and (zi == NONE or zk < zi))
+        code = ((1 if beats else 0) + (2 if sk_zk > si_zk else 0)
+                + (4 if s_k[zi] > s_i[zi] else 0) + (8 if si_zk > sk_zk else 0))
+        action = lut[table[sc][rc]][code]
+        if action == 1:
+            y_i[j] = yk
+            z_i[j] = zk
+            changed = True
+        elif action == 2 and (yi != 0.0 or zi != NONE):
+            y_i[j] = 0.0
+            z_i[j] = NONE
+            changed = True
+    return changed

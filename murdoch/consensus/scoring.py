@@ -1,4 +1,4 @@
-"""Path scores with time windows, and vectorised marginal gains of inserting a task.
+"""Problem data, path timing with time windows, and joint plan evaluation.
 
 A path is an agent's list of task indices in execution order. Each task starts as early as
 possible: when the agent has arrived (straight-line travel at its speed), not before its window
@@ -7,10 +7,7 @@ With time windows a task scores ``reward * exp(-discount * (start - window_start
 path is feasible only if every start is at most the window's latest start; without time windows
 the reference time is 0 and there is no latest start.
 
-`insertion_gains` evaluates every candidate task at every insertion position at once: inserting
-a task delays the later tasks by an amount that shrinks by the idle time the agent had before
-each of them, so the delays, feasibility and score changes of the whole suffix are one set of
-numpy operations over a (tasks x positions x path) array.
+Marginal gains of inserting a task into a path are in `gains.py`.
 """
 
 from __future__ import annotations
@@ -33,6 +30,16 @@ class _Lists:
     duration: list[float]
     speed: list[float]
     availability: list[float]
+    reward: list[float]
+    discount: list[float]
+    score_ref: list[float]
+    gain_bound: list[list[float]]
+    eligible: list[list[bool]]
+    required: list[int]
+    team_reward: list[float]
+    # per task: window start, latest start + tolerance, duration, score reference time,
+    # reward, discount (what an insertion evaluation reads)
+    task_params: list[tuple[float, float, float, float, float, float]]
 
 
 @dataclass(frozen=True)
@@ -104,14 +111,19 @@ def build_problem(s: Scenario) -> Problem:
     bound = np.where(earliest <= we[None, :] + _EPS,
                      reward[None, :] * np.exp(-discount[None, :] * (earliest - ref[None, :])),
                      -np.inf)
+    required = np.array([t.agents_required for t in s.tasks], dtype=np.int64)
     lists = _Lists(at_dist.tolist(), tt_dist.tolist(), ws.tolist(), we.tolist(),
-                   duration.tolist(), speed.tolist(), availability.tolist())
+                   duration.tolist(), speed.tolist(), availability.tolist(), reward.tolist(),
+                   discount.tolist(), ref.tolist(), bound.tolist(), eligible.tolist(),
+                   required.tolist(), [t.team_reward for t in s.tasks],
+                   [(float(ws[j]), float(we[j]) + _EPS, float(duration[j]), float(ref[j]),
+                     float(reward[j]), float(discount[j])) for j in range(m)])
     return Problem(
         scenario=s, n_agents=n, n_tasks=m, agent_pos=agent_pos,
         speed=speed, availability=availability,
         task_pos=task_pos, window_start=ws, window_end=we, score_ref=ref,
         duration=duration, reward=reward, discount=discount,
-        required=np.array([t.agents_required for t in s.tasks], dtype=np.int64),
+        required=required,
         eligible=eligible,
         agent_task_dist=at_dist, task_task_dist=tt_dist,
         prereqs=prereqs,
@@ -135,12 +147,22 @@ def task_scores(p: Problem, tasks: np.ndarray, starts: np.ndarray) -> np.ndarray
 def path_times(p: Problem, agent: int, path: list[int],
                lower_bounds: dict[int, float] | None = None,
                ready_out: list[float] | None = None) -> tuple[np.ndarray, bool]:
+    """`path_starts` as an array."""
+    starts, ok = path_starts(p, agent, path, lower_bounds, ready_out)
+    return np.array(starts), ok
+
+
+def path_starts(p: Problem, agent: int, path: list[int],
+                lower_bounds: dict[int, float] | None = None,
+                ready_out: list[float] | None = None,
+                bad_out: list[int] | None = None) -> tuple[list[float], bool]:
     """Earliest start times along a path and whether every start fits its window.
 
     `lower_bounds` optionally adds a not-before time per task (used for group tasks whose
     start waits for the whole group). Prerequisites must appear earlier on the path.
     `ready_out`, when given, receives for each task the time this agent could start it on
-    its own (the start before any group lower bound).
+    its own (the start before any group lower bound). `bad_out`, when given, receives the
+    index of the first task that does not fit (nothing when all fit).
     """
     lst = p.lists
     out: list[float] = []
@@ -165,128 +187,18 @@ def path_times(p: Problem, agent: int, path: list[int],
             start = max(start, lower_bounds[j])
         if start > lst.window_end[j] + _EPS:
             ok = False
+        if not ok and bad_out is not None and not bad_out:
+            bad_out.append(len(out))
         out.append(start)
         ready = finish[j] = start + lst.duration[j]
         dist_row = lst.task_task_dist[j]
-    return np.array(out), ok
+    return out, ok
 
 
 def path_score(p: Problem, path: list[int], times: np.ndarray) -> float:
     if not path:
         return 0.0
     return float(task_scores(p, np.asarray(path), times).sum())
-
-
-def insertion_gains(p: Problem, agent: int, path: list[int], times: np.ndarray,
-                    candidates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Best marginal gain of inserting each task into one agent's path, and its position.
-
-    `candidates` is a boolean mask over tasks; gains of non-candidates and of infeasible
-    insertions are -inf. Ties between positions go to the earliest position.
-    """
-    gains, pos = insertion_gains_batch(p, [agent], [path], [times], candidates[None, :])
-    return gains[0], pos[0]
-
-
-_BIG = 1e12
-
-
-def insertion_gains_batch(p: Problem, agents: list[int], paths: list[list[int]],
-                          times: list[np.ndarray], candidates: np.ndarray,
-                          not_before: np.ndarray | None = None
-                          ) -> tuple[np.ndarray, np.ndarray]:
-    """`insertion_gains` for several agents at once: (A, M) gains and positions.
-
-    `not_before` (A, M), when given, is a time each candidate may not start before (group
-    tasks wait for the members already in the group).
-
-    Only the columns some agent has as a candidate are evaluated. Paths are padded to the
-    longest; padded entries score nothing, end nowhere and absorb any delay. A delayed
-    prerequisite can push its dependant further than the idle-time estimate; callers re-check
-    the chosen insertion with `path_times`.
-    """
-    n_a, m = len(agents), p.n_tasks
-    gains = np.full((n_a, m), -np.inf)
-    best_pos = np.zeros((n_a, m), dtype=np.int64)
-    cols = np.flatnonzero(candidates.any(axis=0))
-    if cols.size == 0:
-        return gains, best_pos
-    cand = candidates[:, cols]
-    lmax = max((len(x) for x in paths), default=0)
-    ag = np.asarray(agents, dtype=np.int64)
-    lens = np.array([len(x) for x in paths], dtype=np.int64)
-    path_arr = np.zeros((n_a, lmax), dtype=np.int64)
-    t_arr = np.zeros((n_a, lmax))
-    for a in range(n_a):
-        if lens[a]:
-            path_arr[a, : lens[a]] = paths[a]
-            t_arr[a, : lens[a]] = times[a]
-    in_path = np.arange(lmax)[None, :] < lens[:, None]  # (A, L)
-    spd = p.speed[ag][:, None, None]
-    c_ws = p.window_start[cols]
-    c_we = p.window_end[cols]
-    c_dur = p.duration[cols]
-    dur_path = np.where(in_path, p.duration[path_arr], 0.0)
-    ready = np.concatenate((p.availability[ag][:, None], t_arr + dur_path), axis=1)  # (A, L+1)
-    dist_prev = np.concatenate((p.agent_task_dist[ag][:, None, cols],
-                                p.task_task_dist[path_arr][:, :, cols]), axis=1)  # (A, L+1, C)
-    start = np.maximum(c_ws, ready[:, :, None] + dist_prev / spd)
-    if not_before is not None:
-        start = np.maximum(start, not_before[:, None, cols])
-    valid = (np.arange(lmax + 1)[None, :] <= lens[:, None])[:, :, None] & cand[:, None, :]
-    if p.has_prereqs[cols].any():
-        for a in range(n_a):
-            pos_of = {t: n for n, t in enumerate(paths[a])}
-            for c in np.flatnonzero(cand[a] & p.has_prereqs[cols]):
-                pre = p.prereqs[cols[c]]
-                if not all(q in pos_of for q in pre):
-                    valid[a, :, c] = False
-                    continue
-                last = max(pos_of[q] for q in pre)
-                lb = max(times[a][pos_of[q]] + p.duration[q] for q in pre)
-                valid[a, : last + 1, c] = False
-                start[a, :, c] = np.maximum(start[a, :, c], lb)
-    valid &= start <= c_we + _EPS
-    total = p.reward[cols] * np.exp(-p.discount[cols] * (start - p.score_ref[cols]))
-    if lmax:
-        finish = start[:, :lmax] + c_dur
-        arrive_next = finish + dist_prev[:, 1:, :] / spd  # dist(j, path[n]) (A, L, C)
-        delay0 = np.maximum(0.0, arrive_next - t_arr[:, :, None])
-        prev_dist = np.concatenate(
-            (p.agent_task_dist[ag, path_arr[:, 0]][:, None],
-             p.task_task_dist[path_arr[:, :-1], path_arr[:, 1:]]), axis=1)  # (A, L)
-        wait = np.maximum(0.0, t_arr - (ready[:, :lmax] + prev_dist / spd[:, :, 0]))
-        wait = np.where(in_path, wait, _BIG)
-        cum = np.cumsum(wait, axis=1)  # (A, L)
-        # only feasible insertions that delay the next task need the suffix evaluated:
-        # gather those (agent, position, task) triples and walk the path after each
-        a_i, n_i, c_i = np.nonzero(valid[:, :lmax, :] & (delay0 > 0))
-        change = np.zeros_like(delay0)
-        late = np.zeros(delay0.shape, dtype=bool)
-        if a_i.size:
-            d0 = delay0[a_i, n_i, c_i]  # (P,)
-            ks = np.arange(lmax)
-            after = (ks[None, :] >= n_i[:, None]) & in_path[a_i]  # (P, L)
-            slack = cum[a_i] - cum[a_i, n_i][:, None]
-            delay = np.where(after, np.maximum(0.0, d0[:, None] - slack), 0.0)  # (P, L)
-            old = np.where(in_path, p.reward[path_arr]
-                           * np.exp(-p.discount[path_arr] * (t_arr - p.score_ref[path_arr])),
-                           0.0)  # (A, L)
-            lam = p.discount[path_arr]
-            change[a_i, n_i, c_i] = (old[a_i] * np.expm1(-lam[a_i] * delay)).sum(axis=1)
-            room = np.where(in_path, p.window_end[path_arr] - t_arr, np.inf) + _EPS
-            late[a_i, n_i, c_i] = (delay > room[a_i]).any(axis=1)
-        total[:, :lmax] += change
-        valid[:, :lmax] &= ~late
-    total = np.where(valid, total, -np.inf)
-    pos = np.argmax(total, axis=1)  # (A, C)
-    gains[:, cols] = np.take_along_axis(total, pos[:, None, :], axis=1)[:, 0, :]
-    best_pos[:, cols] = pos
-    return gains, best_pos
-
-
-def _upper(n: int) -> np.ndarray:
-    return np.arange(n)[None, :] >= np.arange(n)[:, None]  # [n, k]: k >= n
 
 
 @dataclass(frozen=True)

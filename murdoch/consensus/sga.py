@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from murdoch.consensus.gains import insertion_gains
 from murdoch.consensus.scenario import Scenario
-from murdoch.consensus.scoring import build_problem, insertion_gains, path_times
+from murdoch.consensus.scoring import build_problem, path_starts
 from murdoch.consensus.sync_runner import AllocationResult, build_result
 
 
@@ -20,7 +21,7 @@ def sequential_greedy(scenario: Scenario) -> AllocationResult:
         raise ValueError("sequential greedy handles single-agent tasks only")
     n, m = p.n_agents, p.n_tasks
     paths: list[list[int]] = [[] for _ in range(n)]
-    times = [np.zeros(0) for _ in range(n)]
+    times: list[list[float]] = [[] for _ in range(n)]
     sizes = [0] * n
     taken = np.zeros(m, dtype=bool)
     blocked = np.zeros((n, m), dtype=bool)
@@ -32,7 +33,8 @@ def sequential_greedy(scenario: Scenario) -> AllocationResult:
             cand = p.eligible[i] & ~taken & ~blocked[i]
             if not cand.any():
                 continue
-            gains, pos = insertion_gains(p, i, paths[i], times[i], cand)
+            gain_l, pos = insertion_gains(p, i, paths[i], times[i], cand.tolist())
+            gains = np.array(gain_l)
             gains = np.where(cand & (gains > 0), gains, -np.inf)
             j = int(np.argmax(gains))
             if gains[j] > best[0]:
@@ -41,7 +43,7 @@ def sequential_greedy(scenario: Scenario) -> AllocationResult:
         if i < 0:
             break
         path = [*paths[i][:at], j, *paths[i][at:]]
-        t, ok = path_times(p, i, path)
+        t, ok = path_starts(p, i, path)
         if not ok:
             blocked[i, j] = True
             continue

@@ -21,9 +21,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-import numpy as np
-
-from murdoch.consensus.cbba import CbbaAgent, build_bundles, consensus_batch, new_timestamps
+from murdoch.consensus.cbba import CbbaAgent
 from murdoch.consensus.cbga import CbgaAgent, CbgaOptions
 from murdoch.consensus.conflict import NONE
 from murdoch.consensus.messages import encoded_size
@@ -164,23 +162,15 @@ class SyncRunner:
         self.max_rounds = max_rounds
         self.scenario = scenario
         self.problem = build_problem(scenario)
-        n, m = self.problem.n_agents, self.problem.n_tasks
+        n = self.problem.n_agents
         self.active = [True] * n
         self.round = 0
         self.last_change = 0
         self.quiet = 0
         self.per_round: list[tuple[int, int]] = []  # (messages, bytes) per round
-        self.s = np.stack([new_timestamps(n) for _ in range(n)])
-        if algorithm == "cbba":
-            self.y = np.zeros((n, m))
-            self.z = np.full((n, m), NONE, dtype=np.int64)
-            self.agents: list[CbbaAgent | CbgaAgent] = [
-                CbbaAgent(self.problem, i, self.y[i], self.z[i], self.s[i]) for i in range(n)]
-        else:
-            self.x = np.zeros((n, m, n))
-            self.t = np.zeros((n, m, n))
-            self.agents = [CbgaAgent(self.problem, i, self.options, self.x[i], self.s[i],
-                                     self.t[i]) for i in range(n)]
+        self.agents: list[CbbaAgent | CbgaAgent] = (
+            [CbbaAgent(self.problem, i) for i in range(n)] if algorithm == "cbba"
+            else [CbgaAgent(self.problem, i, self.options) for i in range(n)])
         self._set_graph(scenario)
 
     def _set_graph(self, scenario: Scenario) -> None:
@@ -201,7 +191,8 @@ class SyncRunner:
         for a in self.agents:
             if isinstance(a, CbgaAgent):
                 a.quit_stalled(now)
-        build_bundles(self.agents, now)
+        for a in self.agents:
+            a.build_bundle(now)
         self._count_messages()
         if self.algorithm == "cbba":
             self._consensus_cbba(now)
@@ -219,10 +210,8 @@ class SyncRunner:
             self.quiet += 1
         return changed
 
-    def _signature(self) -> tuple[bytes, tuple[tuple[int, ...], ...]]:
-        state = self.y.tobytes() + self.z.tobytes() if self.algorithm == "cbba" \
-            else self.x.tobytes() + self.t.tobytes()
-        return state, tuple(tuple(a.bundle) for a in self.agents)
+    def _signature(self) -> list[object]:
+        return [a.state_key() for a in self.agents]
 
     def _count_messages(self) -> None:
         msgs = 0
@@ -234,33 +223,50 @@ class SyncRunner:
                 continue
             starts = 0
             if isinstance(a, CbbaAgent):
-                entries = int((a.z != NONE).sum())
+                entries = len(a.z) - a.z.count(NONE)
             else:
-                entries = int(np.count_nonzero(a.x))
-                starts = int(np.count_nonzero((a.t > 0) & (a.x > 0)))
+                entries = sum(n - row.count(0.0) for row in a.x)
+                for j in a.group_idx:
+                    trow = a.t[j]
+                    if trow.count(0.0) == n:
+                        continue
+                    row = a.x[j]
+                    for m, at in enumerate(trow):
+                        if at > 0 and row[m] > 0:
+                            starts += 1
             msgs += d
             nbytes += d * encoded_size(entries, n, starts)
         self.per_round.append((msgs, nbytes))
 
     def _consensus_cbba(self, now: float) -> None:
-        y0, z0, s0 = self.y.copy(), self.z.copy(), self.s.copy()
-        depth = max((len(k) for k in self.neighbours), default=0)
-        for q in range(depth):
-            recv = np.array([i for i, ks in enumerate(self.neighbours) if len(ks) > q],
-                            dtype=np.int64)
-            send = np.array([self.neighbours[i][q] for i in recv], dtype=np.int64)
-            for i in consensus_batch(recv, send, self.y, self.z, self.s, y0, z0, s0, now):
-                self.agents[int(i)].needs_build = True
+        # what every agent sends this round (lists are replaced, never shared)
+        sent = []
+        for k, a in enumerate(self.agents):
+            assert isinstance(a, CbbaAgent)
+            s_k = list(a.s)
+            s_k[k] = now
+            sent.append((list(a.y), list(a.z), s_k))
+        for i, ks in enumerate(self.neighbours):
+            agent = self.agents[i]
+            assert isinstance(agent, CbbaAgent)
+            for k in ks:
+                y_k, z_k, s_k = sent[k]
+                agent.apply(k, y_k, z_k, s_k, now)
 
     def _consensus_cbga(self, now: float) -> None:
-        x0, s0, t0 = self.x.copy(), self.s.copy(), self.t.copy()
-        for k in range(len(self.agents)):
-            s0[k, k] = now
+        # what every agent sends this round (rows are replaced or copied, never shared)
+        sent = []
+        for k, a in enumerate(self.agents):
+            assert isinstance(a, CbgaAgent)
+            s_k = list(a.s)
+            s_k[k] = now
+            sent.append(([list(r) for r in a.x], [list(r) for r in a.t], s_k))
         for i, ks in enumerate(self.neighbours):
             agent = self.agents[i]
             assert isinstance(agent, CbgaAgent)
             for k in ks:
-                agent.receive_arrays(k, x0[k], s0[k], now, t_k=t0[k])
+                x_k, t_k, s_k = sent[k]
+                agent.receive_rows(k, x_k, t_k, s_k, now)
 
     # -- running ------------------------------------------------------------------------
     def pending_quit(self) -> bool:
@@ -292,30 +298,9 @@ class SyncRunner:
             raise ValueError("CBBA handles single-agent tasks only")
         self.scenario = self.scenario.with_tasks(tasks)
         problem = build_problem(self.scenario)
-        n, m_old, m = problem.n_agents, self.problem.n_tasks, problem.n_tasks
         self.problem = problem
-        if self.algorithm == "cbba":
-            y = np.zeros((n, m))
-            z = np.full((n, m), NONE, dtype=np.int64)
-            y[:, :m_old], z[:, :m_old] = self.y, self.z
-            self.y, self.z = y, z
-            for i, a in enumerate(self.agents):
-                assert isinstance(a, CbbaAgent)
-                a.problem, a.y, a.z = problem, self.y[i], self.z[i]
-                a.needs_build = True
-        else:
-            x = np.zeros((n, m, n))
-            x[:, :m_old, :] = self.x
-            t = np.zeros((n, m, n))
-            t[:, :m_old, :] = self.t
-            self.x, self.t = x, t
-            for i, a in enumerate(self.agents):
-                assert isinstance(a, CbgaAgent)
-                a.problem, a.x, a.t = problem, self.x[i], self.t[i]
-                a.assigned_at = np.concatenate((a.assigned_at, np.full(m - m_old, np.nan)))
-                a.banned = np.concatenate((a.banned, np.full(m - m_old, -1, dtype=np.int64)))
-                a._refresh_static()
-                a.needs_build = True
+        for a in self.agents:
+            a.add_tasks(problem)
         self.quiet = 0
 
     def remove_agent(self, agent_id: str) -> None:

@@ -172,8 +172,8 @@ def test_team_reward_raises_bids_on_partly_filled_groups() -> None:
     plain = CbgaAgent(p, 1, CbgaOptions(False, False))
     team = CbgaAgent(p, 1, CbgaOptions(False, True))
     for a in (plain, team):
-        a.x[0, 0] = 100.0  # a1 already in the group
+        a.x[0][0] = 100.0  # a1 already in the group
         a.build_bundle()
-    assert plain.x[0, 1] == pytest.approx(100.0)
-    assert team.x[0, 1] == pytest.approx(100.0 + 60 * 1 / 2)
-    assert math.isfinite(team.x[0, 1])
+    assert plain.x[0][1] == pytest.approx(100.0)
+    assert team.x[0][1] == pytest.approx(100.0 + 60 * 1 / 2)
+    assert math.isfinite(team.x[0][1])

@@ -29,6 +29,7 @@ def run(experiment: str, variant: int, agents: int, seed_run: int):  # type: ign
     ("fig5", 1, 8, 8),
     ("fig8", 2, 9, 1),
     ("fig10", 2, 8, 9),  # open follow-up windows: times grew without bound
+    ("fig7", 2, 10, 3),  # three lower-index members gave way together, then all rejoined
 ])
 def test_formerly_cycling_runs_converge(experiment: str, variant: int, agents: int,
                                         seed_run: int) -> None:
