@@ -8,7 +8,18 @@ bids_complete: time from publishing an announcement until the last of the N bids
 read by the auctioneer's transport (late bids, after the window closed, are included; a bid set
 that never completes counts as infinite). msgs_per_auction counts the allocation messages
 (announce + bids + award); each winner's completion report comes on top of that.
-Last line: bids_complete_ms_p50=<x> bids_complete_ms_p99=<y> auctions_per_s=<z> msgs_per_auction=<m>
+Last line, always for the default transport configuration (one multicast group and port):
+bids_complete_ms_p50=<x> bids_complete_ms_p99=<y> auctions_per_s=<z> msgs_per_auction=<m>
+
+With --reply-lane the same measurement is first made with the reply lane on (replies on a
+second group, see `murdoch.multicast`) and printed earlier as its own JSON line and a line
+starting with ``reply_lane:``; the default configuration is then measured as usual.
+
+The JSON line before it adds where the time goes, over the measured auctions: the median and
+p99 arrival time of the k-th bid, datagrams each process receives per auction, and from
+/proc/<pid>/schedstat for the bidders (per process) and the auctioneer: CPU per auction (and
+per datagram), wake-ups per auction (time slices run) and the time spent runnable but waiting
+for a CPU per wake-up (scheduler latency, which dominates on a busy host).
 """
 
 from __future__ import annotations
@@ -35,15 +46,27 @@ def percentile(values: list[float], q: float) -> float:
     return ordered[index]
 
 
+def proc_stats(pid: int | str) -> tuple[float, float, int]:
+    """(CPU seconds, seconds spent runnable but waiting for a CPU, time slices run) of a
+    process, from /proc/<pid>/schedstat (zeros where it is not there)."""
+    try:
+        with open(f"/proc/{pid}/schedstat") as f:
+            cpu_ns, run_delay_ns, slices = f.read().split()
+    except (OSError, ValueError):
+        return 0.0, 0.0, 0
+    return int(cpu_ns) / 1e9, int(run_delay_ns) / 1e9, int(slices)
+
+
 def start_bidders(
     count: int, config: MulticastConfig, lifetime_s: float, batch_ms: float
 ) -> list[subprocess.Popen[str]]:
+    lane = ["--reply-lane"] if config.reply_lane else []
     procs = []
     for i in range(count):
         cmd = [
             sys.executable, "-m", "murdoch.sample_bidder", "--name", f"bench-b{i}",
             "--score", str(float(i + 1)), "--group", config.group, "--port", str(config.port),
-            "--lifetime", str(lifetime_s), "--quiet", "--batch-ms", str(batch_ms),
+            "--lifetime", str(lifetime_s), "--quiet", "--batch-ms", str(batch_ms), *lane,
         ]
         procs.append(subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True))
     for proc in procs:
@@ -60,14 +83,25 @@ def main() -> None:
     parser.add_argument("--auctions", type=int, default=300)
     parser.add_argument("--warmup", type=int, default=20)
     parser.add_argument("--bid-window", type=float, default=0.020)
-    parser.add_argument("--seed", type=int, default=None, help="picks the group and port")
-    parser.add_argument("--batch-ms", type=float, default=2.0,
-                        help="bidders rest this long after handling traffic while bids are out")
+    parser.add_argument("--seed", type=int, default=None, help="picks the groups and ports")
+    parser.add_argument("--batch-ms", type=float, default=0.0,
+                        help="bidders rest this long after handling traffic while bids are out "
+                             "(batches bursts of bids where each bid wakes every bidder)")
+    parser.add_argument("--reply-lane", action="store_true",
+                        help="also measure with the reply lane on (printed first)")
     args = parser.parse_args()
-
     rng = random.Random(args.seed)
-    config = MulticastConfig(group=f"239.255.{rng.randint(1, 254)}.{rng.randint(1, 254)}",
-                             port=rng.randint(20000, 60000))
+    modes = [True, False] if args.reply_lane else [False]
+    for reply_lane in modes:
+        config = MulticastConfig(group=f"239.255.{rng.randint(1, 254)}.{rng.randint(1, 254)}",
+                                 port=rng.randint(20000, 60000), reply_lane=reply_lane)
+        details, summary = measure(args, config)
+        print(json.dumps(details))
+        print(("reply_lane: " if reply_lane else "") + summary, flush=True)
+
+
+def measure(args: argparse.Namespace, config: MulticastConfig) -> tuple[dict[str, object], str]:
+    """Run the auctions on `config`; return the details and the summary line."""
     clock = time.perf_counter
     arrivals: dict[str, list[float]] = {}
     announced_at: dict[str, float] = {}
@@ -96,6 +130,7 @@ def main() -> None:
             if i == args.warmup:
                 start = clock()
                 base = transport.counters.snapshot()["kinds"]
+                stats_before = [proc_stats(p.pid) for p in procs] + [proc_stats("self")]
             spec = TaskSpec("bench", frozenset({"camera"}), bid_window_s=args.bid_window,
                             renew_period_s=1.0, contract_timeout_s=3.0, abandon_after_s=3.0)
             sent_at = clock()
@@ -109,6 +144,7 @@ def main() -> None:
                 measured.append(task_id)
         elapsed = clock() - start
         kinds = transport.counters.snapshot()["kinds"]
+        stats_after = [proc_stats(p.pid) for p in procs] + [proc_stats("self")]
         limit = clock() + 5.0
         while len(outcomes) < total and clock() < limit:
             node.step(timeout_s=0.01)
@@ -124,6 +160,10 @@ def main() -> None:
         cpu_before.ru_utime + cpu_before.ru_stime)
 
     latencies_ms = []
+    by_rank: list[list[float]] = [[] for _ in range(args.bidders)]
+    for task_id in measured:
+        for rank, t in enumerate(sorted(arrivals.get(task_id, []))[: args.bidders]):
+            by_rank[rank].append((t - announced_at[task_id]) * 1000.0)
     for task_id in measured:
         times = sorted(arrivals.get(task_id, []))
         if len(times) >= args.bidders:
@@ -137,22 +177,43 @@ def main() -> None:
         return int(kinds.get(kind, {}).get(field, 0) - base.get(kind, {}).get(field, 0))
 
     n = args.auctions
+    spent = [tuple(a - b for a, b in zip(after, before, strict=True))
+             for after, before in zip(stats_after, stats_before, strict=True)]
+    bidders_spent = spent[:-1]
+    own_cpu_s, own_wait_s, own_slices = spent[-1]
+    bidder_cpu_s_run = sum(s[0] for s in bidders_spent)
+    bidder_wait_s = sum(s[1] for s in bidders_spent)
+    bidder_slices = sum(s[2] for s in bidders_spent)
+    datagrams = sum(int(kinds[k]["recv_msgs"] - base.get(k, {}).get("recv_msgs", 0))
+                    for k in kinds)
     allocation_msgs = delta("announce", "sent_msgs") + delta("bid", "recv_msgs") + delta(
         "award", "sent_msgs")
-    print(json.dumps({
+    details: dict[str, object] = {
         "bidders": args.bidders, "auctions": n, "bid_window_s": args.bid_window,
-        "batch_ms": args.batch_ms,
+        "batch_ms": args.batch_ms, "reply_lane": config.reply_lane,
         "load_avg_1min": os.getloadavg()[0],
         "bid_sets_never_complete": sum(1 for x in latencies_ms if math.isinf(x)),
         "bid_sets_after_close": sum(1 for x in latencies_ms if window_ms < x < math.inf),
         "not_completed": sum(1 for t in measured if t not in finished),
         "reports_per_auction": round(delta("report", "recv_msgs") / n, 3),
         "bidders_cpu_s_total": round(bidder_cpu_s, 2),
-    }))
+        "kth_bid_ms_p50": [round(percentile(r, 50), 2) if r else None for r in by_rank],
+        "kth_bid_ms_p99": [round(percentile(r, 99), 2) if r else None for r in by_rank],
+        "datagrams_on_group_per_auction": round(datagrams / n, 2),
+        "bidder_cpu_ms_per_auction": round(bidder_cpu_s_run / n / args.bidders * 1e3, 3),
+        "bidder_cpu_us_per_datagram": round(bidder_cpu_s_run / max(1, datagrams * args.bidders)
+                                            * 1e6, 1),
+        "bidder_wakeups_per_auction": round(bidder_slices / n / args.bidders, 2),
+        "bidder_run_delay_us_per_wakeup": round(bidder_wait_s / max(1, bidder_slices) * 1e6, 1),
+        "auctioneer_cpu_ms_per_auction": round(own_cpu_s / n * 1e3, 3),
+        "auctioneer_wakeups_per_auction": round(own_slices / n, 2),
+        "auctioneer_run_delay_us_per_wakeup": round(own_wait_s / max(1, own_slices) * 1e6, 1),
+    }
     p50 = percentile(latencies_ms, 50)
     p99 = percentile(latencies_ms, 99)
-    print(f"bids_complete_ms_p50={p50:.3f} bids_complete_ms_p99={p99:.3f} "
-          f"auctions_per_s={n / elapsed:.1f} msgs_per_auction={allocation_msgs / n:.2f}")
+    summary = (f"bids_complete_ms_p50={p50:.3f} bids_complete_ms_p99={p99:.3f} "
+               f"auctions_per_s={n / elapsed:.1f} msgs_per_auction={allocation_msgs / n:.2f}")
+    return details, summary
 
 
 if __name__ == "__main__":

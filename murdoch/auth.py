@@ -1,14 +1,17 @@
 """Optional datagram authentication with a shared team key, and replay rejection.
 
-An authenticated datagram is the plain JSON datagram with ``"h": "<64 hex digits>"`` put first::
+A signed datagram is the plain datagram (see `murdoch.wire`) with one more member at the end,
+written exactly as ``,"mac":"<64 lowercase hex digits>"}``::
 
-    {"h":"<HMAC-SHA256(key, plain)>",<the plain datagram without its opening brace>
+    {"h":[2,"bid","r2","9c41d2e7",17,"task.x"],"b":{...},"mac":"3f0c...e1"}
 
-so it stays one JSON object, and the tag covers the exact bytes of the plain datagram (no
-re-serialisation on the receiving side). Each sender numbers its datagrams; a `ReplayWindow`
-per receiver remembers, per sender instance (sender id + the nonce a transport draws when it opens),
-the highest sequence seen and which of the previous `window` numbers arrived, and rejects
-repeats and numbers older than the window; a restarted process is a new instance from 0.
+The tag is HMAC-SHA256(key, every byte before ``,"mac":``), so it covers the exact bytes of
+the header and the body, everything a receiver acts on, with no re-serialisation on either
+side; the datagram stays one JSON object. Each sender numbers its datagrams; a `ReplayWindow`
+per receiver remembers, per sender instance (sender id + the nonce a transport draws when it
+opens), the highest sequence seen and which of the previous `window` numbers arrived, and
+rejects repeats and numbers older than the window; a restarted process is a new instance
+from 0.
 """
 
 from __future__ import annotations
@@ -17,11 +20,7 @@ import hashlib
 import hmac
 from collections import OrderedDict
 
-from murdoch.wire import WireError
-
-_PREFIX = b'{"h":"'
-_TAG_HEX = 64
-_AFTER = b'",'
+from murdoch.wire import MAC_KEY, WireError, signed_length
 
 
 class TeamKey:
@@ -37,39 +36,39 @@ class TeamKey:
         return "TeamKey(<hidden>)"
 
     def _tag(self, data: bytes) -> bytes:
-        return hmac.new(self._secret, data, hashlib.sha256).hexdigest().encode("ascii")
+        return hmac.digest(self._secret, data, hashlib.sha256).hex().encode("ascii")
 
     def sign(self, plain: bytes) -> bytes:
-        """Authenticated datagram for `plain` (a JSON object's bytes)."""
-        if not plain.startswith(b"{") or plain == b"{}":
-            raise ValueError("can only sign a non-empty JSON object")
-        return _PREFIX + self._tag(plain) + _AFTER + plain[1:]
+        """Signed datagram for `plain` (an unsigned datagram: one JSON object)."""
+        if plain[:1] != b"{" or plain[-1:] != b"}" or is_signed(plain):
+            raise ValueError("can only sign an unsigned datagram (one JSON object)")
+        covered = plain[:-1]
+        return covered + MAC_KEY + self._tag(covered) + b'"}'
+
+    def check(self, datagram: bytes) -> None:
+        """WireError('auth_failed') unless `datagram` ends with a matching tag member."""
+        at = signed_length(datagram)
+        if at < 0:
+            raise WireError("auth_failed", "datagram carries no tag")
+        tag = datagram[at + len(MAC_KEY) : -2]
+        if not hmac.compare_digest(tag, self._tag(datagram[:at])):
+            raise WireError("auth_failed", "tag does not match")
 
     def verify(self, datagram: bytes) -> bytes:
-        """The plain datagram inside `datagram`, or WireError('auth_failed')."""
-        head = len(_PREFIX)
-        if not is_signed(datagram):
-            raise WireError("auth_failed", "datagram carries no tag")
-        tag = datagram[head : head + _TAG_HEX]
-        plain = b"{" + datagram[head + _TAG_HEX + len(_AFTER) :]
-        if not hmac.compare_digest(tag, self._tag(plain)):
-            raise WireError("auth_failed", "tag does not match")
-        return plain
+        """The unsigned datagram inside `datagram`, or WireError('auth_failed')."""
+        self.check(datagram)
+        return strip_tag(datagram)
 
 
 def is_signed(datagram: bytes) -> bool:
-    head = len(_PREFIX)
-    return (
-        datagram.startswith(_PREFIX)
-        and datagram[head + _TAG_HEX : head + _TAG_HEX + len(_AFTER)] == _AFTER
-    )
+    """Whether `datagram` ends with a tag member (whether it matches is `TeamKey.check`'s)."""
+    return signed_length(datagram) >= 0
 
 
 def strip_tag(datagram: bytes) -> bytes:
-    """The plain datagram of a signed one without checking the tag (for key-less listeners)."""
-    if not is_signed(datagram):
-        return datagram
-    return b"{" + datagram[len(_PREFIX) + _TAG_HEX + len(_AFTER) :]
+    """The unsigned datagram of a signed one without checking the tag (for key-less tools)."""
+    at = signed_length(datagram)
+    return datagram if at < 0 else datagram[:at] + b"}"
 
 
 class ReplayWindow:

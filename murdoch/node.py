@@ -86,7 +86,9 @@ class Node:
         self.outcomes: deque[Outcome] = deque(maxlen=1024)
         """The latest outcomes of tasks this node introduced (also sent to `on_outcome`)."""
         self._lock = threading.RLock()
-        self._sub = transport.subscribe(self._wanted())
+        self._listening = self._wanted()
+        self._sub = transport.subscribe(self._listening)
+        self._sub.wake_on_replies = False
         self.closed = False
 
     # -- configuration
@@ -164,20 +166,36 @@ class Node:
     # -- the loop
     @_locked
     def step(self, timeout_s: float = 0.0) -> int:
-        """Receive, handle, tick and publish once; return the number of messages handled."""
+        """Receive, handle, tick and publish once; return the number of messages handled.
+
+        Waits at most `timeout_s` for traffic, less when the bidder wants to look at the
+        other bids of an open round (`Bidder.next_wakeup`)."""
         if self.closed:
             return 0
+        if timeout_s > 0 and self.bidder is not None:
+            look_at = self.bidder.next_wakeup()
+            if look_at is not None:
+                timeout_s = max(0.0, min(timeout_s, look_at - self.clock()))
         self.transport.poll(timeout_s)
         envelopes = self._sub.drain()
+        auctioneer, bidder, publish = self.auctioneer, self.bidder, self._publish
         for envelope in envelopes:
             now = envelope.received_at
-            self._publish(self.auctioneer.handle(envelope.message, now))
-            if self.bidder is not None:
-                self._publish(self.bidder.handle(envelope.message, now))
+            out = auctioneer.handle(envelope.message, now)
+            if out:
+                publish(out)
+            if bidder is not None:
+                out = bidder.handle(envelope.message, now)
+                if out:
+                    publish(out)
         now = self.clock()
-        self._publish(self.auctioneer.tick(now))
-        if self.bidder is not None:
-            self._publish(self.bidder.tick(now))
+        out = auctioneer.tick(now)
+        if out:
+            publish(out)
+        if bidder is not None:
+            out = bidder.tick(now)
+            if out:
+                publish(out)
         self._deliver_outcomes()
         self._sync()
         return len(envelopes)
@@ -202,8 +220,16 @@ class Node:
         if self.closed:
             return
         wanted = self._wanted()
-        if wanted != self._sub.subjects:
+        if wanted != self._listening:
             self._sub.update(wanted)
+            self._listening = wanted
+        # on a transport with a reply lane, replies (bids, awards, progress, reports) wake the
+        # node only when it expects them: its auctioneer has open tasks, or its bidder holds a
+        # bid still in contention after looking at the others; otherwise they are read at the
+        # next poll, before the rest (with one channel every datagram wakes it anyway)
+        self._sub.wake_on_replies = bool(self.auctioneer.open_tasks()) or (
+            self.bidder is not None and self.bidder.expects_award
+        )
 
     def _publish(self, messages: list[Outgoing], strict: bool = False) -> None:
         for subjects, message in messages:

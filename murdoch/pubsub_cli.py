@@ -30,9 +30,9 @@ def _key(value: str | None) -> TeamKey | None:
         raise click.BadParameter(str(exc), param_hint="--key") from None
 
 
-def _config(group: str, port: int) -> MulticastConfig:
+def _config(group: str, port: int, reply_lane: bool = False) -> MulticastConfig:
     try:
-        return MulticastConfig(group, port)
+        return MulticastConfig(group, port, reply_lane=reply_lane)
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="--group/--port") from None
 
@@ -58,6 +58,10 @@ def _network_options(func: Any) -> Any:
     func = click.option(
         "--key", default=None, help=f"Shared team key (default: ${KEY_ENV} if set)."
     )(func)
+    func = click.option(
+        "--reply-lane", is_flag=True,
+        help="Replies on a second group (the whole team must use it).",
+    )(func)
     return func
 
 
@@ -77,13 +81,14 @@ def listen(
     group: str,
     port: int,
     key: str | None,
+    reply_lane: bool,
 ) -> None:
     """Print live MURDOCH traffic with decoded fields."""
     wanted = _subjects(subjects)
     clock = time.monotonic
     start = clock()
     sender = f"listen-{os.getpid()}"
-    transport = MulticastTransport(sender, clock, _config(group, port), key=_key(key))
+    transport = MulticastTransport(sender, clock, _config(group, port, reply_lane), key=_key(key))
     shown = 0
 
     def show(frame: Frame, size: int) -> None:
@@ -107,7 +112,8 @@ def listen(
         sys.stdout.flush()
 
     transport.core.frame_tap = show
-    click.echo(f"listening on {group}:{port} (loopback)", err=True)
+    lanes = f" and replies on {transport.config.replies_group}:{port}" if reply_lane else ""
+    click.echo(f"listening on {group}:{port}{lanes} (loopback)", err=True)
     try:
         while (duration is None or clock() - start < duration) and (
             count is None or shown < count
@@ -166,6 +172,7 @@ def announce(
     group: str,
     port: int,
     key: str | None,
+    reply_lane: bool,
 ) -> None:
     """Auction one task and print its outcome (exit 0 only when completed)."""
     metric_pairs = []
@@ -192,7 +199,7 @@ def announce(
     clock = time.monotonic
     rng = random.Random(seed)
     sender = f"announce-{os.getpid()}-{rng.getrandbits(24):06x}"
-    transport = MulticastTransport(sender, clock, _config(group, port), key=_key(key))
+    transport = MulticastTransport(sender, clock, _config(group, port, reply_lane), key=_key(key))
     outcomes: list[Outcome] = []
 
     def show(event: AuctionEvent) -> None:

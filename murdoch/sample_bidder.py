@@ -60,6 +60,7 @@ class TimedExecutor:
 @click.option("--group", default=DEFAULT_GROUP, show_default=True)
 @click.option("--port", type=int, default=DEFAULT_PORT, show_default=True)
 @click.option("--key", default=None, help="Shared team key (enables authentication).")
+@click.option("--reply-lane", is_flag=True, help="Replies on a second group (whole team).")
 @click.option("--lifetime", type=float, default=30.0, show_default=True, help="Seconds to run.")
 @click.option("--quiet", is_flag=True, help="Print only the ready line.")
 @click.option(
@@ -73,6 +74,7 @@ def main(
     group: str,
     port: int,
     key: str | None,
+    reply_lane: bool,
     lifetime: float,
     quiet: bool,
     batch_ms: float,
@@ -90,7 +92,8 @@ def main(
     node_ref: list[Node] = []
     executor = TimedExecutor(node_ref)
     transport = MulticastTransport(
-        name, clock, MulticastConfig(group=group, port=port), key=TeamKey(key) if key else None
+        name, clock, MulticastConfig(group=group, port=port, reply_lane=reply_lane),
+        key=TeamKey(key) if key else None,
     )
     node = Node(
         transport,
@@ -99,7 +102,7 @@ def main(
         metric=metric,
         on_start=executor.start,
         on_stop=executor.stop,
-        observer=show,
+        observer=None if quiet else show,
     )
     node_ref.append(node)
     print(json.dumps({"ready": name}), flush=True)

@@ -17,9 +17,20 @@ bounded queue read with `drain()`. `update(subjects)` changes what it listens to
 `close()` stops it. Every transport delivers a publisher's own messages to its own matching
 subscriptions too (multicast loops them back), so all transports behave alike.
 
-`EndpointCore` holds what is common: sequence numbering, signing, the receive pipeline
-(size check, tag check, frame decode, replay check, body decode, subject match, dispatch) and
-the counters. Transports only move bytes.
+`EndpointCore` holds what is common: sequence numbering, signing, the receive pipeline and
+the counters. Transports only move bytes. The pipeline decodes only the small header array
+first and decides from it, before decoding the body (or authenticating), whether a local
+subscription wants the datagram: size check, tag present (when keyed), header, subject match
+(cached per subject set), then, only for datagrams someone listens to, tag check, replay
+check, body decode and dispatch.
+
+A subscription also says whether its owner must be woken for *replies* (messages whose class
+sets ``REPLY = True``, e.g. bids, awards and reports, needed at once only by the party waiting
+for them): `wake_on_replies`, True by default. It is a permission, not a filter: a transport
+that carries replies separately (multicast with its reply lane on) waits on them only while
+some subscription wants that and otherwise reads them whenever it polls anyway, before the
+other traffic; a transport with one channel (the default multicast, the memory bus) wakes for
+everything. No datagram is skipped either way.
 """
 
 from __future__ import annotations
@@ -33,9 +44,9 @@ from dataclasses import dataclass, field
 from types import TracebackType
 from typing import Any, Protocol
 
-from murdoch.auth import ReplayWindow, TeamKey, is_signed, strip_tag
+from murdoch.auth import ReplayWindow, TeamKey, is_signed
 from murdoch.subjects import SubjectIndex, SubjectSet, subject_set
-from murdoch.wire import Codec, Envelope, Frame, WireError
+from murdoch.wire import Codec, Envelope, Frame, WireError, check_token
 
 log = logging.getLogger(__name__)
 
@@ -110,6 +121,8 @@ class Subscription:
         self._queue_limit = queue_limit
         self.overflowed = 0
         self.closed = False
+        self.wake_on_replies = True
+        """False: replies may wait until the owner polls for other reasons (see module doc)."""
 
     @property
     def subjects(self) -> SubjectSet | None:
@@ -120,7 +133,9 @@ class Subscription:
         """Listen to `subjects` from now on (an empty set hears only subject-less messages)."""
         if self.closed:
             raise RuntimeError("subscription is closed")
-        self._core.set_subjects(self.key, None if subjects is None else subject_set(subjects))
+        self._core.set_subjects(
+            self.key, None if subjects is None else self._core.checked_subjects(subjects)
+        )
 
     def drain(self) -> list[Envelope]:
         """Queued envelopes in arrival order (empty for callback subscriptions)."""
@@ -197,10 +212,12 @@ class EndpointCore:
         replay_window: int = 1024,
         instance: str | None = None,
     ) -> None:
-        if not sender_id or len(sender_id) > 80:
-            raise ValueError("sender_id must be 1-80 characters")
-        self.sender_id = sender_id
-        self.instance = instance if instance is not None else os.urandom(4).hex()
+        self.sender_id = check_token(sender_id, "sender_id")
+        if instance is None:
+            instance = os.urandom(4).hex()
+        elif instance:
+            check_token(instance, "instance")
+        self.instance = instance
         self.codec = codec
         self.clock = clock
         self.key = key
@@ -211,6 +228,8 @@ class EndpointCore:
         self._subs: dict[int, Subscription] = {}
         self._next_key = 0
         self._seq = 0
+        self._matches: dict[SubjectSet, list[int]] = {}
+        self._valid_sets: set[SubjectSet] = set()
         self._lock = threading.RLock()
         self.frame_tap: Callable[[Frame, int], None] | None = None
         """Called with every accepted frame and its size, known kind or not (for listeners)."""
@@ -235,8 +254,16 @@ class EndpointCore:
         with self._lock:
             return None if key in self._monitors else self._index.subjects_of(key)
 
+    @property
+    def wants_replies(self) -> bool:
+        """Whether some open subscription (or a frame tap) must be woken for replies."""
+        return self.frame_tap is not None or any(
+            sub.wake_on_replies for sub in list(self._subs.values())
+        )
+
     def set_subjects(self, key: int, subjects: SubjectSet | None) -> None:
         with self._lock:
+            self._matches.clear()
             if subjects is None:
                 self._index.remove(key)
                 self._monitors.add(key)
@@ -246,14 +273,26 @@ class EndpointCore:
 
     def remove(self, key: int) -> None:
         with self._lock:
+            self._matches.clear()
             self._index.remove(key)
             self._monitors.discard(key)
             self._subs.pop(key, None)
 
+    def checked_subjects(self, subjects: Iterable[str] | str) -> SubjectSet:
+        """`subject_set(subjects)`, remembering the sets already checked (they recur)."""
+        valid = self._valid_sets
+        if type(subjects) is frozenset and subjects in valid:
+            return subjects
+        checked = subject_set(subjects)
+        if len(valid) >= 1024:
+            valid.clear()
+        valid.add(checked)
+        return checked
+
     # -- sending
     def encode(self, subjects: Iterable[str] | str, message: Any) -> bytes:
         """Datagram bytes for `message`, numbered, signed when keyed, and counted as sent."""
-        subject_fs = subject_set(subjects)
+        subject_fs = self.checked_subjects(subjects)
         with self._lock:
             seq = self._seq
             self._seq += 1
@@ -264,55 +303,69 @@ class EndpointCore:
         return data
 
     # -- receiving
+    def match(self, subjects: SubjectSet) -> list[int]:
+        """Keys of the subscriptions (monitors included) that hear `subjects`, sorted."""
+        keys = self._matches.get(subjects)
+        if keys is None:
+            keys = self._index.match(subjects)
+            if self._monitors:
+                keys = sorted(set(keys) | self._monitors)
+            if len(self._matches) >= 1024:
+                self._matches.clear()
+            self._matches[subjects] = keys
+        return keys
+
     def receive(self, datagram: bytes) -> int:
         """Run one datagram through the pipeline; return how many subscriptions got it."""
+        size = len(datagram)
+        codec = self.codec
+        key = self.key
         with self._lock:
             try:
-                frame = self._accept(datagram)
-                keys = self._index.match(frame.subjects)
-                if self._monitors:
-                    keys = sorted(set(keys) | self._monitors)
-                if not keys:
-                    # nobody listens: the body is not decoded, but the kind must be known
-                    if not self.codec.knows(frame.kind):
-                        raise WireError("unknown_kind", f"kind {frame.kind!r}")
-                    self.counters.count_received(frame.kind, len(datagram))
+                if size > codec.max_datagram_bytes:
+                    raise WireError("too_large", f"{size} bytes")
+                if key is not None and not is_signed(datagram):
+                    raise WireError("auth_failed", "datagram carries no tag")
+                header = codec.parse_header(datagram)
+                kind = header.kind
+                keys = self.match(header.subjects)
+                tap = self.frame_tap
+                if not keys and tap is None:
+                    # nobody here listens: neither authenticated nor decoded, but counted
+                    if not codec.knows(kind):
+                        raise WireError("unknown_kind", f"kind {kind!r}")
+                    self.counters.count_received(kind, size)
                     self.counters.count_dropped("unmatched")
                     return 0
-                message = self.codec.message_of(frame)
+                if key is not None:
+                    key.check(datagram)
+                    if not self._replay.accept(f"{header.sender}/{header.instance}",
+                                               header.seq):
+                        raise WireError("replayed", f"{header.sender}#{header.seq}")
+                body = codec.decode_body(datagram, header)
+                if tap is not None:
+                    tap(Frame(kind, header.sender, header.seq, header.subjects, body,
+                              header.instance), size)
+                    if not keys:
+                        if not codec.knows(kind):
+                            raise WireError("unknown_kind", f"kind {kind!r}")
+                        self.counters.count_received(kind, size)
+                        self.counters.count_dropped("unmatched")
+                        return 0
+                message = codec.message_from(kind, body)
             except WireError as exc:
                 self.counters.count_dropped(exc.reason)
                 log.debug("dropped datagram (%s)", exc)
                 return 0
-            self.counters.count_received(frame.kind, len(datagram))
-            envelope = Envelope(
-                sender=frame.sender,
-                seq=frame.seq,
-                subjects=frame.subjects,
-                message=message,
-                size_bytes=len(datagram),
-                received_at=self.clock(),
-            )
-            targets = [self._subs[k] for k in keys]
+            self.counters.count_received(kind, size)
+            envelope = Envelope(header.sender, header.seq, header.subjects, message, size,
+                                self.clock())
+            subs = self._subs
+            targets = [subs[k] for k in keys]
         for sub in targets:
             if not sub.closed:
                 sub._deliver(envelope)
         return len(targets)
-
-    def _accept(self, datagram: bytes) -> Frame:
-        if len(datagram) > self.codec.max_datagram_bytes:
-            raise WireError("too_large", f"{len(datagram)} bytes")
-        if self.key is not None:
-            plain = self.key.verify(datagram)
-        else:
-            plain = strip_tag(datagram) if is_signed(datagram) else datagram
-        frame = self.codec.parse_frame(plain)
-        sender_key = f"{frame.sender}/{frame.instance}"
-        if self.key is not None and not self._replay.accept(sender_key, frame.seq):
-            raise WireError("replayed", f"{frame.sender}#{frame.seq}")
-        if self.frame_tap is not None:
-            self.frame_tap(frame, len(datagram))
-        return frame
 
 
 class EndpointBacked:

@@ -1,19 +1,33 @@
-"""The JSON wire format shared by every transport.
+"""The wire format shared by every transport (version 2): one JSON object per datagram.
 
-One datagram is one UTF-8 JSON object::
+A datagram is one UTF-8 JSON object with a header array and the message's fields::
 
-    {"v": 1, "k": "<kind>", "s": "<sender id>", "i": "<instance>", "q": <sequence>,
-     "t": ["<subject>", ...], "b": {<the message's fields>}}
+    {"h":[2,"bid","r2","9c41d2e7",17,"task.user.5e1f07.4"],"b":{"task_id":...,"score":0.8}}
 
-`i` is a nonce chosen when a transport is opened, so a process that restarts under the same
-sender id is a new (sender, instance) pair whose sequence numbers start again at 0.
+The header is `[version, kind, sender, instance, seq, subjects]`: the wire version (2), the
+message class's KIND, the sender id, an instance nonce drawn when a transport is opened (``""``
+for none; a process that restarts under the same sender id is a new (sender, instance) pair
+whose sequence numbers start again at 0), the per-sender sequence number, and the subject set
+as one comma-separated, sorted string (``""`` for the empty set). `b` holds the message's fields.
 
-With a team key (see `murdoch.auth`) the object starts with ``"h": "<hmac hex>"`` computed over
-the exact bytes of the rest. Messages are frozen dataclasses with a class attribute ``KIND``; a
-`Codec` is built from the message classes a process understands (no global registry), so any
-package can add its own kinds by passing its classes in. Field values are checked against the
-dataclass annotations on decode: str, int, float, bool, None, ``X | None``, ``tuple[X, ...]``,
-fixed tuples and ``Mapping[str, Any]``. Lists decode to tuples, objects to read-only mappings.
+Senders always write the same shape: ``{"h":`` first, no spaces, then ``,"b":``. No header
+token can contain ``"``, ``\\``, ``[`` or ``]`` (kinds, sender ids, instances and subject names
+are checked when encoding), so a receiver finds the end of the header at the first ``]``,
+decodes just that slice, and decides from it alone whether any local subscription wants the
+datagram; the body is decoded only for wanted traffic. A datagram that does not have this exact
+shape but is valid JSON (other spacing or member order, escapes) is decoded whole and checked
+the same way. Members other than h, b and mac, and repeated member names (at any depth), are
+refused.
+
+With a team key (see `murdoch.auth`) the object ends with a tag member, written exactly as
+``,"mac":"<64 hex digits>"}``: HMAC-SHA256 of every byte before ``,"mac":`` (header and body,
+everything a receiver acts on). Messages are frozen dataclasses with a class attribute
+``KIND``; a `Codec` is built from the message classes a process understands (no global
+registry), so any package can add its own kinds by passing its classes in. A class may set
+``REPLY = True``: its messages answer a negotiation and may travel on a reply lane (see
+`murdoch.multicast`). Field values are checked against the dataclass annotations on decode:
+str, int, float, bool, None, ``X | None``, ``tuple[X, ...]``, fixed tuples and
+``Mapping[str, Any]``. Lists decode to tuples, objects to read-only mappings.
 
 Anything that does not fit raises `WireError` with a short ``reason`` used as a counter name
 (``malformed``, ``bad_version``, ``unknown_kind``, ``bad_fields``, ``too_large``).
@@ -24,17 +38,52 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import re
 import types
 import typing
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
-from typing import Any, ClassVar, Protocol
+from typing import Any, ClassVar, NamedTuple, Protocol
 
 from murdoch.subjects import SubjectError, SubjectSet, subject_set
 
-WIRE_VERSION = 1
+WIRE_VERSION = 2
 MAX_DATAGRAM_BYTES = 1400
-"""Hard limit; typical auction messages are 150-350 bytes."""
+"""Hard limit; typical auction messages are 120-380 bytes (73 more when signed)."""
+KIND_PATTERN = re.compile(r"^[a-z0-9][a-z0-9._-]{0,31}$")
+TOKEN_PATTERN = re.compile(r'^[!#-Z^-~]{1,80}$')
+"""Sender ids and instance nonces: 1-80 printable ASCII characters other than space,
+double quote, backslash and square brackets."""
+MAX_SEQ = (1 << 63) - 1
+HEADER_START = b'{"h":['
+"""How every datagram a sender writes begins."""
+BODY_KEY = b',"b":'
+MAC_KEY = b',"mac":"'
+MAC_HEX_DIGITS = 64
+MAC_SUFFIX_BYTES = len(MAC_KEY) + MAC_HEX_DIGITS + 2
+"""Length of ``,"mac":"<hex>"}`` at the end of a signed datagram."""
+_HEADER_SCAN_BYTES = 400
+_HEX = frozenset(b"0123456789abcdef")
+_TOP_MEMBERS = frozenset({"h", "b", "mac"})
+
+
+def check_token(value: str, what: str) -> str:
+    """Return `value` if it can stand in a header (sender id, instance), else ValueError."""
+    if not isinstance(value, str) or not TOKEN_PATTERN.match(value):
+        raise ValueError(f"{what} must be 1-80 printable ASCII characters other than space, "
+                         f"quote, backslash and brackets, got {value!r}")
+    return value
+
+
+def signed_length(data: bytes) -> int:
+    """How many leading bytes the tag of a signed datagram covers; -1 if `data` does not end
+    with a tag member ``,"mac":"<64 lowercase hex>"}``."""
+    at = len(data) - MAC_SUFFIX_BYTES
+    if at < 0 or data[-2:] != b'"}' or data[at : at + len(MAC_KEY)] != MAC_KEY:
+        return -1
+    if not _HEX.issuperset(data[at + len(MAC_KEY) : -2]):
+        return -1
+    return at
 
 
 class WireError(ValueError):
@@ -78,6 +127,23 @@ class Frame:
     subjects: SubjectSet
     body: Mapping[str, Any]
     instance: str = ""
+
+
+class Header(NamedTuple):
+    """The header of a datagram, and where its body is.
+
+    For a datagram of the standard shape the body is still undecoded bytes
+    ``data[body_at:body_end]`` and `body` is None; for any other shape the whole datagram was
+    decoded already and `body` holds the fields."""
+
+    kind: str
+    sender: str
+    instance: str
+    seq: int
+    subjects: SubjectSet
+    body_at: int
+    body_end: int
+    body: Mapping[str, Any] | None = None
 
 
 def freeze(value: Any) -> Any:
@@ -217,23 +283,36 @@ class Codec:
         self._converters: dict[str, dict[str, Converter]] = {}
         self._field_names: dict[str, frozenset[str]] = {}
         self._field_order: dict[str, tuple[str, ...]] = {}
-        self._subject_cache: dict[tuple[str, ...], SubjectSet] = {}
-        self._decoder = json.JSONDecoder(parse_constant=_reject_constant)
+        self._replies: set[str] = set()
+        self._subject_cache: dict[str, SubjectSet] = {}
+        self._subject_text: dict[SubjectSet, bytes] = {}
+        self._tokens: set[str] = set()
+        self._checked_kinds: set[str] = set()
+        self._builders: dict[str, Callable[[Mapping[str, Any]], Any]] = {}
+        self._decoder = json.JSONDecoder(
+            parse_constant=_reject_constant, object_pairs_hook=_unique_members
+        )
         self._encoder = json.JSONEncoder(separators=(",", ":"), allow_nan=False)
         for cls in message_types:
             if not dataclasses.is_dataclass(cls):
                 raise TypeError(f"{cls.__name__} is not a dataclass")
             kind = getattr(cls, "KIND", None)
-            if not isinstance(kind, str) or not kind:
-                raise TypeError(f"{cls.__name__} has no KIND")
+            if not isinstance(kind, str) or not KIND_PATTERN.match(kind):
+                raise TypeError(
+                    f"{cls.__name__} has no KIND of 1-32 characters of a-z 0-9 . _ -"
+                )
             if kind in self._types and self._types[kind] is not cls:
                 raise TypeError(f"two message classes share the kind {kind!r}")
             hints = typing.get_type_hints(cls)
             self._types[kind] = cls
+            self._checked_kinds.add(kind)
+            if getattr(cls, "REPLY", False) is True:
+                self._replies.add(kind)
             names = [f.name for f in dataclasses.fields(cls)]
             self._converters[kind] = {n: compile_converter(hints[n], n) for n in names}
             self._field_names[kind] = frozenset(names)
             self._field_order[kind] = tuple(names)
+            self._builders[kind] = self._builder(cls, kind)
 
     @property
     def kinds(self) -> frozenset[str]:
@@ -241,6 +320,10 @@ class Codec:
 
     def knows(self, kind: str) -> bool:
         return kind in self._types
+
+    def is_reply(self, kind: str) -> bool:
+        """Whether messages of `kind` answer a negotiation (class attribute REPLY = True)."""
+        return kind in self._replies
 
     def extended(self, message_types: Iterable[type]) -> Codec:
         """A codec that also knows `message_types`."""
@@ -252,87 +335,208 @@ class Codec:
             raise WireError("unknown_kind", f"{type(message).__name__} is not in this codec")
         return {name: _thaw(getattr(message, name)) for name in self._field_order[kind]}
 
+    # -- encoding
     def encode_frame(
         self, sender: str, seq: int, subjects: SubjectSet, message: Any, instance: str = ""
     ) -> bytes:
-        """The unauthenticated datagram bytes of one message."""
-        obj = {
-            "v": WIRE_VERSION,
-            "k": message.KIND,
-            "s": sender,
-            "i": instance,
-            "q": seq,
-            "t": sorted(subjects),
-            "b": self.body_of(message),
-        }
+        """The unauthenticated datagram bytes of one message (the standard shape)."""
+        body = self.body_of(message)
         try:
-            data = self._encoder.encode(obj).encode("utf-8")
+            encoded = self._encoder.encode(body).encode("utf-8")
         except (TypeError, ValueError) as exc:
             raise WireError("bad_fields", f"{message.KIND}: {exc}") from None
+        tokens = self._tokens
+        if sender not in tokens or (instance and instance not in tokens):
+            check_token(sender, "sender id")
+            if instance:
+                check_token(instance, "instance")
+            if len(tokens) >= 4096:
+                tokens.clear()
+            tokens.update((sender, instance) if instance else (sender,))
+        if type(seq) is not int or not 0 <= seq <= MAX_SEQ:
+            raise ValueError(f"sequence must be an int in [0, 2**63), got {seq!r}")
+        subject_text = self._subject_text.get(subjects)
+        if subject_text is None:
+            # subject names are checked by subject_set(): a-z 0-9 . _ : / - only
+            subject_text = ",".join(sorted(subject_set(subjects))).encode("ascii")
+            if len(self._subject_text) >= 4096:
+                self._subject_text.clear()
+            self._subject_text[subjects] = subject_text
+        data = b'{"h":[%d,"%s","%s","%s",%d,"%s"],"b":%s}' % (
+            WIRE_VERSION,
+            message.KIND.encode("ascii"),
+            sender.encode("ascii"),
+            instance.encode("ascii"),
+            seq,
+            subject_text,
+            encoded,
+        )
         if len(data) > self.max_datagram_bytes:
             raise WireError(
                 "too_large", f"{message.KIND} is {len(data)} bytes > {self.max_datagram_bytes}"
             )
         return data
 
-    def parse_frame(self, data: bytes) -> Frame:
-        """Decode the outer fields; the body is checked by `message_of`."""
+    # -- decoding
+    def parse_header(self, data: bytes) -> Header:
+        """The header of a datagram (signed or not), cheap enough to run on every datagram
+        before filtering: for the standard shape only the header array is decoded.
+
+        The kind is not checked against this codec here (listeners show unknown kinds)."""
         if len(data) > self.max_datagram_bytes:
             raise WireError("too_large", f"{len(data)} bytes")
+        if data[:6] == HEADER_START:
+            end = data.find(b"]", 6, _HEADER_SCAN_BYTES)
+            if end > 0 and data[end + 1 : end + 6] == BODY_KEY:
+                try:
+                    fields = self._decoder.decode(data[5 : end + 1].decode("ascii"))
+                except (UnicodeDecodeError, ValueError):
+                    fields = None
+                if type(fields) is list:
+                    signed_end = signed_length(data)
+                    body_end = signed_end if signed_end >= 0 else len(data) - 1
+                    if data[body_end:body_end + 1] in (b"}", b",") and body_end > end + 6:
+                        kind, sender, instance, seq, subjects = self._header_fields(fields)
+                        return Header(kind, sender, instance, seq, subjects, end + 6, body_end)
+        return self._parse_whole(data)
+
+    def decode_body(self, data: bytes, header: Header) -> Mapping[str, Any]:
+        """The body's fields as a plain dict (`message_from` checks them)."""
+        if header.body is not None:
+            return header.body
+        try:
+            body = self._decoder.decode(data[header.body_at : header.body_end].decode("utf-8"))
+        except (UnicodeDecodeError, ValueError):
+            body = None
+        if type(body) is dict:
+            return body
+        whole = self._parse_whole(data)  # not the standard shape after all: decode it whole
+        if whole[:5] != header[:5]:
+            raise WireError("malformed", "header and datagram disagree")
+        assert whole.body is not None
+        return whole.body
+
+    def parse_frame(self, data: bytes) -> Frame:
+        """Decode the header and the body; the body's fields are checked by `message_of`."""
+        header = self.parse_header(data)
+        body = self.decode_body(data, header)
+        return Frame(header.kind, header.sender, header.seq, header.subjects, body,
+                     header.instance)
+
+    def _parse_whole(self, data: bytes) -> Header:
         try:
             obj = self._decoder.decode(data.decode("utf-8"))
-        except (UnicodeDecodeError, json.JSONDecodeError, WireError) as exc:
-            raise WireError("malformed", f"not JSON: {exc}") from None
-        if not isinstance(obj, dict):
-            raise WireError("malformed", "datagram is not a JSON object")
-        if obj.get("v") != WIRE_VERSION:
-            raise WireError("bad_version", f"version {obj.get('v')!r}")
-        kind = obj.get("k")
-        sender = obj.get("s")
-        seq = obj.get("q")
-        subjects = obj.get("t")
+        except (UnicodeDecodeError, ValueError) as exc:
+            raise WireError("malformed", f"not JSON: {exc}"[:200]) from None
+        if type(obj) is not dict:
+            raise WireError("malformed", "not a JSON object")
+        fields = obj.get("h")
+        if fields is None:
+            if "v" in obj:
+                raise WireError("bad_version", f"version {obj['v']!r}"[:80])
+            raise WireError("malformed", "no header")
+        if type(fields) is not list:
+            raise WireError("malformed", "header is not an array")
+        kind, sender, instance, seq, subjects = self._header_fields(fields)
+        if not _TOP_MEMBERS.issuperset(obj):
+            raise WireError("malformed", f"unexpected members {sorted(set(obj) - _TOP_MEMBERS)}")
         body = obj.get("b")
-        instance = obj.get("i", "")
-        if type(kind) is not str or type(sender) is not str or not sender:
-            raise WireError("malformed", "kind or sender missing")
-        if type(instance) is not str:
-            raise WireError("malformed", f"bad instance {instance!r}")
-        if type(seq) is not int or seq < 0:
-            raise WireError("malformed", f"bad sequence {seq!r}")
-        if type(subjects) is not list or type(body) is not dict:
-            raise WireError("malformed", "subjects or body missing")
-        return Frame(kind, sender, seq, self._subjects_of(subjects), body, instance)
+        if type(body) is not dict:
+            raise WireError("malformed", "body is not a JSON object")
+        if "mac" in obj and type(obj["mac"]) is not str:
+            raise WireError("malformed", "tag is not a string")
+        return Header(kind, sender, instance, seq, subjects, -1, -1, body)
 
-    def _subjects_of(self, subjects: list[Any]) -> SubjectSet:
-        key = tuple(subjects)
-        cached = self._subject_cache.get(key)
-        if cached is not None:
-            return cached
-        try:
-            result = subject_set(subjects)
-        except (SubjectError, TypeError) as exc:
-            raise WireError("malformed", str(exc)) from None
+    def _header_fields(self, fields: list[Any]) -> tuple[str, str, str, int, SubjectSet]:
+        if not fields:
+            raise WireError("malformed", "empty header")
+        version = fields[0]
+        if type(version) is not int:
+            raise WireError("malformed", f"version {version!r}"[:80])
+        if version != WIRE_VERSION:
+            raise WireError("bad_version", f"version {version}")
+        if len(fields) != 6:
+            raise WireError("malformed", f"header has {len(fields)} fields, not 6")
+        _, kind, sender, instance, seq, subjects = fields
+        if type(kind) is not str or kind not in self._checked_kinds:
+            if type(kind) is not str or not KIND_PATTERN.match(kind):
+                raise WireError("malformed", f"bad kind {kind!r}"[:80])
+            if len(self._checked_kinds) < 4096:
+                self._checked_kinds.add(kind)
+        tokens = self._tokens
+        if type(sender) is not str or sender not in tokens:
+            self._token(sender)
+        if type(instance) is not str:
+            raise WireError("malformed", f"bad instance {instance!r}"[:80])
+        if instance and instance not in tokens:
+            self._token(instance)
+        if type(seq) is not int or not 0 <= seq <= MAX_SEQ:
+            raise WireError("malformed", f"bad sequence {seq!r}"[:80])
+        subject_fs = self._subject_cache.get(subjects) if type(subjects) is str else None
+        if subject_fs is None:
+            subject_fs = self._parse_subjects(subjects)
+        return kind, sender, instance, seq, subject_fs
+
+    def _token(self, value: Any) -> None:
+        if type(value) is not str or not TOKEN_PATTERN.match(value):
+            raise WireError("malformed", f"bad sender or instance {value!r}"[:100])
+        if len(self._tokens) >= 4096:
+            self._tokens.clear()
+        self._tokens.add(value)
+
+    def _parse_subjects(self, raw: Any) -> SubjectSet:
+        if type(raw) is not str:
+            raise WireError("malformed", f"subjects {raw!r} are not a string"[:100])
+        if raw == "":
+            result: SubjectSet = frozenset()
+        else:
+            try:
+                result = subject_set(raw.split(","))
+            except SubjectError as exc:
+                raise WireError("malformed", f"bad subjects: {exc}"[:200]) from None
         if len(self._subject_cache) >= 4096:
             self._subject_cache.clear()
-        self._subject_cache[key] = result
+        self._subject_cache[raw] = result
         return result
 
     def message_of(self, frame: Frame) -> Any:
-        cls = self._types.get(frame.kind)
-        if cls is None:
-            raise WireError("unknown_kind", f"kind {frame.kind!r}")
-        converters = self._converters[frame.kind]
-        body = frame.body
-        if len(body) != len(converters) or not self._field_names[frame.kind].issuperset(body):
-            raise WireError(
-                "bad_fields", f"{frame.kind} fields {sorted(body)} != {sorted(converters)}"
-            )
-        values = {name: convert(body[name]) for name, convert in converters.items()}
-        try:
-            return cls(**values)
-        except (TypeError, ValueError) as exc:
-            raise WireError("bad_fields", f"{frame.kind}: {exc}") from None
+        return self.message_from(frame.kind, frame.body)
+
+    def message_from(self, kind: str, body: Mapping[str, Any]) -> Any:
+        """The message of `kind` whose fields are `body` (checked against the annotations)."""
+        build = self._builders.get(kind)
+        if build is None:
+            raise WireError("unknown_kind", f"kind {kind!r}")
+        return build(body)
+
+    def _builder(self, cls: type, kind: str) -> Callable[[Mapping[str, Any]], Any]:
+        converters = self._converters[kind]
+        names = self._field_names[kind]
+        pairs = tuple(converters.items())
+        count = len(pairs)
+        positional = all(f.init for f in dataclasses.fields(cls))
+
+        def build(body: Mapping[str, Any]) -> Any:
+            if len(body) != count or body.keys() != names:
+                raise WireError("bad_fields", f"{kind} fields {sorted(body)} != {sorted(names)}")
+            try:
+                if positional:
+                    return cls(*[convert(body[name]) for name, convert in pairs])
+                return cls(**{name: convert(body[name]) for name, convert in pairs})
+            except (TypeError, ValueError) as exc:
+                if isinstance(exc, WireError):
+                    raise
+                raise WireError("bad_fields", f"{kind}: {exc}") from None
+
+        return build
 
 
 def _reject_constant(name: str) -> Any:
     raise WireError("malformed", f"constant {name}")
+
+
+def _unique_members(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    result = dict(pairs)
+    if len(result) != len(pairs):
+        raise WireError("malformed", "repeated member name")
+    return result

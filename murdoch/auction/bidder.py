@@ -9,7 +9,9 @@ time: it bids only while it holds no contract, and declines an award that arrive
 
 Bids are visible to every bidder: one that sees a better bid (by the auctioneer's rule) knows it
 has most likely lost (an `outbid` event) but keeps listening until the award, since the better
-bid may not have reached the auctioneer. A winner that hears no renewal for the
+bid may not have reached the auctioneer. The other bids are read when the owner polls (at the
+latest half a window after its own bid, see `next_wakeup`, and always before the award).
+A winner that hears no renewal for the
 announcement's `abandon_after_s` abandons the task. A renewal for a bid whose award got lost
 counts as the award. Replies to renewals of finished tasks repeat the final report, so a lost
 report is sent again.
@@ -72,6 +74,7 @@ class _Pending:
     announce: Announce
     score: float
     expires_at: float
+    look_at: float | None = None
     lost: bool = False
 
 
@@ -123,6 +126,19 @@ class Bidder:
         """Pending bids that no better bid seen so far has beaten."""
         return sum(1 for p in self._pending.values() if not p.lost)
 
+    def next_wakeup(self) -> float | None:
+        """When the owner should poll next for this bidder's sake: half-way through the window
+        of each open bid, to read the other bids then rather than at the close (transports
+        need not wake a bidder for each bid; see `Subscription.wake_on_replies`)."""
+        times = [p.look_at for p in self._pending.values() if p.look_at is not None]
+        return min(times) if times else None
+
+    @property
+    def expects_award(self) -> bool:
+        """Whether some bid, looked at against the others (see `next_wakeup`), is still in
+        contention: then the owner wants to be woken by replies (the award)."""
+        return any(p.look_at is None and not p.lost for p in self._pending.values())
+
     def interest(self) -> frozenset[str]:
         """Negotiation subjects this bidder must hear."""
         subjects = {p.announce.negotiation for p in self._pending.values()}
@@ -151,8 +167,11 @@ class Bidder:
             reason = f"no renewal for {contract.announce.abandon_after_s:g} s"
             self._stop(contract, now, reason)
             out.append(self._report(contract.announce, "abandoned", reason))
-        for key in [k for k, p in self._pending.items() if now >= p.expires_at]:
-            del self._pending[key]
+        for key, pending in list(self._pending.items()):
+            if now >= pending.expires_at:
+                del self._pending[key]
+            elif pending.look_at is not None and now >= pending.look_at:
+                pending.look_at = None
         return out
 
     # -- inputs from the task being executed
@@ -188,7 +207,7 @@ class Bidder:
             return []
         score = float(score)
         expires = now + 2.0 * announce.bid_window_s + announce.renew_period_s
-        self._pending[key] = _Pending(announce, score, expires)
+        self._pending[key] = _Pending(announce, score, expires, now + 0.5 * announce.bid_window_s)
         self._emit(now, "bid", announce.task_id, announce.attempt, score=score)
         bid = Bid(announce.task_id, announce.attempt, self.agent_id, score)
         return [Outgoing(frozenset({announce.negotiation}), bid)]

@@ -10,6 +10,10 @@ Wire messages, one round of one task::
     Report    winner     -> negotiation subject          completed | failed | declined | abandoned
     Revoke    auctioneer -> negotiation subject          the contract is withdrawn
 
+Bid, Award, Progress and Report are replies (``REPLY = True``): answers within a negotiation that
+only the parties expecting them need at once (the auctioneer its bids, progress and reports; a
+bidder whose bid is still in contention its award). Transports with a reply lane wake the others
+for them only when they poll anyway, and deliver them before what arrived on the main lane.
 Every message carries `task_id` and `attempt` (one auction round of the task; a reallocation
 or a reintroduction starts the next attempt), so stale traffic from an earlier round is ignored.
 """
@@ -70,6 +74,7 @@ class Announce:
 @dataclass(frozen=True)
 class Bid:
     KIND: ClassVar[str] = "bid"
+    REPLY: ClassVar[bool] = True
     task_id: str
     attempt: int
     bidder: str
@@ -83,6 +88,7 @@ class Bid:
 @dataclass(frozen=True)
 class Award:
     KIND: ClassVar[str] = "award"
+    REPLY: ClassVar[bool] = True
     task_id: str
     attempt: int
     winner: str | None
@@ -103,6 +109,7 @@ class Renew:
 @dataclass(frozen=True)
 class Progress:
     KIND: ClassVar[str] = "progress"
+    REPLY: ClassVar[bool] = True
     task_id: str
     attempt: int
     winner: str
@@ -113,6 +120,7 @@ class Progress:
 @dataclass(frozen=True)
 class Report:
     KIND: ClassVar[str] = "report"
+    REPLY: ClassVar[bool] = True
     task_id: str
     attempt: int
     winner: str

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import signal
@@ -56,6 +57,8 @@ class Bidders:
                "--port", str(self.config.port), "--lifetime", str(lifetime_s), "--quiet"]
         if key:
             cmd += ["--key", key]
+        if self.config.reply_lane:
+            cmd.append("--reply-lane")
         self.procs[name] = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True)
 
     def wait_ready(self) -> None:
@@ -84,6 +87,18 @@ class Bidders:
 @pytest.fixture
 def bidders() -> Iterator[Bidders]:
     config = free_config()
+    if not loopback_multicast_available(config):
+        pytest.skip("UDP multicast on the loopback interface is not available on this machine")
+    owner = Bidders(config)
+    try:
+        yield owner
+    finally:
+        owner.stop_all()
+
+
+@pytest.fixture
+def lane_bidders() -> Iterator[Bidders]:
+    config = dataclasses.replace(free_config(), reply_lane=True)
     if not loopback_multicast_available(config):
         pytest.skip("UDP multicast on the loopback interface is not available on this machine")
     owner = Bidders(config)
@@ -150,7 +165,7 @@ def test_forged_and_replayed_bids_are_rejected_on_a_keyed_team(bidders: Bidders)
             MulticastTransport("forger", clock, config, key=TeamKey("not-the-key")) as forger, \
             MulticastTransport("replayer", clock, config) as replayer:
         captured: list[bytes] = []
-        wire_tap = open_multicast_socket(config)
+        wire_tap = open_multicast_socket(config)  # one group carries everything
         node = Node(transport, clock, observer=events.append, on_outcome=outcomes.append)
         spec = TaskSpec("track", frozenset({"camera"}), duration_s=0.5, bid_window_s=1.0,
                         renew_period_s=0.3, contract_timeout_s=1.5, abandon_after_s=1.5)
@@ -159,7 +174,7 @@ def test_forged_and_replayed_bids_are_rejected_on_a_keyed_team(bidders: Bidders)
         forger.publish(negotiation, Bid(task_id, 1, "forger", 1000.0))
         unsigned = replayer.codec.encode_frame("replayer", 0, frozenset(negotiation),
                                                Bid(task_id, 1, "replayer", 500.0))
-        replayer.send_raw(unsigned)
+        replayer.send_raw(unsigned, reply=True)
         # capture an honest signed bid off the wire and send it again
         deadline = clock() + 3.0
         while not captured and clock() < deadline:
@@ -168,11 +183,11 @@ def test_forged_and_replayed_bids_are_rejected_on_a_keyed_team(bidders: Bidders)
                 data = wire_tap.recv(65536)
             except BlockingIOError:
                 continue
-            if b'"k":"bid"' in data and b"honest" in data:
+            if json.loads(data)["h"][1:3] in (["bid", "honest-1"], ["bid", "honest-2"]):
                 captured.append(data)
         wire_tap.close()
         assert captured
-        replayer.send_raw(captured[0])
+        replayer.send_raw(captured[0], reply=True)
         run_until(node, lambda: bool(outcomes), 10.0)
         node.close()
     (outcome,) = outcomes
@@ -182,3 +197,25 @@ def test_forged_and_replayed_bids_are_rejected_on_a_keyed_team(bidders: Bidders)
     dropped = transport.counters.dropped
     assert dropped.get("auth_failed", 0) >= 2  # the forged and the unsigned bid
     assert dropped.get("replayed", 0) >= 1
+
+
+@pytest.mark.timeout(60)
+def test_processes_on_the_reply_lane_run_auctions_to_completion(lane_bidders: Bidders) -> None:
+    for k in range(4):
+        lane_bidders.start(f"lane-b{k}", score=float(k))
+    lane_bidders.wait_ready()
+    clock = time.monotonic
+    events: list[AuctionEvent] = []
+    outcomes: list[Outcome] = []
+    with MulticastTransport(f"lane-user-{os.getpid()}", clock, lane_bidders.config) as transport:
+        node = Node(transport, clock, observer=events.append, on_outcome=outcomes.append)
+        for _ in range(3):
+            spec = TaskSpec("track", frozenset({"camera"}), duration_s=0.0, bid_window_s=0.5,
+                            renew_period_s=0.3, contract_timeout_s=1.5, abandon_after_s=1.5)
+            node.announce(spec)
+            count = len(outcomes) + 1
+            run_until(node, lambda n=count: len(outcomes) >= n, 10.0)
+        node.close()
+    assert [(o.status, o.winner) for o in outcomes] == [("completed", "lane-b3")] * 3
+    assert [e.detail["bids"] for e in events if e.kind == "award"] == [4, 4, 4]
+    assert transport.counters.received("bid") == 12

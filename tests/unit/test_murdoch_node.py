@@ -175,3 +175,38 @@ def test_a_restarted_requester_gets_fresh_task_ids() -> None:
     assert new != old and new.startswith("boss.") and old.startswith("boss.")
     assert [o.status for o in s.outcomes] == ["completed", "completed"]
     assert not robot.busy
+
+
+def test_only_a_node_with_open_auctions_asks_to_be_woken_for_replies() -> None:
+    s = Setup()
+    robot = s.robot("r1", {"camera"}, 1.0)
+    assert not robot._sub.wake_on_replies and not s.user._sub.wake_on_replies
+    task_id = s.user.announce(quick("track", {"camera"}, duration_s=0.0))
+    assert s.user._sub.wake_on_replies  # the bids are coming
+    s.run(0.5)
+    assert robot.busy and s.user._sub.wake_on_replies  # the contract's reports too
+    assert not robot._sub.wake_on_replies
+    robot.complete(task_id, "done")
+    s.run(0.3)
+    assert [o.status for o in s.outcomes] == ["completed"]
+    assert not s.user._sub.wake_on_replies
+
+
+def test_a_bidder_asks_to_look_at_the_other_bids_half_way_through_the_window() -> None:
+    s = Setup()
+    robot = s.robot("r1", {"camera"}, 1.0)
+    best = s.robot("r2", {"camera"}, 2.0)
+    assert robot.bidder is not None and robot.bidder.next_wakeup() is None
+    spec = TaskSpec("track", frozenset({"camera"}), duration_s=1.0, bid_window_s=0.4,
+                    renew_period_s=0.5, contract_timeout_s=1.5, abandon_after_s=1.5)
+    s.user.announce(spec)
+    s.run(0.05)  # both bid at 0.05
+    assert robot.bidder.next_wakeup() == pytest.approx(0.05 + 0.2)
+    assert not robot._sub.wake_on_replies and not best._sub.wake_on_replies  # not yet
+    s.run(0.25)  # 0.3: both have looked; the award comes at 0.4
+    assert robot.bidder.next_wakeup() is None
+    assert ("r1", "outbid") in [(e.agent, e.kind) for e in s.events]
+    assert best._sub.wake_on_replies  # still in contention: the award should wake it
+    assert not robot._sub.wake_on_replies  # outbid: reads the award at its next poll
+    s.run(0.3)
+    assert best.busy and not robot.busy and not robot._sub.wake_on_replies

@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+import hmac
 import json
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -17,6 +18,7 @@ from murdoch.auction.messages import (
     Revoke,
 )
 from murdoch.auth import ReplayWindow, TeamKey, strip_tag
+from murdoch.subjects import SubjectError
 from murdoch.transport import EndpointCore
 from murdoch.wire import MAX_DATAGRAM_BYTES, Codec, WireError
 
@@ -50,17 +52,15 @@ def frame(obj: dict[str, Any]) -> bytes:
     return json.dumps(obj).encode()
 
 
-def bid_frame(**overrides: Any) -> dict[str, Any]:
-    obj: dict[str, Any] = {
-        "v": 1,
-        "k": "bid",
-        "s": "r2",
-        "q": 3,
-        "t": ["task.x"],
-        "b": {"task_id": "x", "attempt": 1, "bidder": "r2", "score": 1.0},
-    }
-    obj.update(overrides)
-    return frame(obj)
+BID_BODY = {"task_id": "x", "attempt": 1, "bidder": "r2", "score": 1.0}
+
+
+def bid_frame(header: str = '2,"bid","r2","",3,"task.x"', body: Any = None) -> bytes:
+    """A hand-made datagram of the standard shape (a valid bid unless overridden)."""
+    if body is None:
+        body = BID_BODY
+    raw = body if isinstance(body, bytes) else json.dumps(body, separators=(",", ":")).encode()
+    return b'{"h":[' + header.encode() + b'],"b":' + raw + b"}"
 
 
 @pytest.mark.parametrize("message", MESSAGES, ids=lambda m: m.KIND)
@@ -77,15 +77,64 @@ def test_wire_layout_is_the_documented_one() -> None:
     data = AUCTION_CODEC.encode_frame(
         "r2", 9, frozenset({"b", "a"}), Bid("t", 1, "r2", 2.5), instance="5e1f"
     )
-    assert json.loads(data) == {
-        "v": 1,
-        "k": "bid",
-        "s": "r2",
-        "i": "5e1f",
-        "q": 9,
-        "t": ["a", "b"],
+    assert data == (b'{"h":[2,"bid","r2","5e1f",9,"a,b"],'
+                    b'"b":{"task_id":"t","attempt":1,"bidder":"r2","score":2.5}}')
+    assert json.loads(data) == {  # one JSON value, whole
+        "h": [2, "bid", "r2", "5e1f", 9, "a,b"],
         "b": {"task_id": "t", "attempt": 1, "bidder": "r2", "score": 2.5},
     }
+    empty = AUCTION_CODEC.encode_frame("r2", 0, frozenset(), Renew("t", 1, "r2", 1))
+    assert empty.startswith(b'{"h":[2,"renew","r2","",0,""],"b":{')
+    assert AUCTION_CODEC.parse_header(empty).subjects == frozenset()
+
+
+@pytest.mark.parametrize("message", MESSAGES, ids=lambda m: m.KIND)
+def test_every_datagram_is_one_json_object_signed_or_not(message: Any) -> None:
+    plain = AUCTION_CODEC.encode_frame("r2", 5, frozenset({"task.user-1.7", "idle"}), message,
+                                       instance="ab12")
+    signed = TeamKey("team-secret-1").sign(plain)
+    for data in (plain, signed):
+        obj = json.loads(data)
+        assert obj["h"] == [2, message.KIND, "r2", "ab12", 5, "idle,task.user-1.7"]
+        assert obj["b"] == AUCTION_CODEC.body_of(message)
+        # the header-first reading and a whole decode of another layout agree
+        relaid = json.dumps(obj, indent=1, sort_keys=True).encode()
+        assert AUCTION_CODEC.parse_frame(relaid) == AUCTION_CODEC.parse_frame(data)
+        assert AUCTION_CODEC.parse_header(data).body is None  # standard shape: body unread
+        assert AUCTION_CODEC.parse_header(relaid).body is not None  # decoded whole
+    assert set(json.loads(signed)) == {"h", "b", "mac"}
+
+
+def test_header_alone_gives_addressing_without_the_body() -> None:
+    data = AUCTION_CODEC.encode_frame("r2", 7, frozenset({"task.x"}), Bid("x", 1, "r2", 1.0),
+                                      instance="ab12")
+    header = AUCTION_CODEC.parse_header(data)
+    assert header[:5] == ("bid", "r2", "ab12", 7, frozenset({"task.x"}))
+    assert header.body is None  # not decoded yet
+    assert json.loads(data[header.body_at:header.body_end]) == AUCTION_CODEC.body_of(
+        Bid("x", 1, "r2", 1.0))
+    replies = {k for k in AUCTION_CODEC.kinds if AUCTION_CODEC.is_reply(k)}
+    assert replies == {"bid", "award", "progress", "report"}
+
+
+def test_other_json_layouts_of_a_datagram_are_accepted() -> None:
+    """Valid JSON that does not have the standard shape is decoded whole, same result."""
+    core = EndpointCore("me", AUCTION_CODEC, clock=lambda: 0.0)
+    sub = core.subscribe({"task.x"})
+    obj = {"h": [2, "bid", "r2", "", 3, "task.x"], "b": BID_BODY}
+    variants = [
+        json.dumps(obj).encode(),  # spaces
+        json.dumps(obj, indent=2).encode(),
+        json.dumps({"b": BID_BODY, "h": obj["h"]}).encode(),  # body first
+        b'{"h":[2,"bid","r\\u0032","",3,"task.x"],"b":{"task_id":"x","attempt":1,'
+        b'"bidder":"r2","score":1.0}}',  # an escaped header token
+        b'{"h":[2,"bid","r2","",3,"task.x"],"b":{"task_id":"x","attempt":1,'
+        b'"bidder":"r2","score":1.0},"mac":"not checked without a key"}',
+    ]
+    for n, data in enumerate(variants):
+        assert core.receive(data) == 1, (n, core.counters.dropped)
+    assert [e.message for e in sub.drain()] == [Bid("x", 1, "r2", 1.0)] * len(variants)
+    assert core.counters.dropped == {}
 
 
 def test_decoded_params_are_read_only_and_lists_become_tuples() -> None:
@@ -100,20 +149,40 @@ BAD = [
     (b"\xff\xfe", "malformed"),
     (b"not json", "malformed"),
     (b"[1, 2]", "malformed"),
-    (frame({"v": 2, "k": "bid"}), "bad_version"),
-    (bid_frame(q=-1), "malformed"),
-    (bid_frame(q=True), "malformed"),
-    (bid_frame(s=""), "malformed"),
-    (bid_frame(i=7), "malformed"),
-    (bid_frame(t=["Not A Subject"]), "malformed"),
-    (bid_frame(t="task.x"), "malformed"),
-    (bid_frame(k="mystery"), "unknown_kind"),
-    (bid_frame(b={"task_id": "x"}), "bad_fields"),
-    (bid_frame(b={"task_id": "x", "attempt": "1", "bidder": "r2", "score": 1.0}), "bad_fields"),
-    (bid_frame(b={"task_id": "x", "attempt": 1, "bidder": "r2", "score": True}), "bad_fields"),
-    (b'{"v":1,"k":"bid","s":"r","q":1,"t":[],"b":{"task_id":"x","attempt":1,'
-     b'"bidder":"r","score":NaN}}', "malformed"),
-    (b"{" + b" " * MAX_DATAGRAM_BYTES + b"}", "too_large"),
+    (b"", "malformed"),
+    (frame({"v": 1, "k": "bid"}), "bad_version"),  # version 1
+    (b"M2 bid r2 - 3 task.x\n{}", "malformed"),
+    (bid_frame('3,"bid","r2","",3,"task.x"'), "bad_version"),
+    (bid_frame('"2","bid","r2","",3,"task.x"'), "malformed"),
+    (bid_frame('2,"bid","r2","",-1,"task.x"'), "malformed"),
+    (bid_frame('2,"bid","r2","","3","task.x"'), "malformed"),
+    (bid_frame('2,"bid","r2","",3.0,"task.x"'), "malformed"),
+    (bid_frame('2,"bid","","",3,"task.x"'), "malformed"),
+    (bid_frame('2,"bid","r 2","",3,"task.x"'), "malformed"),
+    (bid_frame('2,"bid","r2","",3'), "malformed"),
+    (bid_frame('2,"bid","r2","",3,"task.x","extra"'), "malformed"),
+    (bid_frame('2,"bid","r\\u0001","",3,"task.x"'), "malformed"),
+    (bid_frame('2,"Bid!","r2","",3,"task.x"'), "malformed"),
+    (bid_frame('2,"bid","r2","",3,"Not_A_Subject"'), "malformed"),
+    (bid_frame('2,"bid","r2","",3,"task.x,,y"'), "malformed"),
+    (bid_frame('2,"bid","r2","",3,["task.x"]'), "malformed"),
+    (bid_frame('2,"bid",["r2"],"",3,"task.x"'), "malformed"),
+    (b'{"h":[2,"bid","r2","",3,"task.x"]}', "malformed"),  # no body
+    (b'{"h":[2,"bid","r2","",3,"task.x"],"b":{}', "malformed"),  # cut short
+    (b'{"h":[2,"bid","r2","",3,"task.x"],"b":{},"x":1}', "malformed"),  # extra member
+    (b'{"h":[2,"bid","r2","",3,"task.x"],"b":{},"h":[2,"bid","r2","",3,"task.x"]}',
+     "malformed"),  # repeated member
+    (bid_frame(body=b'{"task_id":"x","task_id":"y","attempt":1,"bidder":"r2","score":1}'),
+     "malformed"),
+    (bid_frame(body=b"[1]"), "malformed"),
+    (bid_frame(body=b"{not json"), "malformed"),
+    (bid_frame(body=b"\xff"), "malformed"),
+    (bid_frame('2,"mystery","r2","",3,"task.x"'), "unknown_kind"),
+    (bid_frame(body={"task_id": "x"}), "bad_fields"),
+    (bid_frame(body={"task_id": "x", "attempt": "1", "bidder": "r2", "score": 1.0}), "bad_fields"),
+    (bid_frame(body={"task_id": "x", "attempt": 1, "bidder": "r2", "score": True}), "bad_fields"),
+    (bid_frame(body=b'{"task_id":"x","attempt":1,"bidder":"r","score":NaN}'), "malformed"),
+    (bid_frame(body=b"{" + b" " * MAX_DATAGRAM_BYTES + b"}"), "too_large"),
 ]
 
 
@@ -155,9 +224,11 @@ def test_signed_datagrams_verify_and_any_change_is_caught() -> None:
     key = TeamKey("team-secret-1")
     plain = AUCTION_CODEC.encode_frame("r2", 1, frozenset({"task.x"}), Bid("x", 1, "r2", 1.0))
     signed = key.sign(plain)
-    assert json.loads(signed)["h"]  # still one JSON object
+    covered, tag = signed[:-74], signed[-74:]
+    assert covered == plain[:-1] and tag.startswith(b',"mac":"') and tag.endswith(b'"}')
+    assert json.loads(signed)["mac"] == hmac.new(b"team-secret-1", covered, "sha256").hexdigest()
     assert key.verify(signed) == plain
-    assert strip_tag(signed) == plain
+    assert strip_tag(signed) == plain and strip_tag(plain) == plain
     tampered = signed.replace(b'"score":1.0', b'"score":9.0')
     with pytest.raises(WireError, match="auth_failed"):
         key.verify(tampered)
@@ -165,6 +236,8 @@ def test_signed_datagrams_verify_and_any_change_is_caught() -> None:
         TeamKey("another-key").verify(signed)
     with pytest.raises(WireError, match="auth_failed"):
         key.verify(plain)
+    with pytest.raises(ValueError, match="unsigned"):
+        key.sign(signed)
 
 
 def test_replay_window_accepts_each_number_once_and_forgets_old_ones() -> None:
@@ -202,3 +275,69 @@ def test_a_restarted_sender_is_a_new_instance_for_the_replay_window() -> None:
         sender = EndpointCore("r2", AUCTION_CODEC, lambda: 0.0, key=key, instance=run)
         receiver.receive(sender.encode({"task.x"}, Bid("x", 1, "r2", 1.0)))
     assert len(sub.drain()) == 2 and receiver.counters.dropped == {}
+
+
+def test_unmatched_datagrams_are_dropped_before_the_body_is_read() -> None:
+    """Nobody listens to task.y here: even a body that is not JSON only counts as unmatched."""
+    core = EndpointCore("me", AUCTION_CODEC, clock=lambda: 0.0)
+    sub = core.subscribe({"task.x", "camera", "idle"})
+    assert core.receive(bid_frame('2,"bid","r2","",3,"task.y"', body=b"{broken")) == 0
+    assert core.counters.dropped == {"unmatched": 1}
+    assert core.counters.received("bid") == 1
+    # what the subscription covers is still decoded, checked and delivered
+    assert core.receive(bid_frame('2,"bid","r2","",4,"task.x"', body=b"{broken")) == 0
+    assert core.counters.dropped == {"unmatched": 1, "malformed": 1}
+    assert core.receive(bid_frame('2,"bid","r2","",5,"task.x"')) == 1
+    assert [e.seq for e in sub.drain()] == [5]
+    # an unknown kind is an error even when nobody would have listened
+    assert core.receive(bid_frame('2,"mystery","r2","",6,"task.y"')) == 0
+    assert core.counters.dropped["unknown_kind"] == 1
+    # changing the subscription changes the filter at once (no stale cached match)
+    sub.update({"task.y"})
+    assert core.receive(bid_frame('2,"bid","r2","",7,"task.y"')) == 1
+    assert core.receive(bid_frame('2,"bid","r2","",8,"task.x"')) == 0
+    sub.close()
+    assert core.receive(bid_frame('2,"bid","r2","",9,"task.y"')) == 0
+
+
+def test_keyed_endpoint_authenticates_what_it_acts_on_and_skips_the_rest() -> None:
+    key = TeamKey("team-secret-1")
+    receiver = EndpointCore("me", AUCTION_CODEC, lambda: 0.0, key=key)
+    sub = receiver.subscribe({"task.x"})
+    forged_elsewhere = TeamKey("guessed-key").sign(
+        AUCTION_CODEC.encode_frame("r2", 1, frozenset({"task.y"}), Bid("y", 1, "r2", 1.0)))
+    receiver.receive(forged_elsewhere)  # not for us: dropped unread
+    assert receiver.counters.dropped == {"unmatched": 1}
+    tampered_header = key.sign(
+        AUCTION_CODEC.encode_frame("r2", 2, frozenset({"task.y"}), Bid("x", 1, "r2", 1.0))
+    ).replace(b"task.y", b"task.x")
+    receiver.receive(tampered_header)  # readdressed to us: the tag covers the header too
+    assert receiver.counters.dropped == {"unmatched": 1, "auth_failed": 1}
+    good = key.sign(AUCTION_CODEC.encode_frame("r2", 3, frozenset({"task.x"}),
+                                               Bid("x", 1, "r2", 1.0)))
+    moved = json.loads(good)  # the same members re-laid out: the tag no longer ends it
+    relaid = json.dumps({"mac": moved["mac"], "h": moved["h"], "b": moved["b"]}).encode()
+    receiver.receive(relaid)
+    assert receiver.counters.dropped == {"unmatched": 1, "auth_failed": 2}
+    assert sub.drain() == []
+    receiver.receive(good)
+    assert [e.seq for e in sub.drain()] == [3]
+
+
+def test_header_tokens_are_checked_when_encoding() -> None:
+    for bad in ("r 2", 'r"2', "r]2", "r[2", "r\\2", "", "é"):
+        with pytest.raises(ValueError, match="sender"):
+            AUCTION_CODEC.encode_frame(bad, 0, frozenset(), Bid("x", 1, "r2", 1.0))
+    with pytest.raises(ValueError, match="instance"):
+        AUCTION_CODEC.encode_frame("r2", 0, frozenset(), Bid("x", 1, "r2", 1.0), instance="a]")
+    with pytest.raises(SubjectError):
+        AUCTION_CODEC.encode_frame("r2", 0, frozenset({"Task]"}), Bid("x", 1, "r2", 1.0))
+    with pytest.raises(ValueError, match="sender_id"):
+        EndpointCore("two words", AUCTION_CODEC, lambda: 0.0)
+
+    @dataclass(frozen=True)
+    class Odd:
+        KIND: ClassVar[str] = "has space"
+
+    with pytest.raises(TypeError, match="KIND"):
+        Codec([Odd])
