@@ -84,9 +84,7 @@ class Bidders:
                 proc.wait(timeout=10)
 
 
-@pytest.fixture
-def bidders() -> Iterator[Bidders]:
-    config = free_config()
+def _owned_bidders(config: MulticastConfig) -> Iterator[Bidders]:
     if not loopback_multicast_available(config):
         pytest.skip("UDP multicast on the loopback interface is not available on this machine")
     owner = Bidders(config)
@@ -94,18 +92,16 @@ def bidders() -> Iterator[Bidders]:
         yield owner
     finally:
         owner.stop_all()
+
+
+@pytest.fixture
+def bidders() -> Iterator[Bidders]:
+    yield from _owned_bidders(free_config())
 
 
 @pytest.fixture
 def lane_bidders() -> Iterator[Bidders]:
-    config = dataclasses.replace(free_config(), reply_lane=True)
-    if not loopback_multicast_available(config):
-        pytest.skip("UDP multicast on the loopback interface is not available on this machine")
-    owner = Bidders(config)
-    try:
-        yield owner
-    finally:
-        owner.stop_all()
+    yield from _owned_bidders(dataclasses.replace(free_config(), reply_lane=True))
 
 
 def run_until(node: Node, done, timeout_s: float) -> None:
