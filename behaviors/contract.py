@@ -156,5 +156,22 @@ def check_behaviour(behaviour: Behaviour, snapshots: Iterable[Snapshot]) -> int:
             raise ContractViolation(
                 f"{behaviour.name}: acts on stale data {where}: {stale} vs no data {blank}"
             )
+        _check_inputs_key(behaviour, s, now, first, cases)
         checks += 1
     return checks
+
+
+def _check_inputs_key(behaviour: Behaviour, s: Snapshot, now: float, first: Proposal,
+                      cases: list[Snapshot]) -> None:
+    """An `inputs_key` (see `runner`) may only repeat when the proposal does."""
+    key_of = getattr(behaviour, "inputs_key", None)
+    if not callable(key_of):
+        return
+    key = key_of(s, now)
+    if key is None:
+        return
+    for other, t in ((s, now + 0.01), (s, now + 0.5), (cases[0] if cases else s, now)):
+        if key_of(other, t) == key and behaviour.decide(other, t) != first:
+            raise ContractViolation(
+                f"{behaviour.name}: same inputs key {key!r} at t={now} and t={t} but "
+                f"different proposals")

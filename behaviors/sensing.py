@@ -11,11 +11,12 @@ import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TypeVar
+from typing import Any, TypeVar
 
 from behaviors.snapshot import (
     BlobView,
     Bumpers,
+    Deferred,
     Gripper,
     Mark,
     Odometry,
@@ -26,11 +27,11 @@ from behaviors.snapshot import (
     make_blob_view,
     make_bumpers,
     make_gripper,
+    make_lazy_snapshot,
     make_odometry,
     make_pose,
     make_power,
     make_scan,
-    make_snapshot,
     wrap_angle,
 )
 from player_server.client import (
@@ -46,6 +47,7 @@ from player_server.client import (
     PowerProxy,
     Proxy,
     RangerProxy,
+    ScanBody,
     SonarProxy,
 )
 from player_server.protocol.constants import interface_name
@@ -70,6 +72,30 @@ class FrameOffset:
         c, s = math.cos(self.yaw_rad), math.sin(self.yaw_rad)
         return (self.x_m + c * x - s * y, self.y_m + s * x + c * y,
                 wrap_angle(self.yaw_rad + yaw))
+
+
+def _odometry_reading(v: tuple[float, float, float, float, float, float, int], time_s: float,
+                      trig: tuple[FrameOffset, float, float] | None) -> Odometry:
+    """An odometry reading from position2d state values, moved into the world frame."""
+    x, y, yaw = v[0], v[1], v[2]
+    if trig is not None:
+        offset, c, s = trig
+        x, y, yaw = (offset.x_m + c * x - s * y, offset.y_m + s * x + c * y,
+                     wrap_angle(offset.yaw_rad + yaw))
+    return make_odometry(make_pose(x, y, yaw), v[3], v[5], bool(v[6]), time_s)
+
+
+def _blob_view(v: tuple[int, int, tuple[tuple[Any, ...], ...]], fov_rad: float,
+               time_s: float) -> BlobView:
+    """A camera reading from blobfinder values: (width, height, blobs), each blob (id, color,
+    area, x, y, left, right, top, bottom, range)."""
+    inf = math.inf
+    blobs = tuple([
+        make_blob(b[1] & 0xFFFFFF, b[2], float(b[3]), float(b[4]), b[5], b[6], b[7], b[8],
+                  b[9] if b[9] > 0 else inf)
+        for b in v[2]
+    ])
+    return make_blob_view(v[0], v[1], blobs, fov_rad, time_s)
 
 
 class PlayerRobotIO:
@@ -99,10 +125,10 @@ class PlayerRobotIO:
         self._bumper_front: tuple[bool, ...] = ()
         self._last_command: tuple[float, float] | None = None
         # per-reading caches: (proxy's data_count when built, the reading)
-        self._odo_hit: tuple[int, Odometry | None] = (-1, None)
-        self._sonar_hit: tuple[int, RangeScan | None] = (-1, None)
-        self._laser_hit: tuple[int, RangeScan | None] = (-1, None)
-        self._blob_hit: tuple[int, BlobView | None] = (-1, None)
+        self._odo_hit: tuple[int, Odometry | Deferred | None] = (-1, None)
+        self._sonar_hit: tuple[int, RangeScan | Deferred | None] = (-1, None)
+        self._laser_hit: tuple[int, RangeScan | Deferred | None] = (-1, None)
+        self._blob_hit: tuple[int, BlobView | Deferred | None] = (-1, None)
         self._bumper_hit: tuple[int, Bumpers | None] = (-1, None)
         self._power_hit: tuple[int, Power | None] = (-1, None)
         self._sonar_proxy: SonarProxy | None = None
@@ -205,10 +231,13 @@ class PlayerRobotIO:
 
         Each reading is rebuilt only when its device sent new data since the last snapshot
         (the proxy's data count moved); otherwise the previous, frozen reading is reused.
+        Odometry, sonar, laser and camera readings are `Deferred`: built from the values
+        captured now by whichever thread reads them first, and not at all when no one
+        does (many tasks never look at the laser or odometry; an idle robot looks at none).
         """
         if self.proxies != self._resolved:
             self._resolve()
-        return make_snapshot(
+        return make_lazy_snapshot(
             self.client.data_time_s or 0.0,
             self._odometry(),
             self._sonar(),
@@ -220,7 +249,7 @@ class PlayerRobotIO:
             mark,
         )
 
-    def _odometry(self) -> Odometry | None:
+    def _odometry(self) -> Odometry | Deferred | None:
         proxy = self._position
         if proxy is None:
             return None
@@ -228,27 +257,21 @@ class PlayerRobotIO:
         hit = self._odo_hit
         if hit[0] == count:
             return hit[1]
-        st = proxy.state
-        if st is None:
+        v = proxy.state_values
+        if v is None:
             return None
-        pos = st.pos
-        x, y, yaw = pos.px, pos.py, pos.pa
         offset = self.odometry_offset
+        trig = None
         if offset is not None:
             trig = self._offset_trig
             if trig is None or trig[0] is not offset:
                 trig = self._offset_trig = (offset, math.cos(offset.yaw_rad),
                                             math.sin(offset.yaw_rad))
-            c, s = trig[1], trig[2]
-            x, y, yaw = (offset.x_m + c * x - s * y, offset.y_m + s * x + c * y,
-                         wrap_angle(offset.yaw_rad + yaw))
-        vel = st.vel
-        value = make_odometry(make_pose(x, y, yaw), vel.px, vel.pa, bool(st.stall),
-                              proxy.data_time_s or 0.0)
+        value = Deferred(_odometry_reading, v, proxy.data_time_s or 0.0, trig)
         self._odo_hit = (count, value)
         return value
 
-    def _sonar(self) -> RangeScan | None:
+    def _sonar(self) -> RangeScan | Deferred | None:
         proxy = self._sonar_proxy
         if proxy is None:
             return None
@@ -258,19 +281,22 @@ class PlayerRobotIO:
             return hit[1]
         if not count:
             return None
-        ranges = proxy.ranges
+        value = Deferred(self._sonar_reading, proxy.ranges, proxy.data_time_s or 0.0)
+        self._sonar_hit = (count, value)
+        return value
+
+    def _sonar_reading(self, ranges: tuple[float, ...], time_s: float) -> RangeScan:
         bearings, offsets = self._sonar_geometry
         if len(bearings) != len(ranges):
             # No geometry: spread the transducers evenly around the robot.
             n = len(ranges)
-            if len(self._sonar_spread) != n:
-                self._sonar_spread = tuple(wrap_angle(2 * math.pi * i / n) for i in range(n))
-            bearings = self._sonar_spread
+            spread = self._sonar_spread
+            if len(spread) != n:
+                spread = self._sonar_spread = tuple(
+                    wrap_angle(2 * math.pi * i / n) for i in range(n))
+            bearings = spread
             offsets = ()
-        value = make_scan(ranges, bearings, max(ranges, default=0.0),
-                          proxy.data_time_s or 0.0, offsets, 0)
-        self._sonar_hit = (count, value)
-        return value
+        return make_scan(ranges, bearings, max(ranges, default=0.0), time_s, offsets, 0)
 
     def _bearings(self, min_angle: float, resolution: float, n: int) -> tuple[
         tuple[float, ...], tuple[float, ...]
@@ -285,7 +311,7 @@ class PlayerRobotIO:
             self._laser_bearings[key] = hit
         return hit
 
-    def _laser(self) -> RangeScan | None:
+    def _laser(self) -> RangeScan | Deferred | None:
         proxy = self._laser_proxy
         if proxy is None:
             return None
@@ -295,25 +321,32 @@ class PlayerRobotIO:
             return hit[1]
         if not count:
             return None
-        value: RangeScan | None
+        value: Deferred
         if isinstance(proxy, LaserProxy):
-            scan = proxy.scan
-            if scan is None:
+            body = proxy.scan_body  # its ranges are decoded only if the reading is built
+            if body is None:
                 return None
-            bearings, offsets = self._bearings(scan.min_angle, scan.resolution, len(scan.ranges))
-            value = make_scan(scan.ranges, bearings, scan.max_range, proxy.data_time_s or 0.0,
-                              offsets, scan.id)
+            value = Deferred(self._laser_body_reading, body, proxy.data_time_s or 0.0)
         else:
             cfg = proxy.config
             if cfg is None:
                 return None
-            bearings, offsets = self._bearings(cfg.min_angle, cfg.angular_res, len(proxy.ranges))
-            value = make_scan(proxy.ranges, bearings, cfg.max_range, proxy.data_time_s or 0.0,
-                              offsets, 0)
+            value = Deferred(self._laser_reading, proxy.ranges, cfg.min_angle, cfg.angular_res,
+                             cfg.max_range, proxy.data_time_s or 0.0, 0)
         self._laser_hit = (count, value)
         return value
 
-    def _blobs(self) -> BlobView | None:
+    def _laser_body_reading(self, body: ScanBody, time_s: float) -> RangeScan:
+        # (min_angle, max_angle, resolution, max_range, ranges, intensity, id)
+        v = body.values()
+        return self._laser_reading(v[4], v[0], v[2], v[3], time_s, v[6])
+
+    def _laser_reading(self, ranges: tuple[float, ...], min_angle: float, resolution: float,
+                       max_range: float, time_s: float, scan_id: int) -> RangeScan:
+        bearings, offsets = self._bearings(min_angle, resolution, len(ranges))
+        return make_scan(ranges, bearings, max_range, time_s, offsets, scan_id)
+
+    def _blobs(self) -> BlobView | Deferred | None:
         proxy = self._blob_proxy
         if proxy is None:
             return None
@@ -321,17 +354,10 @@ class PlayerRobotIO:
         hit = self._blob_hit
         if hit[0] == count:
             return hit[1]
-        st = proxy.state
-        if st is None:
+        v = proxy.blob_values
+        if v is None:
             return None
-        inf = math.inf
-        blobs = tuple([
-            make_blob(b.color & 0xFFFFFF, b.area, float(b.x), float(b.y), b.left, b.right,
-                      b.top, b.bottom, b.range if b.range > 0 else inf)
-            for b in st.blobs
-        ])
-        value = make_blob_view(st.width, st.height, blobs, self.camera_fov_rad,
-                               proxy.data_time_s or 0.0)
+        value = Deferred(_blob_view, v, self.camera_fov_rad, proxy.data_time_s or 0.0)
         self._blob_hit = (count, value)
         return value
 
@@ -357,10 +383,10 @@ class PlayerRobotIO:
         hit = self._power_hit
         if hit[0] == count:
             return hit[1]
-        st = proxy.state
-        if st is None:
+        v = proxy.state_values  # (valid, volts, percent, joules, watts, charging)
+        if v is None:
             return None
-        value = make_power(st.percent, st.volts, st.charging, proxy.data_time_s or 0.0)
+        value = make_power(v[2], v[1], v[5], proxy.data_time_s or 0.0)
         self._power_hit = (count, value)
         return value
 

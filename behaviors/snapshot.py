@@ -24,20 +24,34 @@ def slot_maker(cls: type[T]) -> Callable[..., T]:
     """A positional constructor for a frozen, slotted dataclass that fills the slots directly.
 
     The generated ``__init__`` of a frozen dataclass calls ``object.__setattr__`` once per
-    field; per-tick readings are built every data round, so they are made by setting the
-    slot descriptors instead. The object is equal to, and as frozen as, ``cls(*args)``.
-    Defaults are not applied: every field must be passed, in declaration order.
+    field; per-tick readings are built every data round, so they are made another way: as
+    an instance of a plain twin class with the same slots (whose attributes are stored by
+    ordinary, specialised assignments), which then becomes a ``cls`` (``__class__`` is
+    assigned; the layouts are identical). The object is equal to, and as frozen as,
+    ``cls(*args)``. Defaults are not applied: every field must be passed, in declaration
+    order.
     """
     names = [f.name for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
-    ns: dict[str, Any] = {"_new": object.__new__, "_cls": cls}
-    lines = [f"def make({', '.join(f'a{i}' for i in range(len(names)))}):",
-             "    o = _new(_cls)"]
-    for i, name in enumerate(names):
-        ns[f"_s{i}"] = cls.__dict__[name].__set__
-        lines.append(f"    _s{i}(o, a{i})")
-    lines.append("    return o")
+    args = ", ".join(f"a{i}" for i in range(len(names)))
+    twin = type(f"_{cls.__name__}Slots", (), {"__slots__": tuple(names)})
+    ns: dict[str, Any] = {"_new": object.__new__, "_cls": cls, "_twin": twin}
+    lines = [f"def make({args}):", "    o = _new(_twin)"]
+    lines += [f"    o.{name} = a{i}" for i, name in enumerate(names)]
+    lines += ["    o.__class__ = _cls", "    return o"]
     exec("\n".join(lines), ns)
-    return ns["make"]  # type: ignore[no-any-return]
+    make: Callable[..., T] = ns["make"]
+    try:
+        make(*range(len(names)))
+    except TypeError:  # not layout-compatible (e.g. a base with slots): set each slot
+        ns = {"_new": object.__new__, "_cls": cls}
+        lines = [f"def make({args}):", "    o = _new(_cls)"]
+        for i, name in enumerate(names):
+            ns[f"_s{i}"] = cls.__dict__[name].__set__
+            lines.append(f"    _s{i}(o, a{i})")
+        lines.append("    return o")
+        exec("\n".join(lines), ns)
+        make = ns["make"]
+    return make
 
 
 @dataclass(frozen=True, slots=True)
@@ -212,6 +226,86 @@ class Snapshot:
         return now_s - reading_time_s <= max_age_s
 
 
+class Deferred:
+    """A reading not built yet: `get()` builds it once from values captured beforehand."""
+
+    __slots__ = ("_args", "_build", "_value")
+
+    def __init__(self, build: Callable[..., Any], *args: Any) -> None:
+        self._build = build
+        self._args = args
+        self._value: Any = Deferred
+
+    def get(self) -> Any:
+        value = self._value
+        if value is Deferred:
+            value = self._value = self._build(*self._args)
+        return value
+
+
+_SLOTS = {name: Snapshot.__dict__[name] for name in
+          ("odometry", "sonar", "laser", "camera", "bumpers", "power", "gripper")}
+
+
+def _lazy_reading(name: str) -> property:
+    slot = _SLOTS[name]
+    get_slot, set_slot = slot.__get__, slot.__set__
+
+    def read(self: Snapshot) -> Any:
+        value = get_slot(self)
+        if type(value) is Deferred:
+            value = value.get()
+            set_slot(self, value)
+        return value
+
+    def store(self: Snapshot, value: Any) -> None:  # for __init__ (replace) only
+        set_slot(self, value)
+
+    return property(read, store, doc=f"the {name} reading (built when first read)")
+
+
+class LazySnapshot(Snapshot):
+    """A `Snapshot` whose readings may be `Deferred`: built by the first thread to read them.
+
+    A deferred reading is built from values captured when the snapshot was made (never
+    from live proxies), so it is the same whenever and wherever it is read; readings no
+    behaviour looks at are never built. Equal to (and hashed like) the plain `Snapshot`
+    with the same readings; frozen like it.
+    """
+
+    __slots__ = ()
+
+    odometry = _lazy_reading("odometry")
+    sonar = _lazy_reading("sonar")
+    laser = _lazy_reading("laser")
+    camera = _lazy_reading("camera")
+    bumpers = _lazy_reading("bumpers")
+    power = _lazy_reading("power")
+    gripper = _lazy_reading("gripper")
+
+    def _fields(self) -> tuple[Any, ...]:
+        return (self.time_s, self.odometry, self.sonar, self.laser, self.camera, self.bumpers,
+                self.power, self.gripper, self.mark)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Snapshot):
+            return NotImplemented
+        return self._fields() == (other.time_s, other.odometry, other.sonar, other.laser,
+                                  other.camera, other.bumpers, other.power, other.gripper,
+                                  other.mark)
+
+    def __hash__(self) -> int:
+        return hash(self._fields())
+
+    def with_mark(self, mark: Mark | None) -> Snapshot:
+        slots = _SLOTS
+        return make_lazy_snapshot(
+            self.time_s, slots["odometry"].__get__(self), slots["sonar"].__get__(self),
+            slots["laser"].__get__(self), slots["camera"].__get__(self),
+            slots["bumpers"].__get__(self), slots["power"].__get__(self),
+            slots["gripper"].__get__(self), mark)
+
+
 EMPTY = Snapshot(time_s=0.0)
 
 make_pose = slot_maker(Pose2D)
@@ -223,3 +317,5 @@ make_bumpers = slot_maker(Bumpers)
 make_power = slot_maker(Power)
 make_gripper = slot_maker(Gripper)
 make_snapshot = slot_maker(Snapshot)
+#: the same fields, in order; any reading may be a `Deferred`
+make_lazy_snapshot = slot_maker(LazySnapshot)

@@ -102,6 +102,14 @@ class KeepDistanceToColour:
     weight: float = 0.7
     name: str = "keep-distance-to-colour"
 
+    def inputs_key(self, snapshot: Snapshot, now: float) -> object:
+        """What `decide` looks at: the freshest largest blob of the colour (see `runner`)."""
+        view = snapshot.camera
+        blob = seen(view, now, self.max_age_s, self.colour)
+        if blob is None or view is None:
+            return 0
+        return (blob.x_px, blob.range_m, view.width_px, view.fov_rad)
+
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
         view = snapshot.camera
         blob = seen(view, now, self.max_age_s, self.colour)

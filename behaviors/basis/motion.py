@@ -18,6 +18,10 @@ class Hold:
     max_speed_mps: float = 0.0
     max_turn_radps: float = 0.0
 
+    def inputs_key(self, snapshot: Snapshot, now: float) -> int:
+        """Always the same proposal (see `runner`)."""
+        return 0
+
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
         return Proposal(True, 0.0, 0.0, self.weight, "", 0.0)
 
@@ -90,6 +94,10 @@ class Cruise:
     @property
     def max_speed_mps(self) -> float:
         return abs(self.speed_mps)
+
+    def inputs_key(self, snapshot: Snapshot, now: float) -> int:
+        """Always the same proposal (see `runner`)."""
+        return 0
 
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
         return Proposal(True, self.speed_mps, 0.0, self.weight, "", 0.0)

@@ -80,6 +80,12 @@ class Wander:
     def max_speed_mps(self) -> float:
         return self.speed_mps
 
+    def inputs_key(self, snapshot: Snapshot, now: float) -> int | None:
+        """The time bucket: the proposal changes only when it does (see `runner`)."""
+        if not math.isfinite(now):
+            return None
+        return int(now // self.period_s) if self.period_s > 0 else 0
+
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
         if not math.isfinite(now):
             return INACTIVE

@@ -22,6 +22,7 @@ from player_server.client.proxies import (
     PowerProxy,
     PtzProxy,
     RangerProxy,
+    ScanBody,
     SimulationProxy,
     SonarProxy,
 )
@@ -45,6 +46,7 @@ __all__ = [
     "Proxy",
     "PtzProxy",
     "RangerProxy",
+    "ScanBody",
     "SimulationProxy",
     "SonarProxy",
 ]

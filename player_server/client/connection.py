@@ -34,14 +34,15 @@ from collections.abc import Callable
 from typing import Any, TypeVar
 
 from player_server.client.errors import PlayerConnectionError, PlayerNack, PlayerTimeout
+from player_server.client.framing import FrameBuffer, decode_frame
 from player_server.client.proxy import Proxy
 from player_server.protocol import constants as c
 from player_server.protocol import player_msgs as pm
-from player_server.protocol.codec import Decoder, Undecodable, encode_message
+from player_server.protocol.codec import Undecodable, encode_message
 from player_server.protocol.common import DevAddr
 from player_server.protocol.constants import MsgType
-from player_server.protocol.errors import FrameError
-from player_server.protocol.header import HEADER_STRUCT, Message
+from player_server.protocol.errors import DecodeError
+from player_server.protocol.header import HEADER_STRUCT, Header, Message
 
 log = logging.getLogger(__name__)
 
@@ -56,6 +57,10 @@ _RECV_SIZE = 256 * 1024
 #: wake a reader waiting for a round only for more than a lone reply header
 _ROUND_LOWAT = c.HEADER_SIZE + 1
 _HEADER = HEADER_STRUCT
+_HEADER_SIZE = c.HEADER_SIZE
+_MAX_SIZE = c.MAX_MESSAGE_SIZE
+_REQ_DATA = c.PLAYER_REQ_DATA
+_SYNCH_OVERFLOW = c.PLAYER_SYNCH_OVERFLOW
 
 
 class PlayerClient:
@@ -80,11 +85,10 @@ class PlayerClient:
         self._wanted_mode = mode
         self._clock = clock
         self._sock: socket.socket | None = None
-        self._decoder = Decoder()
-        self._rview = memoryview(bytearray(_RECV_SIZE))
+        self._frames = FrameBuffer(_RECV_SIZE)
         self._lowat = 1
         self._backlog: deque[Message] = deque()
-        self._events: deque[Message | Undecodable] = deque()
+        self._events: deque[Message] = deque()
         self._io_lock = threading.RLock()
         self._send_lock = threading.Lock()
         self._pending: list[bytes] = []
@@ -94,6 +98,7 @@ class PlayerClient:
         self.mode = c.PLAYER_DATAMODE_PUSH
         self.data_time_s: float | None = None
         self.overflow_count = 0
+        self.undecodable = 0
         self.rounds = 0
 
     # -- connection -------------------------------------------------------------------------
@@ -192,7 +197,45 @@ class PlayerClient:
         return self._events.popleft()
 
     def _fill(self, deadline: float | None, round_wait: bool = False) -> None:
-        """Receive until at least one decoded message is queued in ``_events``.
+        """Receive until at least one decoded message is queued in ``_events``."""
+        events = self._events
+        frames = self._frames
+        while not events:
+            buf, pos, end = frames.buf, frames.start, frames.end
+            while end - pos >= _HEADER_SIZE:
+                h = _HEADER.unpack_from(buf, pos)
+                stop = pos + _HEADER_SIZE + self._frame_size(h)
+                if stop > end:
+                    frames.reserve(stop - pos)
+                    break
+                frames.start = stop
+                msg = decode_frame(h, buf, pos + _HEADER_SIZE, stop)
+                pos = stop
+                if type(msg) is Message:
+                    events.append(msg)
+                    continue
+                assert isinstance(msg, Undecodable)
+                self._skip(msg.reason)
+                if msg.header.type in (_ACK, _NACK):
+                    events.append(Message(msg.header, None))
+            if not events:
+                self._receive(deadline, round_wait)
+
+    def _frame_size(self, header: tuple[Any, ...]) -> int:
+        size: int = header[8]
+        if size > _MAX_SIZE:
+            self.close()
+            raise PlayerConnectionError(
+                f"unframeable stream from server: message size {size} exceeds the limit "
+                f"{_MAX_SIZE}")
+        return size
+
+    def _skip(self, reason: str) -> None:
+        self.undecodable += 1
+        log.warning("skipping a message that does not decode: %s", reason)
+
+    def _receive(self, deadline: float | None, round_wait: bool = False) -> None:
+        """Receive once into the frame buffer (blocking until ``deadline``).
 
         ``round_wait``: a PULL round was asked for and its ACK has not come yet. In
         lockstep the ACK arrives alone and the round only after the step; waking for the
@@ -200,36 +243,21 @@ class PlayerClient:
         for more than one header's worth of bytes (SO_RCVLOWAT). A receive slice that
         ends returns what has arrived, so a lone reply still gets through in one slice.
         """
-        events = self._events
-        decoder = self._decoder
-        while not events:
-            try:
-                decoded = decoder.events()
-            except FrameError as exc:
-                self.close()
-                raise PlayerConnectionError(f"unframeable stream from server: {exc}") from exc
-            if decoded:
-                for ev in decoded:
-                    if type(ev) is Message:
-                        events.append(ev)
-                        continue
-                    assert isinstance(ev, Undecodable)
-                    log.warning("skipping a message that does not decode: %s", ev.reason)
-                    if ev.header.type in (_ACK, _NACK):
-                        events.append(Message(ev.header, None))
-                continue
+        frames = self._frames
+        while True:
             sock = self._sock
             if sock is None:
                 raise PlayerConnectionError("not connected")
             if deadline is not None and deadline - self._clock() <= 0:
                 raise PlayerTimeout("timed out waiting for the server")
-            self._set_lowat(sock, 1 if not round_wait or decoder.buffered else _ROUND_LOWAT)
+            self._set_lowat(sock, 1 if not round_wait or frames.end > frames.start
+                            else _ROUND_LOWAT)
             try:
                 # a blocking recv bounded by SO_RCVTIMEO slices: one system call per
                 # receive (a Python socket timeout would add a poll() to each), into a
                 # buffer allocated once (a fresh 256 KiB bytes per recv costs an
                 # mmap/munmap pair and page faults)
-                n = sock.recv_into(self._rview)
+                n = frames.receive(sock)
             except (BlockingIOError, TimeoutError, InterruptedError):
                 continue  # a slice ended: check the deadline and wait again
             except OSError as exc:
@@ -238,7 +266,7 @@ class PlayerClient:
             if not n:
                 self.close()
                 raise PlayerConnectionError("the server closed the connection")
-            decoder.feed(self._rview[:n])
+            return
 
     def _deadline(self, timeout_s: float | None, default: float) -> float | None:
         t = default if timeout_s is None else timeout_s
@@ -358,7 +386,9 @@ class PlayerClient:
         """Wait for one full data round (PULL) or one DATA (PUSH); return updated proxies.
 
         In PULL mode the REQ DATA's ACK (within ``timeout_s``, default the request
-        timeout) and the round (within ``read_timeout_s``) are read in one pass.
+        timeout) and the round (within ``read_timeout_s``) are read in one pass. DATA
+        bodies are handed to their proxies where they lie in the receive buffer; a body
+        that does not decode is skipped (logged and counted in ``undecodable``).
         """
         with self._io_lock:
             deadline = self._deadline(timeout_s, self.read_timeout_s)
@@ -368,65 +398,124 @@ class PlayerClient:
             ack_deadline = None
             if (pull and not self._round_outstanding
                     and not (backlog and any(m.header.type == _SYNCH for m in backlog))):
-                self._send(_HEADER.pack(0, 0, _PLAYER, 0, _REQ, c.PLAYER_REQ_DATA,
-                                        self._clock(), 0, 0))
+                self._send(_HEADER.pack(0, 0, _PLAYER, 0, _REQ, _REQ_DATA, self._clock(), 0, 0))
                 self._round_outstanding = True
                 ack_wait = True
                 ack_deadline = self._deadline(timeout_s, self.timeout_s)
             elif self._pending:
                 self.flush()
-            updated: list[Proxy] = []
+            rnd = _Round(pull, ack_wait)
+            updated = rnd.updated
             proxies = self.proxies
-            got_data = synched = False
             events = self._events
+            frames = self._frames
+            unpack_header = _HEADER.unpack_from
             while True:
-                if backlog:
-                    msg = backlog.popleft()
-                else:
-                    if not events:
-                        if ack_wait:
-                            self._fill(ack_deadline if deadline is None or (
-                                ack_deadline is not None and ack_deadline < deadline)
-                                else deadline, True)
+                # messages decoded while a request waited for its reply come first
+                while backlog or events:
+                    msg = backlog.popleft() if backlog else events.popleft()
+                    head = msg.header
+                    if head[4] == _DATA:
+                        rnd.got_data = True
+                        proxy = proxies.get((head[2], head[3]))
+                        if proxy is None:
+                            log.debug("data for %d:%d without a proxy", head[2], head[3])
                         else:
-                            self._fill(deadline)
-                    msg = events.popleft()
-                h = msg.header
-                t = h[4]  # type
-                if t == _DATA:
-                    # (interf, index) -> proxy; subtype, timestamp by position (a named
-                    # tuple's fields are its items)
-                    proxy = proxies.get((h[2], h[3]))
-                    got_data = True
-                    if proxy is None:
-                        log.debug("data for %d:%d without a proxy", h.interf, h.index)
+                            proxy._on_data(head[5], msg.body, head[6])
+                            self.data_time_s = head[6]
+                            if proxy not in updated:
+                                updated.append(proxy)
+                        if not pull:
+                            return updated
                     else:
-                        stamp = h[6]
-                        proxy._on_data(h[5], msg.body, stamp)
-                        self.data_time_s = stamp
-                        if proxy not in updated:
-                            updated.append(proxy)
-                    if not pull:
+                        self._take(rnd, head, msg.body)
+                        if rnd.done:
+                            return updated
+                # then the frames where they lie in the receive buffer
+                buf, pos, end = frames.buf, frames.start, frames.end
+                while end - pos >= _HEADER_SIZE:
+                    h = unpack_header(buf, pos)
+                    size = h[8]
+                    if size > _MAX_SIZE:
+                        self._frame_size(h)
+                    start = pos + _HEADER_SIZE
+                    stop = start + size
+                    if stop > end:
+                        frames.reserve(stop - pos)
+                        break
+                    pos = frames.start = stop
+                    if h[4] == _DATA:
+                        rnd.got_data = True
+                        proxy = proxies.get((h[2], h[3]))
+                        if proxy is None:
+                            log.debug("data for %d:%d without a proxy", h[2], h[3])
+                        else:
+                            try:
+                                proxy._on_raw(h[5], buf, start, stop, h[6])
+                            except DecodeError as exc:
+                                self._skip(str(exc))
+                            else:
+                                self.data_time_s = h[6]
+                                if proxy not in updated:
+                                    updated.append(proxy)
+                        if not pull:
+                            return updated
+                        continue
+                    if size:
+                        frame = decode_frame(h, buf, start, stop)
+                        if isinstance(frame, Undecodable):
+                            self._skip(frame.reason)
+                            if h[4] not in (_ACK, _NACK):
+                                continue
+                            self._take(rnd, h, None)  # a reply still answers its request
+                        else:
+                            self._take(rnd, h, frame.body)
+                    else:
+                        self._take(rnd, h, None)
+                    if rnd.done:
                         return updated
-                elif t == _SYNCH:
-                    if h.subtype == c.PLAYER_SYNCH_OVERFLOW and msg.body is not None:
-                        self.overflow_count += msg.body.dropped
+                if rnd.ack_wait:
+                    self._receive(ack_deadline if deadline is None or (
+                        ack_deadline is not None and ack_deadline < deadline) else deadline,
+                        True)
+                else:
+                    self._receive(deadline)
+
+    def _take(self, rnd: _Round, h: tuple[Any, ...], body: Any) -> None:
+        """Account for one message of a round other than DATA."""
+        t = h[4]
+        if t == _SYNCH:
+            if h[5] == _SYNCH_OVERFLOW and body is not None:
+                self.overflow_count += body.dropped
+            self._round_outstanding = False
+            if rnd.pull:
+                self.rounds += 1
+                if not rnd.got_data:
+                    log.warning("a data round without data")
+                rnd.synched = True
+                if not rnd.ack_wait:
+                    rnd.done = True
+        elif t in (_ACK, _NACK):
+            if rnd.ack_wait and h[2] == _PLAYER and h[3] == 0 and h[5] == _REQ_DATA:
+                rnd.ack_wait = False
+                if t == _NACK:
                     self._round_outstanding = False
-                    if pull:
-                        self.rounds += 1
-                        if not got_data:
-                            log.warning("a data round without data")
-                        synched = True
-                        if not ack_wait:
-                            return updated
-                elif t in (_ACK, _NACK):
-                    if (ack_wait and h.interf == _PLAYER and h.index == 0
-                            and h.subtype == c.PLAYER_REQ_DATA):
-                        ack_wait = False
-                        if t == _NACK:
-                            self._round_outstanding = False
-                            raise PlayerNack(_PLAYER, 0, c.PLAYER_REQ_DATA, msg.body)
-                        if synched:
-                            return updated
-                    else:
-                        log.warning("discarding an unclaimed reply %s", h)
+                    raise PlayerNack(_PLAYER, 0, _REQ_DATA, body)
+                if rnd.synched:
+                    rnd.done = True
+            else:
+                log.warning("discarding an unclaimed reply %s", Header._make(h))
+
+
+class _Round:
+    """What one ``read()`` has seen so far."""
+
+    __slots__ = ("ack_wait", "done", "got_data", "pull", "synched", "updated")
+
+    def __init__(self, pull: bool, ack_wait: bool) -> None:
+        self.pull = pull
+        self.ack_wait = ack_wait
+        self.done = False
+        self.got_data = False
+        self.synched = False
+        self.updated: list[Proxy] = []

@@ -3,6 +3,14 @@
 Each keeps its latest DATA body (``state``, ``scan``, ...) and typed accessors over it,
 the geometry it last requested, and methods for the device's commands and requests.
 Angles in radians, distances in metres, times in simulation seconds.
+
+The bodies a robot reads every tick (position2d state, sonar ranges, laser scan,
+blobfinder blobs, power state, bumpers) are taken from the receive buffer with one
+precompiled ``struct`` call each, after checking that their counts and size agree, into
+plain tuples (``state_values``, ``scan_values``, ``blob_values``, ``ranges``); the
+message objects (``state``, ``scan``) are built from those only when read, once per
+body. Anything else, and any body that does not pass the checks, goes through the
+generic decoder.
 """
 
 from __future__ import annotations
@@ -22,9 +30,72 @@ from player_server.protocol.errors import EncodeError
 from player_server.protocol.header import HEADER_STRUCT
 
 _CMD = int(MsgType.CMD)
+_COUNTS = struct.Struct(">II")
+_U32 = struct.Struct(">I")
+#: position2d DATA_STATE: pos (px, py, pa), vel (px, py, pa), stall
+_POS_STATE = struct.Struct(">6dI")
+#: laser DATA_SCAN up to the ranges: min_angle, max_angle, resolution, max_range, count x2
+_LASER_HEAD = struct.Struct(">4f2I")
+#: blobfinder DATA_BLOBS up to the blobs: width, height, count x2
+_BLOBS_HEAD = struct.Struct(">4I")
+#: one blob: id, color, area, x, y, left, right, top, bottom, range
+_BLOB = struct.Struct(">9If")
+#: power DATA_STATE: valid, volts, percent, joules, watts, charging
+_POWER_STATE = struct.Struct(">I4fi")
+_POS_DATA_STATE = c.PLAYER_POSITION2D_DATA_STATE
+_SONAR_DATA_RANGES = c.PLAYER_SONAR_DATA_RANGES
+_LASER_DATA_SCAN = c.PLAYER_LASER_DATA_SCAN
+_BLOBFINDER_DATA_BLOBS = c.PLAYER_BLOBFINDER_DATA_BLOBS
+_POWER_DATA_STATE = c.PLAYER_POWER_DATA_STATE
+_BUMPER_DATA_STATE = c.PLAYER_BUMPER_DATA_STATE
+_NOTHING: tuple[Any, Any] = (None, None)
+
+
+class _FloatArrays:
+    """``count`` big-endian f32 values at an offset, with the last size's struct kept."""
+
+    __slots__ = ("_struct",)
+
+    def __init__(self) -> None:
+        self._struct = struct.Struct(">0f")
+
+    def read(self, buf: Any, offset: int, count: int) -> tuple[float, ...]:
+        st = self._struct
+        if st.size != 4 * count:
+            st = self._struct = struct.Struct(f">{count}f")
+        return st.unpack_from(buf, offset)
 #: header + position2d CMD VEL body (pose2d velocity, motor state) in one struct
 _CMD_VEL = struct.Struct(HEADER_STRUCT.format + "dddI")
 _CMD_VEL_SIZE = _CMD_VEL.size - HEADER_STRUCT.size
+
+
+class ScanBody:
+    """One laser scan as received; its ranges are decoded when first asked for.
+
+    Immutable once made (the raw ranges are a copy), so it may be kept and read later, from
+    any thread: ``values()`` is ``(min_angle, max_angle, resolution, max_range, ranges,
+    intensity, id)``, the fields of ``LaserData`` in order.
+    """
+
+    __slots__ = ("_floats", "_head", "_raw", "_values", "count")
+
+    def __init__(self, head: tuple[Any, ...], count: int, raw: bytes,
+                 floats: _FloatArrays | None = None,
+                 values: tuple[Any, ...] | None = None) -> None:
+        self._head = head  # (min_angle, max_angle, resolution, max_range, intensity, id)
+        self.count = count
+        self._raw = raw
+        self._floats = floats
+        self._values = values
+
+    def values(self) -> tuple[float, float, float, float, tuple[float, ...], bytes, int]:
+        v = self._values
+        if v is None:
+            h = self._head
+            assert self._floats is not None
+            v = self._values = (h[0], h[1], h[2], h[3], self._floats.read(self._raw, 0, self.count),
+                                h[4], h[5])
+        return v
 
 
 class Position2dProxy(Proxy):
@@ -34,42 +105,71 @@ class Position2dProxy(Proxy):
 
     def __init__(self, client: Any, index: int = 0) -> None:
         super().__init__(client, index)
-        self.state: am.Position2dData | None = None
+        self._values: tuple[float, float, float, float, float, float, int] | None = None
+        self._state: tuple[Any, am.Position2dData | None] = _NOTHING
         self.geom: am.Position2dGeom | None = None
+
+    def _on_raw(self, subtype: int, buf: Any, start: int, end: int, timestamp: float) -> None:
+        if subtype == _POS_DATA_STATE and end - start == _POS_STATE.size:
+            self._values = _POS_STATE.unpack_from(buf, start)
+            self.data_time_s = timestamp
+            self.data_count += 1
+            return
+        super()._on_raw(subtype, buf, start, end, timestamp)
 
     def _update(self, subtype: int, body: Any) -> None:
         if subtype == c.PLAYER_POSITION2D_DATA_STATE:
-            self.state = body
+            pos, vel = body.pos, body.vel
+            values = (pos.px, pos.py, pos.pa, vel.px, vel.py, vel.pa, body.stall)
+            self._state = (values, body)
+            self._values = values
         elif subtype == c.PLAYER_POSITION2D_DATA_GEOM:
             self.geom = body
 
     @property
+    def state_values(self) -> tuple[float, float, float, float, float, float, int] | None:
+        """The latest state as ``(px, py, pa, vx, vy, vyaw, stall)`` (None before any)."""
+        return self._values
+
+    @property
+    def state(self) -> am.Position2dData | None:
+        values = self._values
+        built = self._state
+        if built[0] is values:
+            return built[1]
+        assert values is not None
+        state = am.Position2dData(Pose2d(values[0], values[1], values[2]),
+                                  Pose2d(values[3], values[4], values[5]), values[6])
+        self._state = (values, state)
+        return state
+
+    @property
     def x(self) -> float:
-        return self.state.pos.px if self.state else 0.0
+        return self._values[0] if self._values else 0.0
 
     @property
     def y(self) -> float:
-        return self.state.pos.py if self.state else 0.0
+        return self._values[1] if self._values else 0.0
 
     @property
     def yaw(self) -> float:
-        return self.state.pos.pa if self.state else 0.0
+        return self._values[2] if self._values else 0.0
 
     @property
     def vx(self) -> float:
-        return self.state.vel.px if self.state else 0.0
+        return self._values[3] if self._values else 0.0
 
     @property
     def vy(self) -> float:
-        return self.state.vel.py if self.state else 0.0
+        return self._values[4] if self._values else 0.0
 
     @property
     def vyaw(self) -> float:
-        return self.state.vel.pa if self.state else 0.0
+        return self._values[5] if self._values else 0.0
 
     @property
     def stall(self) -> bool:
-        return bool(self.state.stall) if self.state else False
+        return bool(self._values[6]) if self._values else False
 
     def set_velocity(self, vx_mps: float, vyaw_radps: float, vy_mps: float = 0.0,
                      enable: bool = True, *, defer: bool = False) -> None:
@@ -124,6 +224,17 @@ class SonarProxy(Proxy):
         super().__init__(client, index)
         self.ranges: tuple[float, ...] = ()
         self.poses: tuple[Pose3d, ...] = ()
+        self._floats = _FloatArrays()
+
+    def _on_raw(self, subtype: int, buf: Any, start: int, end: int, timestamp: float) -> None:
+        if subtype == _SONAR_DATA_RANGES and end - start >= 8:
+            n, n2 = _COUNTS.unpack_from(buf, start)
+            if n == n2 and end - start == 8 + 4 * n:
+                self.ranges = self._floats.read(buf, start + 8, n)
+                self.data_time_s = timestamp
+                self.data_count += 1
+                return
+        super()._on_raw(subtype, buf, start, end, timestamp)
 
     def _update(self, subtype: int, body: Any) -> None:
         if subtype == c.PLAYER_SONAR_DATA_RANGES:
@@ -141,43 +252,96 @@ class LaserProxy(Proxy):
 
     def __init__(self, client: Any, index: int = 0) -> None:
         super().__init__(client, index)
-        self.scan: sm.LaserData | None = None
+        self._body: ScanBody | None = None
+        self._scan: tuple[Any, sm.LaserData | None] = _NOTHING
         self.geom: sm.LaserGeom | None = None
         self.config: sm.LaserConfig | None = None
+        self._floats = _FloatArrays()
+
+    def _on_raw(self, subtype: int, buf: Any, start: int, end: int, timestamp: float) -> None:
+        if subtype == _LASER_DATA_SCAN and end - start >= 36:
+            min_angle, max_angle, resolution, max_range, n, n2 = _LASER_HEAD.unpack_from(
+                buf, start)
+            at = start + 24 + 4 * n
+            if n == n2 and at + 12 <= end:
+                m, m2 = _COUNTS.unpack_from(buf, at)
+                if m == m2 and at + 12 + m + (-m & 3) == end:
+                    self._body = ScanBody(
+                        (min_angle, max_angle, resolution, max_range,
+                         bytes(buf[at + 8:at + 8 + m]) if m else b"",
+                         _U32.unpack_from(buf, end - 4)[0]),
+                        n, bytes(buf[start + 24:at]), self._floats)
+                    self.data_time_s = timestamp
+                    self.data_count += 1
+                    return
+        super()._on_raw(subtype, buf, start, end, timestamp)
 
     def _update(self, subtype: int, body: Any) -> None:
-        if subtype == c.PLAYER_LASER_DATA_SCAN:
-            self.scan = body
-        elif subtype == c.PLAYER_LASER_DATA_SCANPOSE:
-            self.scan = body.scan
+        if subtype == c.PLAYER_LASER_DATA_SCANPOSE:
+            body = body.scan
+        elif subtype != c.PLAYER_LASER_DATA_SCAN:
+            return
+        values = (body.min_angle, body.max_angle, body.resolution, body.max_range, body.ranges,
+                  body.intensity, body.id)
+        self._scan = (values, body)
+        self._body = ScanBody((), len(body.ranges), b"", None, values)
+
+    @property
+    def scan_body(self) -> ScanBody | None:
+        """The latest scan, ranges not decoded yet (None before any)."""
+        return self._body
+
+    @property
+    def _values(self) -> tuple[float, float, float, float, tuple[float, ...], bytes,
+                               int] | None:
+        body = self._body
+        return None if body is None else body.values()
+
+    @property
+    def scan_values(self) -> tuple[float, float, float, float, tuple[float, ...], bytes,
+                                   int] | None:
+        """The latest scan as ``(min_angle, max_angle, resolution, max_range, ranges,
+        intensity, id)`` (None before any)."""
+        return self._values
+
+    @property
+    def scan(self) -> sm.LaserData | None:
+        values = self._values
+        built = self._scan
+        if built[0] is values:
+            return built[1]
+        assert values is not None
+        scan = sm.LaserData(*values)
+        self._scan = (values, scan)
+        return scan
 
     @property
     def ranges(self) -> tuple[float, ...]:
-        return self.scan.ranges if self.scan else ()
+        return self._values[4] if self._values else ()
 
     @property
     def intensity(self) -> bytes:
-        return self.scan.intensity if self.scan else b""
+        return self._values[5] if self._values else b""
 
     @property
     def scan_id(self) -> int:
-        return self.scan.id if self.scan else 0
+        return self._values[6] if self._values else 0
 
     @property
     def min_angle(self) -> float:
-        return self.scan.min_angle if self.scan else 0.0
+        return self._values[0] if self._values else 0.0
 
     @property
     def resolution(self) -> float:
-        return self.scan.resolution if self.scan else 0.0
+        return self._values[2] if self._values else 0.0
 
     @property
     def max_range(self) -> float:
-        return self.scan.max_range if self.scan else 0.0
+        return self._values[3] if self._values else 0.0
 
     def bearings(self) -> tuple[float, ...]:
-        s = self.scan
-        return tuple(s.min_angle + i * s.resolution for i in range(len(s.ranges))) if s else ()
+        v = self._values
+        return tuple(v[0] + i * v[2] for i in range(len(v[4]))) if v else ()
 
     def points(self) -> tuple[tuple[float, float], ...]:
         """Scan points in the laser frame."""
@@ -246,23 +410,59 @@ class BlobfinderProxy(Proxy):
 
     def __init__(self, client: Any, index: int = 0) -> None:
         super().__init__(client, index)
-        self.state: sm.BlobfinderData | None = None
+        self._values: tuple[int, int, tuple[tuple[Any, ...], ...]] | None = None
+        self._state: tuple[Any, sm.BlobfinderData | None] = _NOTHING
+
+    def _on_raw(self, subtype: int, buf: Any, start: int, end: int, timestamp: float) -> None:
+        if subtype == _BLOBFINDER_DATA_BLOBS and end - start >= 16:
+            width, height, n, n2 = _BLOBS_HEAD.unpack_from(buf, start)
+            if n == n2 and end - start == 16 + _BLOB.size * n:
+                unpack = _BLOB.unpack_from
+                self._values = (width, height, tuple([
+                    unpack(buf, at) for at in range(start + 16, end, _BLOB.size)]))
+                self.data_time_s = timestamp
+                self.data_count += 1
+                return
+        super()._on_raw(subtype, buf, start, end, timestamp)
 
     def _update(self, subtype: int, body: Any) -> None:
         if subtype == c.PLAYER_BLOBFINDER_DATA_BLOBS:
-            self.state = body
+            values = (body.width, body.height, tuple([
+                (b.id, b.color, b.area, b.x, b.y, b.left, b.right, b.top, b.bottom, b.range)
+                for b in body.blobs]))
+            self._state = (values, body)
+            self._values = values
+
+    @property
+    def blob_values(self) -> tuple[int, int, tuple[tuple[Any, ...], ...]] | None:
+        """The latest blobs as ``(width, height, blobs)``, each blob ``(id, color, area, x,
+        y, left, right, top, bottom, range)`` (None before any)."""
+        return self._values
+
+    @property
+    def state(self) -> sm.BlobfinderData | None:
+        values = self._values
+        built = self._state
+        if built[0] is values:
+            return built[1]
+        assert values is not None
+        state = sm.BlobfinderData(values[0], values[1],
+                                  tuple([sm.BlobfinderBlob(*b) for b in values[2]]))
+        self._state = (values, state)
+        return state
 
     @property
     def blobs(self) -> tuple[sm.BlobfinderBlob, ...]:
-        return self.state.blobs if self.state else ()
+        state = self.state
+        return state.blobs if state else ()
 
     @property
     def width(self) -> int:
-        return self.state.width if self.state else 0
+        return self._values[0] if self._values else 0
 
     @property
     def height(self) -> int:
-        return self.state.height if self.state else 0
+        return self._values[1] if self._values else 0
 
 
 class CameraProxy(Proxy):
@@ -355,6 +555,16 @@ class BumperProxy(Proxy):
         self.bumpers: tuple[bool, ...] = ()
         self.geom: sm.BumperGeom | None = None
 
+    def _on_raw(self, subtype: int, buf: Any, start: int, end: int, timestamp: float) -> None:
+        if subtype == _BUMPER_DATA_STATE and end - start >= 8:
+            n, n2 = _COUNTS.unpack_from(buf, start)
+            if n == n2 and end - start == 8 + n + (-n & 3):
+                self.bumpers = tuple([b != 0 for b in buf[start + 8:start + 8 + n]])
+                self.data_time_s = timestamp
+                self.data_count += 1
+                return
+        super()._on_raw(subtype, buf, start, end, timestamp)
+
     def _update(self, subtype: int, body: Any) -> None:
         if subtype == c.PLAYER_BUMPER_DATA_STATE:
             self.bumpers = tuple(b != 0 for b in body.bumpers)
@@ -375,32 +585,60 @@ class PowerProxy(Proxy):
 
     def __init__(self, client: Any, index: int = 0) -> None:
         super().__init__(client, index)
-        self.state: am.PowerData | None = None
+        self._values: tuple[int, float, float, float, float, int] | None = None
+        self._state: tuple[Any, am.PowerData | None] = _NOTHING
+
+    def _on_raw(self, subtype: int, buf: Any, start: int, end: int, timestamp: float) -> None:
+        if subtype == _POWER_DATA_STATE and end - start == _POWER_STATE.size:
+            self._values = _POWER_STATE.unpack_from(buf, start)
+            self.data_time_s = timestamp
+            self.data_count += 1
+            return
+        super()._on_raw(subtype, buf, start, end, timestamp)
 
     def _update(self, subtype: int, body: Any) -> None:
         if subtype == c.PLAYER_POWER_DATA_STATE:
-            self.state = body
+            values = (body.valid, body.volts, body.percent, body.joules, body.watts,
+                      body.charging)
+            self._state = (values, body)
+            self._values = values
+
+    @property
+    def state_values(self) -> tuple[int, float, float, float, float, int] | None:
+        """The latest state as ``(valid, volts, percent, joules, watts, charging)``."""
+        return self._values
+
+    @property
+    def state(self) -> am.PowerData | None:
+        values = self._values
+        built = self._state
+        if built[0] is values:
+            return built[1]
+        assert values is not None
+        state = am.PowerData(*values)
+        self._state = (values, state)
+        return state
 
     @property
     def volts(self) -> float:
-        return self.state.volts if self.state else 0.0
+        return self._values[1] if self._values else 0.0
 
     @property
     def percent(self) -> float:
-        return self.state.percent if self.state else 0.0
+        return self._values[2] if self._values else 0.0
 
     @property
     def joules(self) -> float:
-        return self.state.joules if self.state else 0.0
+        return self._values[3] if self._values else 0.0
 
     @property
     def watts(self) -> float:
-        return self.state.watts if self.state else 0.0
+        return self._values[4] if self._values else 0.0
 
     @property
     def charging(self) -> int:
         """1 receiving charge, -1 supplying, 0 neither."""
-        return self.state.charging if self.state else 0
+        return self._values[5] if self._values else 0
 
     def set_charging_policy(self, enable_input: bool, enable_output: bool = True) -> None:
         self.request(c.PLAYER_POWER_REQ_SET_CHARGING_POLICY,

@@ -5,11 +5,16 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any, ClassVar
 
 from player_server.client.errors import PlayerNack
+from player_server.client.framing import decode_frame
 from player_server.protocol import constants as c
 from player_server.protocol import player_msgs as pm
+from player_server.protocol.codec import Undecodable
+from player_server.protocol.errors import DecodeError
 
 if TYPE_CHECKING:
     from player_server.client.connection import PlayerClient
+
+_DATA = int(c.MsgType.DATA)
 
 
 class Proxy:
@@ -19,6 +24,12 @@ class Proxy:
     (frozen values, replaced and never mutated, so other threads may read them).
     ``data_time_s`` is the simulation time of the latest DATA, ``data_count`` how many
     arrived.
+
+    The client hands each DATA body over as it lies in the receive buffer
+    (``_on_raw``); by default it is decoded into its message class and stored by
+    ``_update``. Proxies of the devices read every tick take their common bodies
+    straight into tuples of values instead and build the message objects only when
+    asked for them.
     """
 
     interf: ClassVar[int] = 0
@@ -45,6 +56,17 @@ class Proxy:
 
     def _update(self, subtype: int, body: Any) -> None:
         """Store one DATA body (override)."""
+
+    def _on_raw(self, subtype: int, buf: Any, start: int, end: int, timestamp: float) -> None:
+        """Take one DATA body from ``buf[start:end]`` (valid only during this call).
+
+        Raises ``DecodeError`` when it does not decode; nothing is stored then.
+        """
+        msg = decode_frame((0, 0, self.interf, self.index, _DATA, subtype,
+                            timestamp, 0, end - start), buf, start, end)
+        if isinstance(msg, Undecodable):
+            raise DecodeError(msg.reason)
+        self._on_data(subtype, msg.body, timestamp)
 
     # -- requests and commands ----------------------------------------------------------------
     def request(self, subtype: int, body: Any = None, timeout_s: float | None = None) -> Any:

@@ -212,3 +212,24 @@ def test_cruise_on_heading_turns_first_then_drives_straight() -> None:
     assert on.vx_mps == 0.2 and on.signal == "on-heading" and on.vyaw_radps > 0
     assert not b.decide(Snapshot(T), T).active
     assert basis.Cruise(0.1).decide(Snapshot(T), T).vx_mps == 0.1
+
+
+def test_keep_distance_inputs_key_is_the_blob_it_looks_at() -> None:
+    keep = basis.KeepDistanceToColour(0xFF0000)
+    red = Blob(0xFF0000, 50, 100.0, 60.0, 90, 110, 50, 70, 2.0)
+    green = Blob(0x00FF00, 80, 30.0, 60.0, 20, 40, 50, 70, 1.0)
+
+    def snap(t: float, *blobs: Blob, seen_at: float | None = None) -> Snapshot:
+        view = BlobView(160, 120, blobs, 1.0, t if seen_at is None else seen_at)
+        return Snapshot(time_s=t, camera=view)
+
+    # out of sight (or stale, or no camera): one key, and the same (inactive) proposal
+    blind = [snap(1.0, green), snap(2.0), snap(3.0, red, seen_at=1.0), Snapshot(time_s=4.0)]
+    assert {keep.inputs_key(s, s.time_s) for s in blind} == {0}
+    assert {keep.decide(s, s.time_s) for s in blind} == {keep.decide(blind[0], 1.0)}
+    # in sight: the key follows the blob, whatever else the camera sees
+    a, b = snap(5.0, red), snap(6.0, red, green)
+    assert keep.inputs_key(a, 5.0) == keep.inputs_key(b, 6.0) != 0
+    assert keep.decide(a, 5.0) == keep.decide(b, 6.0) and keep.decide(a, 5.0).active
+    moved = snap(7.0, Blob(0xFF0000, 50, 120.0, 60.0, 110, 130, 50, 70, 2.0))
+    assert keep.inputs_key(moved, 7.0) != keep.inputs_key(a, 5.0)

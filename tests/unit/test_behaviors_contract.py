@@ -121,3 +121,23 @@ class _Fragile:
 def test_checker_catches_broken_behaviours(bad: object, message: str) -> None:
     with pytest.raises(ContractViolation, match=message.replace("|", r"\|")):
         check_behaviour(bad, _snapshots(1, 5))  # type: ignore[arg-type]
+
+
+@dataclasses.dataclass(frozen=True)
+class _LyingKey:
+    """Its proposal follows time, but its inputs key claims it never changes."""
+
+    name: str = "lying-key"
+    max_speed_mps: float = 100.0
+    max_turn_radps: float = 0.0
+
+    def inputs_key(self, snapshot: Snapshot, now: float) -> int:
+        return 0
+
+    def decide(self, snapshot: Snapshot, now: float) -> Proposal:
+        return Proposal(True, min(now, 100.0), 0.0)
+
+
+def test_an_inputs_key_that_hides_a_change_breaks_the_contract() -> None:
+    with pytest.raises(ContractViolation, match="same inputs key"):
+        check_behaviour(_LyingKey(), [Snapshot(time_s=1.0)])

@@ -113,3 +113,54 @@ def test_a_stalled_set_is_replaced_and_the_late_thread_ends_harmlessly() -> None
         assert runner.tick(Snapshot(float(t)), float(t))[0].vx_mps == t
     runner.close()
     assert runner.thread_count == 0
+
+
+@dataclasses.dataclass(frozen=True)
+class Bucketed:
+    """Proposes the whole second as speed; says so through its inputs key."""
+
+    name: str
+    seen: list = dataclasses.field(default_factory=list, compare=False)
+    max_speed_mps: float = 1e9
+    max_turn_radps: float = 0.0
+    key_error: bool = False
+
+    def inputs_key(self, snapshot: Snapshot, now: float) -> int | None:
+        if self.key_error:
+            raise KeyError("no key")
+        return None if now < 0 else int(now)
+
+    def decide(self, snapshot: Snapshot, now: float) -> Proposal:
+        self.seen.append((threading.current_thread().name, now))
+        return Proposal(True, float(int(now)), 0.0)
+
+
+def test_a_behaviour_whose_inputs_did_not_change_is_not_woken() -> None:
+    first, middle, last = Echo("first"), Bucketed("middle"), Echo("last")
+    with BehaviourRunner("r") as runner:
+        runner.set_behaviours([first, middle, last])
+        times = [1.0, 1.25, 1.5, 2.0, 2.5, -1.0, -1.0]
+        for i, t in enumerate(times[:5]):
+            proposals = runner.tick(Snapshot(t), t)
+            assert [p.vx_mps for p in proposals] == [t, float(int(t)), t], i
+        # woken only when the key changed, always on its own thread; the baton passed over it
+        assert middle.seen == [("r:middle", 1.0), ("r:middle", 2.0)]
+        assert len(first.seen) == len(last.seen) == 5
+        assert set(first.seen) == {"r:first"} and set(last.seen) == {"r:last"}
+        with pytest.raises(BehaviourFailed, match="negative time"):
+            runner.tick(Snapshot(-1.0), -1.0)  # a None key: decided every time
+        assert middle.seen[-1] == ("r:middle", -1.0)
+        assert runner.tick(Snapshot(3.0), 3.0)[1].vx_mps == 3.0
+        assert middle.seen[-1] == ("r:middle", 3.0)
+
+
+def test_all_behaviours_unchanged_wake_no_thread_and_a_failing_key_fails() -> None:
+    a, b = Bucketed("a"), Bucketed("b")
+    with BehaviourRunner("r") as runner:
+        runner.set_behaviours([a, b])
+        for t in (5.0, 5.1, 5.2):
+            assert [p.vx_mps for p in runner.tick(Snapshot(t), t)] == [5.0, 5.0]
+        assert len(a.seen) == len(b.seen) == 1 and runner.ticks == 3
+        runner.set_behaviours([Bucketed("c", key_error=True)])
+        with pytest.raises(BehaviourFailed, match="no key"):
+            runner.tick(Snapshot(1.0), 1.0)

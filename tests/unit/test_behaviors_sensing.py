@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import math
+import threading
 
 from behaviors.sensing import FrameOffset, PlayerRobotIO
+from behaviors.snapshot import Deferred, LazySnapshot, Snapshot
 from player_server.client import (
     BlobfinderProxy,
     BumperProxy,
@@ -88,3 +90,30 @@ def test_sonar_without_geometry_and_odometry_offset() -> None:
     assert pose is not None
     assert abs(pose.x_m - 1.0) < 1e-9 and abs(pose.y_m - 1.0) < 1e-9
     assert abs(pose.yaw_rad - math.pi / 2) < 1e-9
+
+
+def test_deferred_readings_are_built_once_from_the_data_of_their_round() -> None:
+    io, p = _io()
+    scan = sm.LaserData(-1.0, 1.0, 1.0, 8.0, (1.0, 2.0, 3.0), b"", 1)
+    p["laser"]._on_data(c.PLAYER_LASER_DATA_SCAN, scan, 1.0)  # type: ignore[attr-defined]
+    p["position2d"]._on_data(  # type: ignore[attr-defined]
+        c.PLAYER_POSITION2D_DATA_STATE, am.Position2dData(Pose2d(1.0, 0.0, 0.0), Pose2d(), 0), 1.0)
+    old = io.snapshot(None)
+    assert isinstance(old, LazySnapshot)
+    assert all(type(Snapshot.__dict__[f].__get__(old)) is Deferred for f in ("laser", "odometry"))
+    # new data arrives before anyone looked at the old round: the old snapshot keeps its own
+    p["laser"]._on_data(  # type: ignore[attr-defined]
+        c.PLAYER_LASER_DATA_SCAN, sm.LaserData(-1.0, 1.0, 1.0, 8.0, (5.0,) * 3, b"", 2), 2.0)
+    new = io.snapshot(None)
+    seen: list[object] = []
+    reader = threading.Thread(target=lambda: seen.append(old.laser))
+    reader.start()
+    reader.join(5)
+    assert old.laser is seen[0] and old.laser is not None and old.laser.ranges_m == (1.0, 2.0, 3.0)
+    assert new.laser is not None and new.laser.ranges_m == (5.0,) * 3 and new.laser.scan_id == 2
+    assert new.odometry is old.odometry  # position2d sent nothing new: the same reading
+    marked = new.with_mark(None)
+    assert marked == new and marked.laser is new.laser
+    plain = Snapshot(new.time_s, new.odometry, new.sonar, new.laser, new.camera, new.bumpers,
+                     new.power, new.gripper, new.mark)
+    assert new == plain and plain == new and hash(new) == hash(plain)
