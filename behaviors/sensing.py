@@ -50,13 +50,15 @@ from player_server.client import (
     ScanBody,
     SonarProxy,
 )
-from player_server.protocol.constants import interface_name
+from player_server.protocol import constants as c
+from player_server.protocol.constants import MsgType, interface_name
 
 logger = logging.getLogger(__name__)
 T = TypeVar("T")
 
 # Raw camera images are large and nothing in the behaviours looks at pixels (the blobfinder
-# carries what they need), so they are only subscribed on request.
+# carries what they need): the device is opened like every other, but its DATA is declined
+# with an IGNORE replace rule unless images are asked for (the server then makes none).
 IMAGE_INTERFACES = frozenset({"camera"})
 
 
@@ -154,10 +156,11 @@ class PlayerRobotIO:
             found.add(name)
             if addr.index != 0 or name not in PROXIES or name in self.proxies:
                 continue
-            if name in IMAGE_INTERFACES and not self.subscribe_images:
-                continue
             proxy = self.client.subscribe(PROXIES[name], addr.index, self._timeout_s)
             self.proxies[name] = proxy
+            if name in IMAGE_INTERFACES and not self.subscribe_images:
+                self.client.set_replace_rule(c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE,
+                                             addr.interf, addr.index, int(MsgType.DATA))
         self.interfaces = frozenset(found - {"simulation", "player"})
         self._read_geometry()
         self._resolve()

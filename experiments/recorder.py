@@ -36,10 +36,12 @@ def parse_proc_status(text: str) -> dict[str, int]:
 
 
 def read_process_memory(pid: int) -> dict[str, int] | None:
+    """None when the process is gone or exiting (its status then lists no memory)."""
     try:
-        return parse_proc_status(Path(f"/proc/{pid}/status").read_text())
+        text = Path(f"/proc/{pid}/status").read_text()
     except OSError:
         return None
+    return parse_proc_status(text) if "VmRSS:" in text else None
 
 
 class RunRecorder:

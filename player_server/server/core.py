@@ -438,8 +438,20 @@ class ServerCore:
     def _round_items(self, s: Session) -> Iterable[tuple[DataKey, bytes]]:
         version = (self._sim_time_s(), self._mutations)
         ep = s.endpoint
+        rules = s.rules
         for key, driver in s.subs.items():
+            if rules and self._device_ignored(s, key):
+                continue  # declined by the client: not even computed
             yield from self._device_data(ep, key, driver, version)
+
+    @staticmethod
+    def _device_ignored(s: Session, key: tuple[int, int]) -> bool:
+        """Does the client's first rule for this device's DATA ignore every subtype?"""
+        interf, index = key
+        for r in s.rules:
+            if r.interf in (-1, interf) and r.index in (-1, index) and r.type in (-1, _DATA):
+                return r.subtype == -1 and r.replace == c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE
+        return False
 
     def _try_round(self, s: Session) -> bool:
         """Send a pending PULL round if there is a newer round with data to send."""

@@ -28,6 +28,22 @@ def test_parse_proc_status() -> None:
     assert read_process_memory(2**22 + 12345) is None
 
 
+def test_an_exited_process_not_yet_reaped_has_no_memory_sample() -> None:
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    try:
+        status = Path(f"/proc/{proc.pid}/status")
+        deadline = time.monotonic() + 30
+        while "State:\tZ" not in status.read_text() and time.monotonic() < deadline:
+            time.sleep(0.02)  # exited, not reaped: a zombie whose status lists no memory
+        assert "State:\tZ" in status.read_text()
+        assert read_process_memory(proc.pid) is None
+    finally:
+        proc.wait()
+
+
 def test_recorded_run_with_live_view(tmp_path: Path) -> None:
     spec = load_world(world_path("simple"))
     robot = spec.robots[0].name

@@ -377,3 +377,21 @@ def test_prepared_round_survives_deferred_commands_only() -> None:
     core.publish()
     out(core, s)
     assert drv.reads == 3
+
+
+def test_a_device_whose_data_the_client_ignores_is_not_computed() -> None:
+    world = {"t": 0.0}
+    drv = CountingPosition(world)
+    ep = Endpoint("r1", {(4, 0): drv, (5, 0): FakeSonar()}, port=7001)
+    core = ServerCore([ep], lambda: world["t"], CoreConfig())
+    s = connect(core, ep)
+    skip = c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE
+    ignore = req(1, 0, 10, pm.AddReplaceRuleReq(4, 0, 1, -1, skip))
+    core.receive(s, sub(4) + sub(5) + ignore + DATA)
+    msgs = out(core, s)
+    assert kinds(msgs)[-2:] == [(1, 5, 1), (5, 1, 1)] and drv.reads == 0
+    # a rule for one subtype only: the device is still read (other subtypes may pass)
+    s2 = connect(core, ep)
+    one = req(1, 0, 10, pm.AddReplaceRuleReq(4, 0, 1, 1, skip))
+    core.receive(s2, sub(4) + sub(5) + one + DATA)
+    assert (1, 4, 1) not in kinds(out(core, s2)) and drv.reads == 1
