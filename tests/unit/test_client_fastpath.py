@@ -7,15 +7,14 @@ the same bytes as the generic encoder.
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import time
-from pathlib import Path
 from typing import Any
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from sibling import load_sibling
 
 from player_server.client import PlayerClient, PlayerNack, Position2dProxy
 from player_server.protocol import actuator_msgs as am
@@ -26,17 +25,8 @@ from player_server.protocol.errors import EncodeError
 pytestmark = pytest.mark.timeout(30)
 
 
-def _sibling() -> Any:
-    """The scripted peer of the sibling test module (loaded by path: tests are no package)."""
-    path = Path(__file__).with_name("test_client_behaviour.py")
-    spec = importlib.util.spec_from_file_location("_client_peer", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-_P = _sibling()
+# the scripted peer of the client's behaviour tests
+_P = load_sibling(__file__, "test_client_behaviour.py")
 peer, pos_data, dev_ack, SYNCH = _P.peer, _P.pos_data, _P.dev_ack, _P.SYNCH
 
 

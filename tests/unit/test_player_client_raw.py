@@ -8,15 +8,14 @@ must frame rounds that arrive split, large or with a bad body in the middle.
 
 from __future__ import annotations
 
-import importlib.util
 import socket
 import time
-from pathlib import Path
 from typing import Any
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from sibling import load_sibling
 
 from player_server.client import (
     BlobfinderProxy,
@@ -40,17 +39,8 @@ from player_server.protocol.errors import DecodeError
 pytestmark = pytest.mark.timeout(60)
 
 
-def _sibling() -> Any:
-    """The scripted peer of the client's behaviour tests (loaded by path)."""
-    path = Path(__file__).with_name("test_client_behaviour.py")
-    spec = importlib.util.spec_from_file_location("_client_peer_raw", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-_P = _sibling()
+# the scripted peer of the client's behaviour tests
+_P = load_sibling(__file__, "test_client_behaviour.py")
 peer, pos_data, dev_ack, SYNCH = _P.peer, _P.pos_data, _P.dev_ack, _P.SYNCH
 
 f32 = st.floats(width=32, allow_nan=False)

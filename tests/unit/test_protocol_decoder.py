@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import importlib.util
 import struct
-from pathlib import Path
 from typing import Any
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from sibling import load_sibling
 
 from player_server.protocol import (
     NEED_DATA,
@@ -24,18 +23,7 @@ from player_server.protocol import player_msgs as pm
 from player_server.protocol import sensor_msgs as sm
 from player_server.protocol.registry import REGISTRY
 
-
-def _golden_cases() -> list[Any]:
-    """The golden table of the sibling test module (loaded by path: tests are no package)."""
-    path = Path(__file__).with_name("test_protocol_golden.py")
-    spec = importlib.util.spec_from_file_location("_protocol_golden_cases", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return list(module.CASES)
-
-
-CASES = _golden_cases()
+CASES: list[Any] = list(load_sibling(__file__, "test_protocol_golden.py").CASES)
 
 
 def all_wire() -> bytes:

@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-from typing import Any
+from sibling import load_sibling
 
 from player_server.protocol import Decoder, Message, encode_message
 from player_server.protocol import actuator_msgs as am
@@ -12,27 +10,8 @@ from player_server.protocol.common import Pose2d
 from player_server.server.core import ServerCore
 from player_server.server.endpoint import Endpoint
 
-
-def _sibling() -> Any:
-    path = Path(__file__).with_name("test_server_core.py")
-    spec = importlib.util.spec_from_file_location("_server_core_tests", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-_T = _sibling()
-
-
-class CountingPosition(_T.FakePosition):  # type: ignore[misc, name-defined]
-    def __init__(self, world: dict[str, float]) -> None:
-        super().__init__(world)
-        self.data_calls = 0
-
-    def data(self) -> list[tuple[int, Any]]:
-        self.data_calls += 1
-        return super().data()
+_T = load_sibling(__file__, "test_server_core.py")
+CountingPosition = _T.CountingPosition
 
 
 def test_data_is_encoded_once_per_tick_and_a_round_is_one_write() -> None:
@@ -61,4 +40,4 @@ def test_data_is_encoded_once_per_tick_and_a_round_is_one_write() -> None:
             4, 0, 1, 1, am.Position2dData(Pose2d(tick / 10, 0, 0), Pose2d(), 0),
             timestamp=tick / 10, robot=7001) + encode_message(
             5, 0, 1, 1, _T.FakeSonar().data()[0][1], timestamp=tick / 10, robot=7001)
-    assert drv.data_calls == 3  # once per tick, not once per client
+    assert drv.reads == 3  # once per tick, not once per client
