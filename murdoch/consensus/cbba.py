@@ -45,6 +45,20 @@ class BundleBuilding:
     _bounds: dict[int, tuple[float, float]] | None = None
     _known_paths: dict[tuple[tuple[int, ...], tuple[float, ...]], PathGains]
 
+    def _init_agent(self, problem: Problem, index: int) -> None:
+        """The state both agents start with: no bundle, nothing heard yet."""
+        self.problem = problem
+        self.index = index
+        self.s = new_timestamps(problem.n_agents)
+        self.bundle = []
+        self.path = []
+        self.times = []
+        self._gains = None
+        self._known_paths = {}
+        self._blocked = []
+        self.needs_build = True
+        self.active = True
+
     def build_bundle(self, now: float = 0.0) -> bool:
         """Add tasks greedily while a valid bid exists; True if the bundle grew."""
         if not self.start_build():
@@ -119,19 +133,9 @@ class CbbaAgent(BundleBuilding):
     kind = KIND_CBBA
 
     def __init__(self, problem: Problem, index: int) -> None:
-        self.problem = problem
-        self.index = index
+        self._init_agent(problem, index)
         self.y: list[float] = [0.0] * problem.n_tasks
         self.z: list[int] = [NONE] * problem.n_tasks
-        self.s = new_timestamps(problem.n_agents)
-        self.bundle: list[int] = []
-        self.path: list[int] = []
-        self.times: list[float] = []
-        self._gains = None
-        self._known_paths = {}
-        self._blocked = []
-        self.needs_build = True
-        self.active = True
 
     def state_key(self) -> tuple[tuple[float, ...], tuple[int, ...], tuple[int, ...]]:
         """What `comm_steps` watches: bids, winners and bundle."""

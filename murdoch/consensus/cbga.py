@@ -43,7 +43,6 @@ from murdoch.consensus.cbba import (
     BundleBuilding,
     merge_timestamps,
     message_stamps,
-    new_timestamps,
 )
 from murdoch.consensus.conflict import NONE, resolve_lists
 from murdoch.consensus.messages import KIND_CBGA, ConsensusMessage
@@ -70,26 +69,16 @@ class CbgaAgent(BundleBuilding):
 
     def __init__(self, problem: Problem, index: int, options: CbgaOptions | None = None
                  ) -> None:
-        self.problem = problem
-        self.index = index
+        self._init_agent(problem, index)
         self.options = options or CbgaOptions()
         self.x = zeros(problem.n_tasks, problem.n_agents)
-        self.s = new_timestamps(problem.n_agents)
         # when each believed member can be at each group task on its own (0 = unknown)
         self.t = zeros(problem.n_tasks, problem.n_agents)
-        self.bundle: list[int] = []
-        self.path: list[int] = []
-        self.times: list[float] = []
-        self._gains = None
-        self._known_paths = {}
-        self._blocked = []
         self.assigned_at = [math.nan] * problem.n_tasks
         self.banned = [-1] * problem.n_tasks
         self.yielding: dict[int, bool] = {}  # a late group task kept one round (see below)
         # group tasks given up to a higher-index partner -> the other members then
         self.yielded: dict[int, frozenset[int]] = {}
-        self.needs_build = True
-        self.active = True
         self._partners: dict[int, float] | None = None
         self._refresh_static()
 
