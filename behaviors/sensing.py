@@ -56,10 +56,12 @@ from player_server.protocol.constants import MsgType, interface_name
 logger = logging.getLogger(__name__)
 T = TypeVar("T")
 
-# Raw camera images are large and nothing in the behaviours looks at pixels (the blobfinder
-# carries what they need): the device is opened like every other, but its DATA is declined
-# with an IGNORE replace rule unless images are asked for (the server then makes none).
+# Devices opened like every other but whose DATA no behaviour reads: raw camera images are
+# large and nothing looks at pixels (the blobfinder carries what the behaviours need), and
+# nothing reads fiducial scans. Their DATA is declined with an IGNORE replace rule (the
+# server then makes none); images are kept when asked for.
 IMAGE_INTERFACES = frozenset({"camera"})
+UNREAD_INTERFACES = IMAGE_INTERFACES | {"fiducial"}
 
 
 @dataclass(frozen=True, slots=True)
@@ -158,7 +160,8 @@ class PlayerRobotIO:
                 continue
             proxy = self.client.subscribe(PROXIES[name], addr.index, self._timeout_s)
             self.proxies[name] = proxy
-            if name in IMAGE_INTERFACES and not self.subscribe_images:
+            if name in UNREAD_INTERFACES and not (self.subscribe_images
+                                                  and name in IMAGE_INTERFACES):
                 self.client.set_replace_rule(c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE,
                                              addr.interf, addr.index, int(MsgType.DATA))
         self.interfaces = frozenset(found - {"simulation", "player"})

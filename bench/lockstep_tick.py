@@ -2,9 +2,10 @@
 
 Runs the Player server in this process (its serving thread, as ``player-server
 longterm --lockstep --speedup 0`` would) and starts 7 client processes: one per robot
-(6 participants, each subscribing to every device of its port but the camera and
+(6 participants, each subscribing to every device of its port, declining the DATA of
+the camera and the fiducial detector as a robot process does, and
 reading one PULL round and sending one velocity command per tick, like a robot
-controller) and one for the overhead camera (blobfinder and fiducial, with the
+controller) and one for the overhead camera (the same devices, with the
 ``lockstep`` property set so that it holds the clock too). A tick is the wall time
 between two successive rounds published: the simulation step plus the rounds of all 7
 clients. Also reported per tick: the share spent in ``Simulation.step`` (physics and the
@@ -37,15 +38,19 @@ TARGET_MS = 2.8
 def client_main(port: int, ticks: int, overhead: bool) -> int:
     """One client process: subscribe, then ``ticks`` rounds (velocity command each)."""
     from player_server.client import PROXIES, PlayerClient, Position2dProxy
-    from player_server.protocol.constants import interface_name
+    from player_server.protocol import constants as c
+    from player_server.protocol.constants import MsgType, interface_name
 
     cl = PlayerClient("127.0.0.1", port, lockstep=True if overhead else None).connect()
     pos = None
     for addr in cl.devlist():
         name = interface_name(addr.interf)
-        if addr.index != 0 or name not in PROXIES or name in ("camera", "simulation"):
+        if addr.index != 0 or name not in PROXIES or name == "simulation":
             continue
         p = cl.subscribe(PROXIES[name], addr.index)
+        if name in ("camera", "fiducial"):  # opened but declined, as a robot process does
+            cl.set_replace_rule(c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE, addr.interf,
+                                addr.index, int(MsgType.DATA))
         if isinstance(p, Position2dProxy):
             pos = p
     for i in range(ticks):

@@ -13,6 +13,11 @@ from player_server.protocol import sensor_msgs as sm
 from player_server.protocol.common import Bbox3d, Pose3d
 from player_server.protocol.constants import Interface
 
+# bodies built every tick: the positional constructors fill the slots directly
+_MAKE_GRIPPER = am.GripperData.xdr_make  # type: ignore[attr-defined]
+_MAKE_BUMPER = sm.BumperData.xdr_make  # type: ignore[attr-defined]
+_MAKE_POWER = am.PowerData.xdr_make  # type: ignore[attr-defined]
+
 _GRIPPER_STATES = {
     "open": c.PLAYER_GRIPPER_STATE_OPEN,
     "closed": c.PLAYER_GRIPPER_STATE_CLOSED,
@@ -41,7 +46,7 @@ class GripperDriver(Driver):
     def data(self) -> Sequence[tuple[int, Any]]:
         g = self.sim.gripper(self.robot.name)
         state = _GRIPPER_STATES.get(g.state, c.PLAYER_GRIPPER_STATE_ERROR)
-        return ((c.PLAYER_GRIPPER_DATA_STATE, am.GripperData(state, int(g.beams),
+        return ((c.PLAYER_GRIPPER_DATA_STATE, _MAKE_GRIPPER(state, int(g.beams),
                                                             int(g.stored))),)
 
     def handle_command(self, subtype: int, body: Any) -> None:
@@ -70,8 +75,8 @@ class BumperDriver(Driver):
         self.spec = robot.devices.bumper
 
     def data(self) -> Sequence[tuple[int, Any]]:
-        states = bytes(1 if b else 0 for b in self.sim.bumpers(self.robot.name))
-        return ((c.PLAYER_BUMPER_DATA_STATE, sm.BumperData(states)),)
+        states = bytes([1 if b else 0 for b in self.sim.bumpers(self.robot.name)])
+        return ((c.PLAYER_BUMPER_DATA_STATE, _MAKE_BUMPER(states)),)
 
     def geometry(self) -> sm.BumperGeom:
         return sm.BumperGeom(tuple(
@@ -109,7 +114,7 @@ class PowerDriver(Driver):
         p = self.sim.power(self.robot.name)
         watts = -abs(float(p.watts))  # the draw, as Player's "negative = consuming"
         charging = 1 if p.charging else 0
-        return ((c.PLAYER_POWER_DATA_STATE, am.PowerData(
+        return ((c.PLAYER_POWER_DATA_STATE, _MAKE_POWER(
             _VALID_ALL, p.volts, p.percent, p.joules, watts, charging)),)
 
     def handle_request(self, subtype: int, body: Any) -> Reply:

@@ -19,8 +19,15 @@ from player_server.drivers.base import Driver, Reply, Unsupported, ack
 from player_server.drivers.vision import encode_image
 from player_server.protocol import constants as c
 from player_server.protocol import sensor_msgs as sm
-from player_server.protocol.common import Bbox2d, Bbox3d, Pose3d
+from player_server.protocol.common import POSE3D_ZERO, Bbox2d, Bbox3d, Pose3d
 from player_server.protocol.constants import Interface
+
+# bodies built every tick: the positional constructors fill the slots directly
+_MAKE_BLOB = sm.BlobfinderBlob.xdr_make  # type: ignore[attr-defined]
+_MAKE_BLOBS = sm.BlobfinderData.xdr_make  # type: ignore[attr-defined]
+_MAKE_ITEM = sm.FiducialItem.xdr_make  # type: ignore[attr-defined]
+_MAKE_FIDUCIALS = sm.FiducialData.xdr_make  # type: ignore[attr-defined]
+_MAKE_POSE = Pose3d.xdr_make  # type: ignore[attr-defined]
 
 
 def fiducial_ids(world: Any) -> dict[str, int]:
@@ -59,6 +66,9 @@ class OverheadBlobfinderDriver(Driver):
         self.sim = sim
         self.cam = world.overhead_camera
         self.radii = footprint_radii(world)
+        self._discs: dict[str, tuple[float, float, int]] = {}
+        # name -> (x, y, index, blob or None when out of view) of the last data made
+        self._known: dict[str, tuple[float, float, int, Any]] = {}
 
     def to_pixels(self, x: float, y: float) -> tuple[float, float]:
         cam = self.cam
@@ -66,24 +76,47 @@ class OverheadBlobfinderDriver(Driver):
         v = cam.height_px / 2.0 - (y - cam.y) / cam.view_size_y_m * cam.height_px
         return u, v
 
-    def data(self) -> Sequence[tuple[int, Any]]:
-        cam = self.cam
-        blobs = []
-        for i, t in enumerate(self.sim.overhead()):
-            u, v = self.to_pixels(t.x, t.y)
-            if not (0 <= u < cam.width_px and 0 <= v < cam.height_px):
-                continue
-            r_m = self.radii.get(t.name, 0.1)
+    def _disc(self, name: str) -> tuple[float, float, int]:
+        """(half width, half height, area) in pixels of the disc drawn for a thing."""
+        hit = self._discs.get(name)
+        if hit is None:
+            cam = self.cam
+            r_m = self.radii.get(name, 0.1)
             ru = max(r_m / cam.view_size_x_m * cam.width_px, 0.5)
             rv = max(r_m / cam.view_size_y_m * cam.height_px, 0.5)
-            area = max(int(math.pi * ru * rv), 1)
-            blobs.append(sm.BlobfinderBlob(
-                i, t.colour & 0xFFFFFF, area, int(u), int(v),
-                max(int(u - ru), 0), min(int(u + ru), cam.width_px - 1),
-                max(int(v - rv), 0), min(int(v + rv), cam.height_px - 1),
-                float(cam.height_m)))
-        return ((c.PLAYER_BLOBFINDER_DATA_BLOBS, sm.BlobfinderData(
-            cam.width_px, cam.height_px, tuple(blobs))),)
+            hit = self._discs[name] = (ru, rv, max(int(math.pi * ru * rv), 1))
+        return hit
+
+    def data(self) -> Sequence[tuple[int, Any]]:
+        cam = self.cam
+        width, height = cam.width_px, cam.height_px
+        cx, cy, vx, vy = cam.x, cam.y, cam.view_size_x_m, cam.view_size_y_m
+        half_w, half_h = width / 2.0, height / 2.0
+        known = self._known
+        blobs = []
+        for i, t in enumerate(self.sim.overhead()):
+            x, y = t.x, t.y
+            hit = known.get(t.name)
+            # most things stand still: their blob is the one made last time
+            if hit is not None and hit[0] == x and hit[1] == y and hit[2] == i:
+                if hit[3] is not None:
+                    blobs.append(hit[3])
+                continue
+            u = (x - cx) / vx * width + half_w  # the arithmetic of `to_pixels`
+            v = half_h - (y - cy) / vy * height
+            blob = None
+            if 0 <= u < width and 0 <= v < height:
+                ru, rv, area = self._disc(t.name)
+                left, right = int(u - ru), int(u + ru)
+                top, bottom = int(v - rv), int(v + rv)
+                blob = _MAKE_BLOB(
+                    i, t.colour & 0xFFFFFF, area, int(u), int(v),
+                    left if left > 0 else 0, right if right < width else width - 1,
+                    top if top > 0 else 0, bottom if bottom < height else height - 1,
+                    float(cam.height_m))
+                blobs.append(blob)
+            known[t.name] = (x, y, i, blob)
+        return ((c.PLAYER_BLOBFINDER_DATA_BLOBS, _MAKE_BLOBS(width, height, tuple(blobs))),)
 
 
 class OverheadFiducialDriver(Driver):
@@ -95,18 +128,31 @@ class OverheadFiducialDriver(Driver):
         self.sim = sim
         self.cam = world.overhead_camera
         self.ids = fiducial_ids(world)
+        # name -> (x, y, yaw, item or None when out of view) of the last data made
+        self._known: dict[str, tuple[float, float, float, Any]] = {}
 
     def data(self) -> Sequence[tuple[int, Any]]:
         cam = self.cam
-        items = tuple(
-            sm.FiducialItem(self.ids.get(t.name, -1),
-                            Pose3d(t.x - cam.x, t.y - cam.y, -cam.height_m, 0.0, 0.0, t.yaw),
-                            Pose3d())
-            for t in self.sim.overhead()
-            if abs(t.x - cam.x) <= cam.view_size_x_m / 2
-            and abs(t.y - cam.y) <= cam.view_size_y_m / 2
-        )
-        return ((c.PLAYER_FIDUCIAL_DATA_SCAN, sm.FiducialData(items)),)
+        cx, cy, z = cam.x, cam.y, -cam.height_m
+        half_x, half_y = cam.view_size_x_m / 2, cam.view_size_y_m / 2
+        ids = self.ids
+        known = self._known
+        items = []
+        for t in self.sim.overhead():
+            x, y, yaw = t.x, t.y, t.yaw
+            hit = known.get(t.name)
+            # most things stand still: their item is the one made last time
+            if hit is not None and hit[0] == x and hit[1] == y and hit[2] == yaw:
+                item = hit[3]
+            else:
+                item = None
+                if abs(x - cx) <= half_x and abs(y - cy) <= half_y:
+                    item = _MAKE_ITEM(ids.get(t.name, -1),
+                                      _MAKE_POSE(x - cx, y - cy, z, 0.0, 0.0, yaw), POSE3D_ZERO)
+                known[t.name] = (x, y, yaw, item)
+            if item is not None:
+                items.append(item)
+        return ((c.PLAYER_FIDUCIAL_DATA_SCAN, _MAKE_FIDUCIALS(tuple(items))),)
 
     def handle_request(self, subtype: int, body: Any) -> Reply:
         cam = self.cam

@@ -13,6 +13,10 @@ from player_server.protocol import constants as c
 from player_server.protocol.common import Pose2d
 from player_server.protocol.constants import Interface
 
+# bodies built every tick: the positional constructors fill the slots directly
+_MAKE_DATA = am.Position2dData.xdr_make  # type: ignore[attr-defined]
+_MAKE_POSE = Pose2d.xdr_make  # type: ignore[attr-defined]
+
 _NULL_REQUESTS = frozenset({
     c.PLAYER_POSITION2D_REQ_VELOCITY_MODE, c.PLAYER_POSITION2D_REQ_POSITION_MODE,
     c.PLAYER_POSITION2D_REQ_SPEED_PID, c.PLAYER_POSITION2D_REQ_POSITION_PID,
@@ -57,8 +61,8 @@ class Position2dDriver(Driver):
 
     def data(self) -> Sequence[tuple[int, Any]]:
         o = self.sim.odometry(self.robot.name)
-        return ((c.PLAYER_POSITION2D_DATA_STATE, am.Position2dData(
-            Pose2d(o.x, o.y, o.yaw), Pose2d(o.vx, o.vy, o.vyaw), int(bool(o.stall)))),)
+        return ((c.PLAYER_POSITION2D_DATA_STATE, _MAKE_DATA(
+            _MAKE_POSE(o.x, o.y, o.yaw), _MAKE_POSE(o.vx, o.vy, o.vyaw), 1 if o.stall else 0)),)
 
     def _clamp(self, vx: float, vyaw: float) -> tuple[float, float]:
         vmax = float(self.properties["max_speed"])
@@ -69,12 +73,15 @@ class Position2dDriver(Driver):
         name = self.robot.name
         if body is None:
             raise Unsupported("position2d commands need a body")
-        finite(*(float(v) for v in _numbers(body)))
-        if subtype == c.PLAYER_POSITION2D_CMD_VEL:
+        if subtype == c.PLAYER_POSITION2D_CMD_VEL:  # the usual command, checked directly
+            v = body.vel
+            finite(float(v.px), float(v.py), float(v.pa))
             self._goal = None
-            vx, vyaw = self._clamp(body.vel.px, body.vel.pa)
+            vx, vyaw = self._clamp(v.px, v.pa)
             self.sim.set_velocity(name, vx, vyaw)
-        elif subtype == c.PLAYER_POSITION2D_CMD_POS:
+            return
+        finite(*(float(n) for n in _numbers(body)))
+        if subtype == c.PLAYER_POSITION2D_CMD_POS:
             self._goal = ("pos", (body.pos.px, body.pos.py, body.pos.pa,
                                   abs(body.vel.px) or float(self.properties["max_speed"])))
         elif subtype == c.PLAYER_POSITION2D_CMD_CAR:

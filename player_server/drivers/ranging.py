@@ -20,10 +20,17 @@ SONAR_SIZE = Bbox3d(0.04, 0.02, 0.04)
 
 def _ranges(values: Any) -> tuple[float, ...]:
     """Plain non-negative floats (libplayerc asserts ranges >= 0; NaN becomes 0)."""
-    arr = np.asarray(values, dtype=np.float64)
-    arr = np.where(np.isfinite(arr), arr, 0.0)  # a fresh array (np.nan_to_num is slower)
-    np.maximum(arr, 0.0, out=arr)
-    return tuple(arr.tolist())
+    out = values.tolist() if isinstance(values, np.ndarray) else [float(v) for v in values]
+    if out:
+        total = sum(out)
+        # the sum is finite only if every value is, so one pass checks the usual case
+        if total - total == 0.0 and min(out) >= 0.0:
+            return tuple(out)
+    return tuple(v if v >= 0.0 and v - v == 0.0 else 0.0 for v in out)
+
+
+_MAKE_SONAR = sm.SonarData.xdr_make  # type: ignore[attr-defined]
+_MAKE_LASER = sm.LaserData.xdr_make  # type: ignore[attr-defined]
 
 
 class SonarDriver(Driver):
@@ -40,7 +47,7 @@ class SonarDriver(Driver):
         self._geom = self.geometry()
 
     def data(self) -> Sequence[tuple[int, Any]]:
-        return ((c.PLAYER_SONAR_DATA_RANGES, sm.SonarData(_ranges(self.sim.sonar(
+        return ((c.PLAYER_SONAR_DATA_RANGES, _MAKE_SONAR(_ranges(self.sim.sonar(
             self.robot.name)))),)
 
     def geometry(self) -> sm.SonarGeom:
@@ -79,7 +86,7 @@ class LaserDriver(Driver):
         ranges = _ranges(self.sim.laser(self.robot.name))
         res = s.resolution_rad if len(ranges) == s.samples else (
             (s.max_angle_rad - s.min_angle_rad) / max(len(ranges) - 1, 1))
-        return ((c.PLAYER_LASER_DATA_SCAN, sm.LaserData(
+        return ((c.PLAYER_LASER_DATA_SCAN, _MAKE_LASER(
             s.min_angle_rad, s.max_angle_rad, res, s.max_range_m, ranges, b"",
             int(self.sim.tick) & 0xFFFFFFFF)),)
 

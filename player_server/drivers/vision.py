@@ -65,6 +65,12 @@ def _u32(value: float) -> int:
     return max(int(value), 0)
 
 
+# bodies built every tick: the positional constructors fill the slots directly
+_MAKE_BLOB = sm.BlobfinderBlob.xdr_make  # type: ignore[attr-defined]
+_MAKE_BLOBS = sm.BlobfinderData.xdr_make  # type: ignore[attr-defined]
+_MAKE_PTZ = am.PtzData.xdr_make  # type: ignore[attr-defined]
+
+
 class BlobfinderDriver(Driver):
     interf = int(Interface.BLOBFINDER)
 
@@ -79,14 +85,13 @@ class BlobfinderDriver(Driver):
     def data(self) -> Sequence[tuple[int, Any]]:
         # pixel quantities are whole non-negative numbers on the wire (u32), whatever
         # numeric type the simulator hands over
-        blobs = tuple(
-            sm.BlobfinderBlob(_u32(b.id), int(b.colour) & 0xFFFFFF, _u32(b.area), _u32(b.x),
-                              _u32(b.y), _u32(b.l), _u32(b.r), _u32(b.t), _u32(b.b),
-                              float(b.range_m))
+        blobs = tuple([
+            _MAKE_BLOB(_u32(b.id), int(b.colour) & 0xFFFFFF, _u32(b.area), _u32(b.x),
+                       _u32(b.y), _u32(b.l), _u32(b.r), _u32(b.t), _u32(b.b),
+                       float(b.range_m))
             for b in self.sim.blobs(self.robot.name)
-        )
-        return ((c.PLAYER_BLOBFINDER_DATA_BLOBS,
-                 sm.BlobfinderData(self.width, self.height, blobs)),)
+        ])
+        return ((c.PLAYER_BLOBFINDER_DATA_BLOBS, _MAKE_BLOBS(self.width, self.height, blobs)),)
 
 
 class FiducialDriver(Driver):
@@ -134,7 +139,7 @@ class PtzDriver(Driver):
     def data(self) -> Sequence[tuple[int, Any]]:
         p = self.sim.ptz(self.robot.name)
         return ((c.PLAYER_PTZ_DATA_STATE,
-                 am.PtzData(p.pan, p.tilt, p.zoom, p.pan_speed, p.tilt_speed, 0)),)
+                 _MAKE_PTZ(p.pan, p.tilt, p.zoom, p.pan_speed, p.tilt_speed, 0)),)
 
     def handle_command(self, subtype: int, body: Any) -> None:
         if subtype != c.PLAYER_PTZ_CMD_STATE or body is None:

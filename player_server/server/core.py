@@ -116,6 +116,17 @@ class Session:
     stalled_since: float | None = None
     closing: str | None = None
     counters: SessionCounters = field(default_factory=SessionCounters)
+    # what the rules say, per DATA key and per device (cleared when rules or subs change)
+    rule_of: dict[DataKey, int] = field(default_factory=dict)
+    ignored: dict[tuple[int, int], bool] = field(default_factory=dict)
+    # the last round built: (data version, its bytes with the SYNCH, or None when empty)
+    built: tuple[tuple[float, int], bytes | None] | None = None
+
+    def forget_plan(self) -> None:
+        """Subscriptions or rules changed: what was worked out from them no longer holds."""
+        self.rule_of.clear()
+        self.ignored.clear()
+        self.built = None
 
     @property
     def wants_input(self) -> bool:
@@ -173,6 +184,7 @@ class ServerCore:
     def close_session(self, session: Session) -> None:
         """Forget a connection and everything it subscribed to."""
         session.subs.clear()
+        session.forget_plan()
         session.round_pending = False
         self.sessions.pop(session.id, None)
 
@@ -337,6 +349,7 @@ class ServerCore:
         elif st == c.PLAYER_REQ_ADD_REPLACE_RULE and isinstance(body, pm.AddReplaceRuleReq):
             if body.replace in (0, 1, 2):
                 s.rules.append(body)
+                s.forget_plan()
                 self._reply(s, _PLAYER, msg.index, st, None, ack=True)
             else:
                 self._reply(s, _PLAYER, msg.index, st, None, ack=False)
@@ -368,6 +381,7 @@ class ServerCore:
             s.subs[key] = drv
         else:
             s.subs.pop(key, None)
+        s.forget_plan()
         self._reply(s, _PLAYER, index, st, pm.DeviceReq(addr, body.access, drv.driver_name),
                     ack=True)
         if body.access == c.PLAYER_OPEN_MODE and s.round_pending:
@@ -404,13 +418,20 @@ class ServerCore:
             self._reply(s, h.interf, h.index, st, None, ack=False)
 
     # -- data -------------------------------------------------------------------------------
-    def _rule(self, s: Session, key: DataKey) -> int:
+    @staticmethod
+    def _rule(s: Session, key: DataKey) -> int:
+        hit = s.rule_of.get(key)
+        if hit is not None:
+            return hit
         interf, index, mtype, subtype = key
+        rule = c.PLAYER_PLAYER_MSG_REPLACE_RULE_REPLACE
         for r in s.rules:
             if ((r.interf in (-1, interf)) and (r.index in (-1, index))
                     and (r.type in (-1, mtype)) and (r.subtype in (-1, subtype))):
-                return r.replace
-        return c.PLAYER_PLAYER_MSG_REPLACE_RULE_REPLACE
+                rule = r.replace
+                break
+        s.rule_of[key] = rule
+        return rule
 
     def _device_data(self, ep: Endpoint, key: tuple[int, int], driver: Driver,
                      version: tuple[float, int] | None = None) -> list[tuple[DataKey, bytes]]:
@@ -447,25 +468,46 @@ class ServerCore:
     @staticmethod
     def _device_ignored(s: Session, key: tuple[int, int]) -> bool:
         """Does the client's first rule for this device's DATA ignore every subtype?"""
+        hit = s.ignored.get(key)
+        if hit is not None:
+            return hit
         interf, index = key
+        ignored = False
         for r in s.rules:
             if r.interf in (-1, interf) and r.index in (-1, index) and r.type in (-1, _DATA):
-                return r.subtype == -1 and r.replace == c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE
-        return False
+                ignored = (r.subtype == -1
+                           and r.replace == c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE)
+                break
+        s.ignored[key] = ignored
+        return ignored
+
+    def _round_bytes(self, s: Session) -> bytes | None:
+        """A PULL round's DATA and SYNCH as one write; None when it has no DATA. Built once
+        per data version (`prepare` builds it ahead of `publish`)."""
+        version = (self._sim_time_s(), self._mutations)
+        built = s.built
+        if built is not None and built[0] == version:
+            return built[1]
+        rules = s.rules
+        wires = [wire for dkey, wire in self._round_items(s)
+                 if not rules or self._rule(s, dkey) != c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE]
+        # the DATA (encoded once per tick and device, shared by every client) and the
+        # SYNCH leave as one queue entry, i.e. in the same write as what precedes them
+        data = None
+        if wires:
+            wires.append(_SYNCH_OK)
+            data = b"".join(wires)
+        s.built = (version, data)
+        return data
 
     def _try_round(self, s: Session) -> bool:
         """Send a pending PULL round if there is a newer round with data to send."""
         if not s.round_pending or s.last_round >= self.round_seq:
             return False
-        rules = s.rules
-        wires = [wire for dkey, wire in self._round_items(s)
-                 if not rules or self._rule(s, dkey) != c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE]
-        if not wires:
+        data = self._round_bytes(s)
+        if data is None:
             return False
-        # the DATA (encoded once per tick and device, shared by every client) and the
-        # SYNCH leave as one queue entry, i.e. in the same write as what precedes them
-        wires.append(_SYNCH_OK)
-        s.queue.push_reply(b"".join(wires))
+        s.queue.push_reply(data)
         s.round_pending = False
         s.last_round = self.round_seq
         s.counters.rounds += 1
@@ -498,8 +540,7 @@ class ServerCore:
         keep the cache valid; anything else handled in between makes it read afresh."""
         for s in list(self.sessions.values()):
             if s.closing is None and s.mode == c.PLAYER_DATAMODE_PULL and s.subs:
-                for _ in self._round_items(s):
-                    pass
+                self._round_bytes(s)
 
     def rounds_wanted(self) -> bool:
         """Is some PULL client waiting for a round newer than the current one?"""

@@ -160,6 +160,7 @@ class Simulation:
         self.paused = False
         self._cache: dict[object, object] = {}
         self._cache_tick = -1
+        self._colours: dict[str, int] | None = None  # see `_spec_colours`
         seeds = np.random.SeedSequence(self.seed).spawn(len(self.spec.robots) + 1)
         self._noise_seed = int(seeds[-1].generate_state(1)[0])
         self._robots: list[_Robot] = []
@@ -1084,10 +1085,7 @@ class Simulation:
             raise ValueError(f"world {self.spec.name!r} has no overhead camera")
 
         def compute() -> tuple[TrackedObject, ...]:
-            colours = {r.name: r.colour for r in self.spec.robots}
-            colours.update({b.name: b.colour for b in self.spec.boxes})
-            colours.update({o.name: o.colour for o in self.spec.objects})
-            colours.update({m.name: m.colour for m in self.spec.markers})
+            colours = self._spec_colours()
             noise = None
             if oc.position_noise_m > 0:
                 noise = np.random.default_rng([self._noise_seed, self.tick])
@@ -1104,6 +1102,17 @@ class Simulation:
             return tuple(out)
 
         return self._cached("overhead", compute)  # type: ignore[return-value]
+
+    def _spec_colours(self) -> dict[str, int]:
+        """Name -> colour of every robot, box, object and marker (fixed by the world)."""
+        colours = self._colours
+        if colours is None:
+            colours = {r.name: r.colour for r in self.spec.robots}
+            colours.update({b.name: b.colour for b in self.spec.boxes})
+            colours.update({o.name: o.colour for o in self.spec.objects})
+            colours.update({m.name: m.colour for m in self.spec.markers})
+            self._colours = colours
+        return colours
 
     def snapshot(self) -> SceneSnapshot:
         def compute() -> SceneSnapshot:

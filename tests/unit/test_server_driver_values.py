@@ -4,6 +4,10 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
+import numpy as np
+import pytest
+
+from player_server.drivers.ranging import SonarDriver
 from player_server.drivers.vision import BlobfinderDriver
 from player_server.protocol import Decoder, encode_message
 from player_server.protocol import sensor_msgs as sm
@@ -32,3 +36,36 @@ def test_blob_pixels_from_floats_are_whole_and_non_negative() -> None:
     dec = Decoder()
     dec.feed(encode_message(7, 0, 1, subtype, body))
     assert [m.body for m in dec.events()] == [body]
+
+
+class RangeSim:
+    """Only what SonarDriver reads: ``sonar(robot)``."""
+
+    def __init__(self, ranges: object) -> None:
+        self._ranges = ranges
+
+    def sonar(self, robot: str) -> object:
+        return self._ranges
+
+
+def _sonar_robot() -> SimpleNamespace:
+    return SimpleNamespace(name="r", devices=SimpleNamespace(sonar=SimpleNamespace(
+        max_range_m=5.0, poses=())))
+
+
+@pytest.mark.parametrize("ranges", [
+    np.array([0.5, 1.25, 5.0], dtype=np.float32),
+    [0.5, 1.25, 5.0],
+])
+def test_clean_ranges_pass_unchanged(ranges: object) -> None:
+    ((_, body),) = SonarDriver(RangeSim(ranges), _sonar_robot()).data()
+    assert body == sm.SonarData((0.5, 1.25, 5.0))
+    assert all(type(v) is float for v in body.ranges)
+
+
+def test_bad_ranges_become_zero_and_the_rest_is_kept() -> None:
+    ranges = np.array([0.5, np.nan, -0.25, np.inf, -np.inf, 2.0], dtype=np.float32)
+    ((_, body),) = SonarDriver(RangeSim(ranges), _sonar_robot()).data()
+    assert body == sm.SonarData((0.5, 0.0, 0.0, 0.0, 0.0, 2.0))
+    ((_, empty),) = SonarDriver(RangeSim(np.zeros(0)), _sonar_robot()).data()
+    assert empty == sm.SonarData(())
