@@ -5,9 +5,11 @@ score on tasks that finish at once), then runs auctions back to back from this p
 20 ms bid window: the next announcement goes out as soon as the previous auction has closed.
 
 bids_complete: time from publishing an announcement until the last of the N bids has been
-read by the auctioneer's transport (late bids, after the window closed, are included; a bid set
-that never completes counts as infinite). msgs_per_auction counts the allocation messages
-(announce + bids + award); each winner's completion report comes on top of that.
+read by the auctioneer's transport (a subscription to each task's negotiation subject notes
+every bid's `received_at`, the transport's clock as it read it; late bids, after the window
+closed, are included; a bid set that never completes counts as infinite). msgs_per_auction
+counts the allocation messages (announce + bids + award); each winner's completion report comes
+on top of that.
 Last line, always for the default transport configuration (one multicast group and port):
 bids_complete_ms_p50=<x> bids_complete_ms_p99=<y> auctions_per_s=<z> msgs_per_auction=<m>
 
@@ -25,6 +27,7 @@ for a CPU per wake-up (scheduler latency, which dominates on a busy host).
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import math
 import os
@@ -33,11 +36,15 @@ import resource
 import subprocess
 import sys
 import time
+from collections import deque
+from collections.abc import Callable
 
-from murdoch.auction.messages import AuctionEvent, Outcome, TaskSpec
+from murdoch.auction.auctioneer import Phase
+from murdoch.auction.messages import Bid, Outcome, TaskSpec, negotiation_subject
 from murdoch.multicast import MulticastConfig, MulticastTransport
 from murdoch.node import Node
-from murdoch.wire import Frame
+from murdoch.transport import Subscription
+from murdoch.wire import Envelope
 
 
 def percentile(values: list[float], q: float) -> float:
@@ -106,22 +113,25 @@ def measure(args: argparse.Namespace, config: MulticastConfig) -> tuple[dict[str
     arrivals: dict[str, list[float]] = {}
     announced_at: dict[str, float] = {}
     outcomes: list[Outcome] = []
-    closed: set[str] = set()
 
-    def tap(frame: Frame, size: int) -> None:
-        if frame.kind == "bid":
-            arrivals.setdefault(str(frame.body.get("task_id")), []).append(clock())
+    def count_bids(times: list[float]) -> Callable[[Envelope], None]:
+        def note(envelope: Envelope) -> None:
+            if type(envelope.message) is Bid:
+                times.append(envelope.received_at)  # the transport's clock as it read it
 
-    def watch(event: AuctionEvent) -> None:
-        if event.kind == "close":
-            closed.add(event.task_id)
+        return note
 
     cpu_before = resource.getrusage(resource.RUSAGE_CHILDREN)
     procs = start_bidders(args.bidders, config, lifetime_s=120.0, batch_ms=args.batch_ms)
     transport = MulticastTransport(f"bench-{os.getpid()}", clock, config)
-    transport.core.frame_tap = tap
-    node = Node(transport, clock, on_outcome=outcomes.append, observer=watch)
+    node = Node(transport, clock, on_outcome=outcomes.append)
     measured: list[str] = []
+    spec = TaskSpec("bench", frozenset({"camera"}), bid_window_s=args.bid_window,
+                    renew_period_s=1.0, contract_timeout_s=3.0, abandon_after_s=3.0)
+    # each task's negotiation subject gets a subscription that notes when every bid on it is
+    # read (late ones included); the last few stay open for stragglers
+    bid_subs: deque[Subscription] = deque()
+    gc.freeze()  # as the bidders do: no full collection pass over the imported modules
     try:
         total = args.warmup + args.auctions
         start = 0.0
@@ -131,14 +141,17 @@ def measure(args: argparse.Namespace, config: MulticastConfig) -> tuple[dict[str
                 start = clock()
                 base = transport.counters.snapshot()["kinds"]
                 stats_before = [proc_stats(p.pid) for p in procs] + [proc_stats("self")]
-            spec = TaskSpec("bench", frozenset({"camera"}), bid_window_s=args.bid_window,
-                            renew_period_s=1.0, contract_timeout_s=3.0, abandon_after_s=3.0)
             sent_at = clock()
             task_id = node.announce(spec)
             announced_at[task_id] = sent_at
-            while task_id not in closed:
+            # nothing is read before the next poll, so no bid can be missed
+            times = arrivals.setdefault(task_id, [])
+            bid_subs.append(transport.subscribe({negotiation_subject(task_id)}, count_bids(times)))
+            if len(bid_subs) > 4:
+                bid_subs.popleft().close()
+            while node.auctioneer.phase_of(task_id) is Phase.BIDDING:
                 wake = node.auctioneer.next_wakeup()
-                timeout = 0.001 if wake is None else max(0.0, min(0.002, wake - clock()))
+                timeout = 0.05 if wake is None else max(0.0, min(0.05, wake - clock()))
                 node.step(timeout_s=timeout)
             if i >= args.warmup:
                 measured.append(task_id)
@@ -149,6 +162,8 @@ def measure(args: argparse.Namespace, config: MulticastConfig) -> tuple[dict[str
         while len(outcomes) < total and clock() < limit:
             node.step(timeout_s=0.01)
     finally:
+        for sub in bid_subs:
+            sub.close()
         node.close()
         transport.close()
         for proc in procs:

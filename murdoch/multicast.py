@@ -18,7 +18,8 @@ is woken. A transport waits for replies only while a subscription asks for it
 still in contention); otherwise queued replies are read at its next poll, before the main
 lane's traffic. So bidders are not woken by each other's bids, yet see them all before the
 award that follows them. With one group every datagram wakes the process (the flag asks for
-no more than that).
+no more than that), unless every subscription rests (`wake_on_traffic` False): then a poll
+waits on no socket at all, only its timeout, and reads both lanes afterwards.
 
 `poll(timeout_s)` waits at most `timeout_s` for the first datagram (select), then reads and
 dispatches everything already queued, on both lanes when there are two (non-blocking reads
@@ -157,6 +158,7 @@ class MulticastTransport(EndpointBacked):
             self._both = [self._sock]
             self._read_order = (self._sock,)
         self._main_only = [self._sock]
+        self._nothing: list[socket.socket] = []
         self.closed = False
 
     def fileno(self) -> int:
@@ -192,8 +194,12 @@ class MulticastTransport(EndpointBacked):
             return 0
         core = self._core
         if timeout_s > 0:
-            lazy = self._reply_sock is not None and not core.wants_replies
-            waits = self._main_only if lazy else self._both
+            if not core.wants_traffic:
+                waits = self._nothing  # every subscription rests: only the timeout ends the wait
+            elif self._reply_sock is not None and not core.wants_replies:
+                waits = self._main_only
+            else:
+                waits = self._both
             select.select(waits, [], [], timeout_s)
         limit = core.codec.max_datagram_bytes + 1  # longer ones are truncated: too_large
         receive = core.receive

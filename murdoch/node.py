@@ -68,6 +68,7 @@ class Node:
         observer: Observer | None = None,
         backoff: RandomizedBackoff | None = None,
         auto_idle: bool = True,
+        rest_while_bidding: bool = True,
     ) -> None:
         self.transport = transport
         self.clock = clock
@@ -83,6 +84,10 @@ class Node:
         self._on_outcome = on_outcome
         self._backoff = backoff
         self.auto_idle = auto_idle
+        self.rest_while_bidding = rest_while_bidding
+        """Between sending a bid and looking at the others (half-way through the window), a
+        node with nothing else to wait for (no open auction, no contract) is not woken by
+        traffic: `step(timeout_s)` rests until then and reads what came in one go."""
         self.outcomes: deque[Outcome] = deque(maxlen=1024)
         """The latest outcomes of tasks this node introduced (also sent to `on_outcome`)."""
         self._lock = threading.RLock()
@@ -164,41 +169,42 @@ class Node:
         return self.bidder is not None and self.bidder.busy
 
     # -- the loop
-    @_locked
     def step(self, timeout_s: float = 0.0) -> int:
         """Receive, handle, tick and publish once; return the number of messages handled.
 
         Waits at most `timeout_s` for traffic, less when the bidder wants to look at the
-        other bids of an open round (`Bidder.next_wakeup`)."""
-        if self.closed:
-            return 0
-        if timeout_s > 0 and self.bidder is not None:
-            look_at = self.bidder.next_wakeup()
-            if look_at is not None:
-                timeout_s = max(0.0, min(timeout_s, look_at - self.clock()))
-        self.transport.poll(timeout_s)
-        envelopes = self._sub.drain()
-        auctioneer, bidder, publish = self.auctioneer, self.bidder, self._publish
-        for envelope in envelopes:
-            now = envelope.received_at
-            out = auctioneer.handle(envelope.message, now)
+        other bids of an open round (`Bidder.next_wakeup`); while resting (see
+        `rest_while_bidding`) traffic does not end the wait, only that time does."""
+        with self._lock:  # (inline rather than @_locked: this runs on every loop)
+            if self.closed:
+                return 0
+            if timeout_s > 0 and self.bidder is not None:
+                look_at = self.bidder.next_wakeup()
+                if look_at is not None:
+                    timeout_s = max(0.0, min(timeout_s, look_at - self.clock()))
+            self.transport.poll(timeout_s)
+            envelopes = self._sub.drain()
+            auctioneer, bidder, publish = self.auctioneer, self.bidder, self._publish
+            for envelope in envelopes:
+                now = envelope.received_at
+                out = auctioneer.handle(envelope.message, now)
+                if out:
+                    publish(out)
+                if bidder is not None:
+                    out = bidder.handle(envelope.message, now)
+                    if out:
+                        publish(out)
+            now = self.clock()
+            out = auctioneer.tick(now)
             if out:
                 publish(out)
             if bidder is not None:
-                out = bidder.handle(envelope.message, now)
+                out = bidder.tick(now)
                 if out:
                     publish(out)
-        now = self.clock()
-        out = auctioneer.tick(now)
-        if out:
-            publish(out)
-        if bidder is not None:
-            out = bidder.tick(now)
-            if out:
-                publish(out)
-        self._deliver_outcomes()
-        self._sync()
-        return len(envelopes)
+            self._deliver_outcomes()
+            self._sync()
+            return len(envelopes)
 
     @_locked
     def close(self) -> None:
@@ -227,8 +233,18 @@ class Node:
         # node only when it expects them: its auctioneer has open tasks, or its bidder holds a
         # bid still in contention after looking at the others; otherwise they are read at the
         # next poll, before the rest (with one channel every datagram wakes it anyway)
-        self._sub.wake_on_replies = bool(self.auctioneer.open_tasks()) or (
-            self.bidder is not None and self.bidder.expects_award
+        bidder = self.bidder
+        auctioning = self.auctioneer.has_open_tasks
+        self._sub.wake_on_replies = auctioning or (bidder is not None and bidder.expects_award)
+        # a bidder that has just bid rests until it looks at the other bids: they (and any
+        # other traffic) are read then in one go instead of waking it once each; anything
+        # else that came meanwhile waits at most half the window of that bid
+        self._sub.wake_on_traffic = not (
+            self.rest_while_bidding
+            and bidder is not None
+            and not auctioning
+            and bidder.contract is None
+            and bidder.next_wakeup() is not None
         )
 
     def _publish(self, messages: list[Outgoing], strict: bool = False) -> None:

@@ -30,7 +30,10 @@ for them): `wake_on_replies`, True by default. It is a permission, not a filter:
 that carries replies separately (multicast with its reply lane on) waits on them only while
 some subscription wants that and otherwise reads them whenever it polls anyway, before the
 other traffic; a transport with one channel (the default multicast, the memory bus) wakes for
-everything. No datagram is skipped either way.
+everything. No datagram is skipped either way. `wake_on_traffic = False` goes further: the
+owner polls on its own timer and nothing that arrives needs to wake it (a bidder resting
+between its bid and its look at the other bids); while every subscription says so (and there
+is no frame tap) a waiting poll only waits out its timeout, then reads what is queued.
 """
 
 from __future__ import annotations
@@ -123,6 +126,9 @@ class Subscription:
         self.closed = False
         self.wake_on_replies = True
         """False: replies may wait until the owner polls for other reasons (see module doc)."""
+        self.wake_on_traffic = True
+        """False: nothing that arrives wakes the owner; it polls on its own timer (a bidder
+        resting until it looks at the other bids) and queued datagrams wait for that poll."""
 
     @property
     def subjects(self) -> SubjectSet | None:
@@ -255,10 +261,17 @@ class EndpointCore:
             return None if key in self._monitors else self._index.subjects_of(key)
 
     @property
+    def wants_traffic(self) -> bool:
+        """Whether some open subscription (or a frame tap) must be woken by arrivals at all."""
+        return self.frame_tap is not None or any(
+            sub.wake_on_traffic for sub in list(self._subs.values())
+        )
+
+    @property
     def wants_replies(self) -> bool:
         """Whether some open subscription (or a frame tap) must be woken for replies."""
         return self.frame_tap is not None or any(
-            sub.wake_on_replies for sub in list(self._subs.values())
+            sub.wake_on_traffic and sub.wake_on_replies for sub in list(self._subs.values())
         )
 
     def set_subjects(self, key: int, subjects: SubjectSet | None) -> None:
@@ -328,7 +341,9 @@ class EndpointCore:
                     raise WireError("auth_failed", "datagram carries no tag")
                 header = codec.parse_header(datagram)
                 kind = header.kind
-                keys = self.match(header.subjects)
+                keys = self._matches.get(header.subjects)
+                if keys is None:
+                    keys = self.match(header.subjects)
                 tap = self.frame_tap
                 if not keys and tap is None:
                     # nobody here listens: neither authenticated nor decoded, but counted
@@ -342,8 +357,10 @@ class EndpointCore:
                     if not self._replay.accept(f"{header.sender}/{header.instance}",
                                                header.seq):
                         raise WireError("replayed", f"{header.sender}#{header.seq}")
-                body = codec.decode_body(datagram, header)
-                if tap is not None:
+                if tap is None:
+                    message = codec.decode_message(datagram, header)
+                else:
+                    body = codec.decode_body(datagram, header)
                     tap(Frame(kind, header.sender, header.seq, header.subjects, body,
                               header.instance), size)
                     if not keys:
@@ -352,7 +369,7 @@ class EndpointCore:
                         self.counters.count_received(kind, size)
                         self.counters.count_dropped("unmatched")
                         return 0
-                message = codec.message_from(kind, body)
+                    message = codec.message_from(kind, body)
             except WireError as exc:
                 self.counters.count_dropped(exc.reason)
                 log.debug("dropped datagram (%s)", exc)
@@ -361,7 +378,16 @@ class EndpointCore:
             envelope = Envelope(header.sender, header.seq, header.subjects, message, size,
                                 self.clock())
             subs = self._subs
-            targets = [subs[k] for k in keys]
+            if len(keys) == 1:
+                only = subs[keys[0]]
+                if only.closed:
+                    return 1
+                targets = None
+            else:
+                targets = [subs[k] for k in keys]
+        if targets is None:
+            only._deliver(envelope)
+            return 1
         for sub in targets:
             if not sub.closed:
                 sub._deliver(envelope)

@@ -65,6 +65,20 @@ MAC_SUFFIX_BYTES = len(MAC_KEY) + MAC_HEX_DIGITS + 2
 _HEADER_SCAN_BYTES = 400
 _HEX = frozenset(b"0123456789abcdef")
 _TOP_MEMBERS = frozenset({"h", "b", "mac"})
+_FLAT_VALUE = (
+    rb'("[^"\\\x00-\x1f]*"|-?(?:0|[1-9][0-9]*)(?:\.[0-9]+)?(?:[eE][-+]?[0-9]+)?'
+    rb"|null|true|false)"
+)
+"""One JSON scalar in the compact form senders write: a string without escapes, a number,
+null, true or false (anything else goes through the JSON decoder)."""
+_FLAT_HINTS = (str, int, float, bool, type(None))
+_PLAIN_HEADER = re.compile(
+    rb'\{"h":\[2,"(([a-z0-9][a-z0-9._-]{0,31})","([!#-Z^-~]{1,80})","([!#-Z^-~]{0,80}))",'
+    rb'(0|[1-9][0-9]{0,18}),"([a-z0-9._:/,-]*)"\],"b":'
+)
+"""How every sender begins a datagram (version 2): the header tokens it may hold, unescaped."""
+_plain_header_match = _PLAIN_HEADER.match
+_BODY_ENDS = b"},"
 
 
 def check_token(value: str, what: str) -> str:
@@ -231,7 +245,10 @@ def compile_converter(hint: Any, name: str) -> Converter:
                 if math.isfinite(value):
                     return value
             elif kind is int:
-                return float(value)
+                try:
+                    return float(value)
+                except OverflowError:
+                    pass
             raise _fail(name, "finite number", value)
 
         return convert_float
@@ -289,6 +306,14 @@ class Codec:
         self._tokens: set[str] = set()
         self._checked_kinds: set[str] = set()
         self._builders: dict[str, Callable[[Mapping[str, Any]], Any]] = {}
+        self._flat: dict[str, _FlatReader] = {}
+        """Kinds whose fields are all scalars: their bodies are read without the JSON
+        decoder when they have the compact form senders write."""
+        self._flat_builders: dict[str, _FlatBuilder] = {}
+        self._flat_keys: dict[str, tuple[str, ...]] = {}
+        self._plain_idents: dict[bytes, tuple[str, str, str]] = {}
+        """Kind, sender and instance of headers read by `_PLAIN_HEADER`, as text."""
+        self._plain_subjects: dict[bytes, SubjectSet] = {}
         self._decoder = json.JSONDecoder(
             parse_constant=_reject_constant, object_pairs_hook=_unique_members
         )
@@ -313,6 +338,12 @@ class Codec:
             self._field_names[kind] = frozenset(names)
             self._field_order[kind] = tuple(names)
             self._builders[kind] = self._builder(cls, kind)
+            if all(f.init for f in dataclasses.fields(cls)):
+                self._flat_keys[kind] = tuple(f'"{n}":' for n in names)
+                if all(_is_flat(hints[n]) for n in names):
+                    self._flat[kind] = self._flat_reader(kind)
+                if all(_is_flat(hints[n]) or hints[n] in _COMPACT_PIECES for n in names):
+                    self._flat_builders[kind] = self._flat_builder(cls, kind)
 
     @property
     def kinds(self) -> frozenset[str]:
@@ -340,11 +371,13 @@ class Codec:
         self, sender: str, seq: int, subjects: SubjectSet, message: Any, instance: str = ""
     ) -> bytes:
         """The unauthenticated datagram bytes of one message (the standard shape)."""
-        body = self.body_of(message)
-        try:
-            encoded = self._encoder.encode(body).encode("utf-8")
-        except (TypeError, ValueError) as exc:
-            raise WireError("bad_fields", f"{message.KIND}: {exc}") from None
+        encoded = self._flat_body(message)
+        if encoded is None:
+            body = self.body_of(message)
+            try:
+                encoded = self._encoder.encode(body).encode("utf-8")
+            except (TypeError, ValueError) as exc:
+                raise WireError("bad_fields", f"{message.KIND}: {exc}") from None
         tokens = self._tokens
         if sender not in tokens or (instance and instance not in tokens):
             check_token(sender, "sender id")
@@ -377,7 +410,57 @@ class Codec:
             )
         return data
 
+    def _flat_body(self, message: Any) -> bytes | None:
+        """The body of a message whose fields are scalars, lists of strings or empty objects,
+        written directly (the same bytes the JSON encoder writes); None for other messages
+        (the encoder writes them)."""
+        kind = getattr(message, "KIND", None)
+        if type(kind) is not str:
+            return None
+        keys = self._flat_keys.get(kind)
+        if keys is None or type(message) is not self._types[kind]:
+            return None
+        parts = []
+        for key, name in zip(keys, self._field_order[kind], strict=True):
+            value = getattr(message, name)
+            kind_of = type(value)
+            if kind_of is str:
+                text = _json_string(value)
+            elif kind_of is float:
+                if not math.isfinite(value):
+                    raise WireError("bad_fields", f"{kind}: non-finite number {value!r}")
+                text = float.__repr__(value)
+            elif kind_of is int:
+                text = int.__repr__(value)
+            elif value is None:
+                text = "null"
+            elif value is True:
+                text = "true"
+            elif value is False:
+                text = "false"
+            elif kind_of is tuple and all(type(item) is str for item in value):
+                text = "[" + ",".join([_json_string(item) for item in value]) + "]"
+            elif not value and isinstance(value, Mapping):
+                text = "{}"
+            else:
+                return None  # something the encoder must judge
+            parts.append(key + text)
+        return ("{" + ",".join(parts) + "}").encode("ascii")
+
     # -- decoding
+    def decode_message(self, data: bytes, header: Header) -> Any:
+        """The message a datagram carries, its body checked against the message class
+        (`decode_body` then `message_from`, with the same result or the same error).
+
+        The bodies of scalar-only kinds in the compact form senders write are read with one
+        pattern match instead of the JSON decoder."""
+        build = self._flat_builders.get(header.kind)
+        if build is not None and header.body is None:
+            message = build(data, header.body_at, header.body_end)
+            if message is not None:
+                return message
+        return self.message_from(header.kind, self.decode_body(data, header))
+
     def parse_header(self, data: bytes) -> Header:
         """The header of a datagram (signed or not), cheap enough to run on every datagram
         before filtering: for the standard shape only the header array is decoded.
@@ -385,25 +468,68 @@ class Codec:
         The kind is not checked against this codec here (listeners show unknown kinds)."""
         if len(data) > self.max_datagram_bytes:
             raise WireError("too_large", f"{len(data)} bytes")
+        plain = _plain_header_match(data)
+        if plain is not None:
+            known = self._plain_header(data, plain)
+            if known is not None:
+                return known
         if data[:6] == HEADER_START:
             end = data.find(b"]", 6, _HEADER_SCAN_BYTES)
             if end > 0 and data[end + 1 : end + 6] == BODY_KEY:
-                try:
-                    fields = self._decoder.decode(data[5 : end + 1].decode("ascii"))
-                except (UnicodeDecodeError, ValueError):
-                    fields = None
-                if type(fields) is list:
-                    signed_end = signed_length(data)
-                    body_end = signed_end if signed_end >= 0 else len(data) - 1
-                    if data[body_end:body_end + 1] in (b"}", b",") and body_end > end + 6:
+                signed_end = signed_length(data)
+                body_end = signed_end if signed_end >= 0 else len(data) - 1
+                if data[body_end:body_end + 1] in (b"}", b",") and body_end > end + 6:
+                    try:
+                        fields = self._decoder.decode(data[5 : end + 1].decode("ascii"))
+                    except (UnicodeDecodeError, ValueError):
+                        fields = None
+                    if type(fields) is list:
                         kind, sender, instance, seq, subjects = self._header_fields(fields)
                         return Header(kind, sender, instance, seq, subjects, end + 6, body_end)
         return self._parse_whole(data)
+
+    def _plain_header(self, data: bytes, plain: re.Match[bytes]) -> Header | None:
+        """The header of a datagram that begins the way senders write it (`_PLAIN_HEADER`:
+        compact, no escapes, every token of the allowed characters), with the subject set
+        and the kind looked up in caches; None when something needs the general path to
+        judge it (an unchecked subject set, a sequence number out of range, no body)."""
+        ident_b, seq_b, subjects_b = plain.group(1, 5, 6)
+        subjects = self._plain_subjects.get(subjects_b)
+        if subjects is None:
+            try:
+                subjects = self._parse_subjects(subjects_b.decode("ascii"))
+            except WireError:
+                return None
+            if len(self._plain_subjects) >= 4096:
+                self._plain_subjects.clear()
+            self._plain_subjects[subjects_b] = subjects
+        ident = self._plain_idents.get(ident_b)
+        if ident is None:
+            kind_b, sender_b, instance_b = plain.group(2, 3, 4)
+            ident = (kind_b.decode("ascii"), sender_b.decode("ascii"), instance_b.decode("ascii"))
+            if len(self._plain_idents) >= 4096:
+                self._plain_idents.clear()
+            self._plain_idents[ident_b] = ident
+        seq = int(seq_b)
+        body_at = plain.end()
+        body_end = len(data) - 1
+        if data[-2:] == b'"}':  # perhaps a tag member: the body ends before it
+            signed_end = signed_length(data)
+            if signed_end >= 0:
+                body_end = signed_end
+        if seq > MAX_SEQ or body_end <= body_at or data[body_end] not in _BODY_ENDS:
+            return None
+        return Header(ident[0], ident[1], ident[2], seq, subjects, body_at, body_end)
 
     def decode_body(self, data: bytes, header: Header) -> Mapping[str, Any]:
         """The body's fields as a plain dict (`message_from` checks them)."""
         if header.body is not None:
             return header.body
+        read = self._flat.get(header.kind)
+        if read is not None:
+            values = read(data, header.body_at, header.body_end)
+            if values is not None:
+                return dict(zip(self._field_order[header.kind], values, strict=True))
         try:
             body = self._decoder.decode(data[header.body_at : header.body_end].decode("utf-8"))
         except (UnicodeDecodeError, ValueError):
@@ -509,6 +635,62 @@ class Codec:
             raise WireError("unknown_kind", f"kind {kind!r}")
         return build(body)
 
+    def _flat_reader(self, kind: str) -> _FlatReader:
+        """Reads the values of a scalar-only body in the compact form (its fields in
+        declaration order); None for any other form, which the JSON decoder then judges."""
+        names = self._field_order[kind]
+        pattern = re.compile(
+            rb"\{" + b",".join(b'"%s":' % n.encode("ascii") + _FLAT_VALUE for n in names)
+            + rb"\}"
+        )
+        fullmatch = pattern.fullmatch
+        scalar = _json_scalar
+
+        def read(data: bytes, start: int, end: int) -> list[Any] | None:
+            found = fullmatch(data, start, end)
+            if found is None:
+                return None
+            try:
+                return [scalar(token) for token in found.groups()]
+            except ValueError:  # undecodable text, or an integer too long for int()
+                return None  # the JSON decoder reports it
+
+        return read
+
+    def _flat_builder(self, cls: type, kind: str) -> _FlatBuilder:
+        """Reads a scalar-only body in the compact form straight into a message: one
+        pattern whose pieces admit only values of each field's type, each converted by a
+        builtin (the general path handles any other form and every error's wording)."""
+        hints = typing.get_type_hints(cls)
+        pieces = []
+        readers: list[Callable[[bytes], Any]] = []
+        for name, convert in self._converters[kind].items():
+            hint = hints[name]
+            piece, reader = _TYPED_PIECES.get(hint) or _COMPACT_PIECES.get(hint) or (None, None)
+            if piece is None or reader is None:
+                piece, reader = _FLAT_VALUE, _then(_json_scalar, convert)
+            pieces.append(b'"%s":' % name.encode("ascii") + piece)
+            readers.append(reader)
+        fullmatch = re.compile(rb"\{" + b",".join(pieces) + rb"\}").fullmatch
+        typed = tuple(readers)
+
+        def build(data: bytes, start: int, end: int) -> Any:
+            found = fullmatch(data, start, end)
+            if found is None:
+                return None
+            try:
+                values = [read(token) for read, token in zip(typed, found.groups(), strict=True)]
+            except ValueError:
+                return None  # the general path says what is wrong
+            try:
+                return cls(*values)
+            except (TypeError, ValueError, OverflowError) as exc:
+                if isinstance(exc, WireError):
+                    raise
+                raise WireError("bad_fields", f"{kind}: {exc}") from None
+
+        return build
+
     def _builder(self, cls: type, kind: str) -> Callable[[Mapping[str, Any]], Any]:
         converters = self._converters[kind]
         names = self._field_names[kind]
@@ -523,12 +705,101 @@ class Codec:
                 if positional:
                     return cls(*[convert(body[name]) for name, convert in pairs])
                 return cls(**{name: convert(body[name]) for name, convert in pairs})
-            except (TypeError, ValueError) as exc:
+            except (TypeError, ValueError, OverflowError) as exc:
                 if isinstance(exc, WireError):
                     raise
                 raise WireError("bad_fields", f"{kind}: {exc}") from None
 
         return build
+
+
+_FlatReader = Callable[[bytes, int, int], "list[Any] | None"]
+_FlatBuilder = Callable[[bytes, int, int], Any]
+
+
+def _finite_float(token: bytes) -> float:
+    value = float(token)
+    if value - value != 0.0:
+        raise ValueError("not finite")
+    return value
+
+
+def _json_bool(token: bytes) -> bool:
+    return token == b"true"
+
+
+def _then(first: Callable[[bytes], Any], second: Converter) -> Callable[[bytes], Any]:
+    return lambda token: second(first(token))
+
+
+_NUMBER = rb"(-?(?:0|[1-9][0-9]*)(?:\.[0-9]+)?(?:[eE][-+]?[0-9]+)?)"
+_TYPED_PIECES: dict[Any, tuple[bytes, Callable[[bytes], Any]]] = {
+    str: (rb'"([^"\\\x00-\x1f]*)"', bytes.decode),
+    int: (rb"(-?(?:0|[1-9][0-9]*))", int),
+    float: (_NUMBER, _finite_float),
+    bool: (rb"(true|false)", _json_bool),
+}
+"""Pattern pieces that admit only JSON values of one field type (strings without escapes),
+with the builtin that makes the value."""
+
+
+def _strings(token: bytes | None) -> tuple[str, ...]:
+    if token is None:
+        return ()
+    return tuple([part.decode() for part in token[1:-1].split(b'","')])
+
+
+def _no_members(token: bytes) -> Mapping[str, Any]:
+    del token
+    return types.MappingProxyType({})
+
+
+def _no_items(token: bytes) -> tuple[()]:
+    del token
+    return ()
+
+
+_COMPACT_PIECES: dict[Any, tuple[bytes, Callable[[Any], Any]]] = {
+    tuple[str, ...]: (rb'\[("[^"\\\x00-\x1f]*"(?:,"[^"\\\x00-\x1f]*")*)?\]', _strings),
+    Mapping[str, Any]: (rb"(\{\})", _no_members),
+    tuple[tuple[str, float], ...]: (rb"(\[\])", _no_items),
+}
+"""Containers read without the JSON decoder in their common compact forms: a list of
+strings without escapes, an empty object (no parameters), an empty list (no metrics); any
+other value of these fields goes through the decoder."""
+
+
+def _is_flat(hint: Any) -> bool:
+    """Whether values of `hint` are JSON scalars (str, int, float, bool, None, unions)."""
+    if hint in _FLAT_HINTS:
+        return True
+    if typing.get_origin(hint) in (typing.Union, types.UnionType):
+        return all(arg in _FLAT_HINTS for arg in typing.get_args(hint))
+    return False
+
+
+def _json_scalar(token: bytes) -> Any:
+    """The value of one token matched by `_FLAT_VALUE`, as `json` would decode it."""
+    first = token[0]
+    if first == 0x22:  # '"': no escapes inside (the pattern allows none)
+        return token[1:-1].decode("utf-8")
+    if token == b"null":
+        return None
+    if token == b"true":
+        return True
+    if token == b"false":
+        return False
+    if b"." in token or b"e" in token or b"E" in token:
+        return float(token)
+    return int(token)
+
+
+def _json_string(value: str) -> str:
+    """`value` as a JSON string, exactly as the (ASCII-only) JSON encoder writes it."""
+    if value.isascii() and value.isprintable() and '"' not in value and "\\" not in value:
+        return f'"{value}"'
+    written: str = json.encoder.encode_basestring_ascii(value)
+    return written
 
 
 def _reject_constant(name: str) -> Any:

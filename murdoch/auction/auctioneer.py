@@ -105,6 +105,10 @@ class Auctioneer:
     def open_tasks(self) -> tuple[str, ...]:
         return tuple(self._tasks)
 
+    @property
+    def has_open_tasks(self) -> bool:
+        return bool(self._tasks)
+
     def phase_of(self, task_id: str) -> Phase | None:
         task = self._tasks.get(task_id)
         return task.phase if task else None
@@ -215,7 +219,8 @@ class Auctioneer:
         if now > task.close_at or bid.bidder in task.bids:
             return
         task.bids[bid.bidder] = bid.score
-        self._emit(now, "bid", task, bidder=bid.bidder, score=bid.score)
+        if self._observer is not None:
+            self._emit(now, "bid", task, bidder=bid.bidder, score=bid.score)
 
     def _close(self, task: _Task, now: float) -> list[Outgoing]:
         self._emit(now, "close", task, bids=len(task.bids))

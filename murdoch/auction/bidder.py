@@ -208,7 +208,8 @@ class Bidder:
         score = float(score)
         expires = now + 2.0 * announce.bid_window_s + announce.renew_period_s
         self._pending[key] = _Pending(announce, score, expires, now + 0.5 * announce.bid_window_s)
-        self._emit(now, "bid", announce.task_id, announce.attempt, score=score)
+        if self._observer is not None:
+            self._emit(now, "bid", announce.task_id, announce.attempt, score=score)
         bid = Bid(announce.task_id, announce.attempt, self.agent_id, score)
         return [Outgoing(frozenset({announce.negotiation}), bid)]
 
@@ -218,7 +219,9 @@ class Bidder:
             return
         if beats(bid.score, bid.bidder, pending.score, self.agent_id):
             pending.lost = True
-            self._emit(now, "outbid", bid.task_id, bid.attempt, by=bid.bidder, score=bid.score)
+            if self._observer is not None:
+                self._emit(now, "outbid", bid.task_id, bid.attempt, by=bid.bidder,
+                           score=bid.score)
 
     def _on_award(self, award: Award, now: float) -> list[Outgoing]:
         key = (award.task_id, award.attempt)

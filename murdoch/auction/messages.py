@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Any, ClassVar, NamedTuple
 
 from murdoch.subjects import IDLE, SubjectSet, check_subject, subject_set
@@ -37,9 +38,14 @@ def _finite(name: str, value: float, minimum: float = 0.0) -> None:
         raise ValueError(f"{name} must be a finite number >= {minimum}, got {value}")
 
 
+_NO_PARAMS: Mapping[str, Any] = MappingProxyType({})
+
+
 def _frozen_mapping(value: Mapping[str, Any]) -> Mapping[str, Any]:
     if not isinstance(value, Mapping):
         raise TypeError(f"params must be a mapping, got {type(value).__name__}")
+    if not value:
+        return _NO_PARAMS
     frozen: Mapping[str, Any] = freeze(dict(value))
     return frozen
 
@@ -63,8 +69,10 @@ class Announce:
     def __post_init__(self) -> None:
         object.__setattr__(self, "params", _frozen_mapping(self.params))
         check_subject(self.negotiation)
-        for name in ("duration_s", "bid_window_s", "renew_period_s", "abandon_after_s"):
-            _finite(name, getattr(self, name))
+        times = (self.duration_s, self.bid_window_s, self.renew_period_s, self.abandon_after_s)
+        if not all(0.0 <= t < math.inf for t in times):
+            for name in ("duration_s", "bid_window_s", "renew_period_s", "abandon_after_s"):
+                _finite(name, getattr(self, name))
 
     @property
     def metric_weights(self) -> dict[str, float]:

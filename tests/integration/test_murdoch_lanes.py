@@ -199,3 +199,33 @@ def test_traffic_nobody_listens_to_is_counted_not_decoded_and_the_rest_gets_thro
         assert dropped.get("unmatched") == 5  # four bids and the broken body: never parsed
         assert dropped.get("malformed") == 4 * lanes and dropped.get("bad_version") == lanes
         assert rx.counters.received("bid") == 4 + 1 + 1
+
+
+@pytest.mark.timeout(30)
+@pytest.mark.parametrize("lanes", ["one_group", "config"])
+def test_a_resting_subscriber_is_woken_by_nothing_and_then_reads_everything(
+    lanes: str, request: pytest.FixtureRequest
+) -> None:
+    cfg: MulticastConfig = request.getfixturevalue(lanes)
+    with MulticastTransport("bidder", time.monotonic, cfg) as bidder, \
+            MulticastTransport("auctioneer", time.monotonic, cfg) as auctioneer:
+        got: list[Envelope] = []
+        sub = bidder.subscribe({"task.t", "camera"}, callback=got.append)
+        sub.wake_on_traffic = False
+        assert not bidder.core.wants_traffic and not bidder.core.wants_replies
+        auctioneer.publish({"task.t"}, Bid("t", 1, "b1", 1.0))
+        auctioneer.publish({"camera"}, Renew("t", 1, "b1", 1))
+        time.sleep(0.05)  # both are queued
+        started = time.monotonic()
+        bidder.poll(0.3)  # traffic is waiting, yet only the timeout ends the wait ...
+        assert time.monotonic() - started >= 0.25
+        assert sorted(e.kind for e in got) == ["bid", "renew"]  # ... then all of it is read
+        got.clear()
+        sub.wake_on_traffic = True
+        assert bidder.core.wants_traffic
+        auctioneer.publish({"camera"}, Renew("t", 1, "b1", 2))
+        started = time.monotonic()
+        while not got and time.monotonic() - started < 2.0:
+            bidder.poll(1.5)
+        assert [e.kind for e in got] == ["renew"]
+        assert time.monotonic() - started < 1.0  # woken by it, not by the timeout

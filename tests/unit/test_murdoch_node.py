@@ -210,3 +210,24 @@ def test_a_bidder_asks_to_look_at_the_other_bids_half_way_through_the_window() -
     assert not robot._sub.wake_on_replies  # outbid: reads the award at its next poll
     s.run(0.3)
     assert best.busy and not robot.busy and not robot._sub.wake_on_replies
+
+
+def test_a_bidder_rests_from_its_bid_until_it_looks_at_the_others() -> None:
+    s = Setup()
+    robot = s.robot("r1", {"camera"}, 1.0)
+    eager = Node(s.bus.endpoint("r3"), s.clock, subjects={"camera"}, metric=lambda a: 0.5,
+                 rest_while_bidding=False)
+    s.nodes.append(eager)
+    assert robot._sub.wake_on_traffic and eager._sub.wake_on_traffic  # waiting for work
+    spec = TaskSpec("track", frozenset({"camera"}), duration_s=1.0, bid_window_s=0.4,
+                    renew_period_s=0.5, contract_timeout_s=1.5, abandon_after_s=1.5)
+    s.user.announce(spec)
+    assert s.user._sub.wake_on_traffic  # an auctioneer never rests: its bids are coming
+    s.run(0.05)  # both bid at 0.05 and look at the other bids at 0.25
+    assert not robot._sub.wake_on_traffic  # nothing wakes it until then
+    assert eager._sub.wake_on_traffic
+    s.run(0.2)
+    assert robot.bidder is not None and robot.bidder.next_wakeup() is None
+    assert robot._sub.wake_on_traffic  # looked: the award and new work wake it again
+    s.run(0.3)
+    assert robot.busy and robot._sub.wake_on_traffic  # a contract holder never rests
