@@ -3,7 +3,8 @@
 The scenarios are the CBGA-paper set-ups of `murdoch.consensus.experiments` (fig5): 20
 single-agent tasks for CBBA and 20 two-agent tasks for CBGA, seeds 0..19, no bundle limit.
 A solve is a whole synchronous run to convergence (bundle building, consensus rounds and the
-final plan evaluation). Prints one line per algorithm, then exactly
+final plan evaluation). CBBA runs compiled (`murdoch.consensus.cbba_fast`); its one-off load
+or compile time is printed first and not counted. Prints one line per algorithm, then exactly
 `cbba_solve_ms_median=<x> cbga_solve_ms_median=<y>`.
 """
 
@@ -15,11 +16,13 @@ import time
 
 import numpy as np
 
+from murdoch.consensus.cbba_fast import load_compiled_cbba
 from murdoch.consensus.experiments import EXPERIMENTS, run_seed
 from murdoch.consensus.sync_runner import allocate
 
 
-def measure(variant_index: int, n_agents: int, seeds: int, repeats: int) -> list[float]:
+def measure(variant_index: int, n_agents: int, seeds: int, repeats: int,
+            compiled: bool = True) -> list[float]:
     variant = EXPERIMENTS["fig5"][variant_index]
     times_ms = []
     for seed in range(seeds):
@@ -27,7 +30,8 @@ def measure(variant_index: int, n_agents: int, seeds: int, repeats: int) -> list
         best = float("inf")
         for _ in range(repeats):
             t0 = time.perf_counter()
-            allocate(scenario, variant.algorithm, variant.options)  # type: ignore[arg-type]
+            allocate(scenario, variant.algorithm, variant.options,  # type: ignore[arg-type]
+                     compiled=compiled)
             best = min(best, time.perf_counter() - t0)
         times_ms.append(1000 * best)
     return times_ms
@@ -49,11 +53,18 @@ def main() -> None:
     parser.add_argument("--agents", type=int, default=10)
     parser.add_argument("--repeats", type=int, default=1,
                         help="solve each scenario this many times and keep the fastest")
+    parser.add_argument("--engine", choices=("compiled", "agents"), default="compiled",
+                        help="CBBA engine (agents: the reference, for comparison)")
     args = parser.parse_args()
     print(f"numpy_op_us={machine_load_us():.2f} (before)")
+    # numba import + loading the kernel (compiling it when there is no on-disk cache yet)
+    t0 = time.perf_counter()
+    loaded = load_compiled_cbba()
+    print(f"cbba_kernel_load_s={time.perf_counter() - t0:.2f} (compiled CBBA: {loaded})")
     medians = {}
     for name, index in (("cbba", 0), ("cbga", 1)):
-        ms = measure(index, args.agents, args.seeds, args.repeats)
+        ms = measure(index, args.agents, args.seeds, args.repeats,
+                     compiled=args.engine == "compiled")
         medians[name] = statistics.median(ms)
         print(f"{name}: median {medians[name]:.1f} ms, min {min(ms):.1f}, max {max(ms):.1f} "
               f"over {len(ms)} scenarios")

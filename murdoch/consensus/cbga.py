@@ -28,7 +28,8 @@ of members plan in opposite orders, the lower-index member gives up the later on
 stays out of it while that partner is in the group (see `refresh_times`).
 
 Options: task quitting (leave a group task still incomplete `quit_after` rounds after joining
-it, and do not rejoin until more agents have joined) and team reward (a group-task bid adds
+it, do not rejoin until more agents have joined, and give the task up for good after
+`quit_limit` quits of it, so that quitting ends) and team reward (a group-task bid adds
 ``team_reward * others / (L_j - 1)`` for the others already in it). Prerequisites must be on
 the agent's own path before the dependent task. Bids are warped as in CBBA (never above the
 bid of the task added before).
@@ -38,6 +39,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from itertools import compress
+from operator import itemgetter, ne, or_
 
 from murdoch.consensus.cbba import (
     BundleBuilding,
@@ -59,6 +62,8 @@ def zeros(rows: int, cols: int) -> Matrix:
 class CbgaOptions:
     task_quitting: bool = True
     team_reward: bool = True
+    # an agent quits one group task at most this many times, then gives it up for the run
+    quit_limit: int = 5
 
 
 class CbgaAgent(BundleBuilding):
@@ -75,11 +80,15 @@ class CbgaAgent(BundleBuilding):
         # when each believed member can be at each group task on its own (0 = unknown)
         self.t = zeros(problem.n_tasks, problem.n_agents)
         self.assigned_at = [math.nan] * problem.n_tasks
+        # task quitting: per task, the other members seen when this agent last quit it (it
+        # stays out until the group is larger; -1 = no ban) and how often it quit it
         self.banned = [-1] * problem.n_tasks
+        self.quits = [0] * problem.n_tasks
         self.yielding: dict[int, bool] = {}  # a late group task kept one round (see below)
         # group tasks given up to a higher-index partner -> the other members then
         self.yielded: dict[int, frozenset[int]] = {}
         self._partners: dict[int, float] | None = None
+        self._candidates: list[tuple[int, float, float, bool, float]] | None = None
         self._refresh_static()
 
     def _refresh_static(self) -> None:
@@ -88,6 +97,7 @@ class CbgaAgent(BundleBuilding):
         self.single_idx = [j for j, one in enumerate(self.single) if one]
         self.group_idx = [j for j, one in enumerate(self.single) if not one]
         self._latest = [w + _EPS for w in p.lists.window_end]
+        self._no_equipment = [not e for e in p.task_equipment]
 
     def state_key(self) -> tuple[tuple[tuple[float, ...], ...], tuple[tuple[float, ...], ...],
                                  tuple[int, ...]]:
@@ -156,12 +166,54 @@ class CbgaAgent(BundleBuilding):
         return lb
 
     def build_bundle(self, now: float = 0.0) -> bool:
-        # during a build only this agent's own rows change: partners' times are cached
+        # during a build only this agent's own entries and the row of the task it adds
+        # change: partners' times and the candidate tasks are worked out once
         self._partners = {}
         try:
             return super().build_bundle(now)
         finally:
             self._partners = None
+            self._candidates = None
+
+    def _build_candidates(self) -> list[tuple[int, float, float, bool, float]]:
+        """The tasks this agent may bid on in this build, each with (task, static bound of
+        its gain, not-before time, single-agent, team-reward bonus). The rows of tasks not
+        in the bundle do not change during a build, so neither does any of this."""
+        p, i = self.problem, self.index
+        lst = p.lists
+        banned = self.banned
+        eligible = lst.eligible[i]
+        bound = lst.gain_bound[i]
+        single = self.single
+        rows = self.x
+        team = self.options.team_reward
+        required, team_reward = lst.required, lst.team_reward
+        held = set(self.bundle)  # (a bundle only grows during a build)
+        out = []
+        for j in range(p.n_tasks):
+            if not eligible[j] or j in held:
+                continue
+            ub = bound[j]
+            bonus = 0.0
+            if single[j]:
+                nb = 0.0
+                if ub < max(rows[j]):
+                    continue
+            else:
+                ban = banned[j]
+                if ban >= 0 or team:
+                    row = rows[j]  # (bids are positive; 0 = not in the group)
+                    others = len(row) - row.count(0.0) - (row[i] > 0)
+                    if others <= ban:
+                        continue  # quit, and the group has not grown since
+                    if ban >= 0 and self.quits[j] < self.options.quit_limit:
+                        banned[j] = -1  # others have joined since this agent quit: bid again
+                nb = self.partners_time(j)
+                size = required[j]
+                if team and size > 1:
+                    bonus = team_reward[j] * min(others, size - 1) / (size - 1)
+            out.append((j, ub, nb, single[j], bonus))
+        return out
 
     def not_before(self) -> list[float] | None:
         """`partners_time` of every task (None without group tasks)."""
@@ -173,20 +225,29 @@ class CbgaAgent(BundleBuilding):
         if not self.group_idx:
             return None
         out = {}
+        cache = self._partners
+        single = self.single
         for j in path:
-            lb = self.partners_time(j)
+            if single[j]:
+                continue
+            lb = None if cache is None else cache.get(j)
+            if lb is None:
+                lb = self.partners_time(j)
             if lb > 0:
                 out[j] = lb
         return out
 
-    def _publish_times(self) -> None:
+    def _publish_times(self, ready: list[float] | None = None) -> None:
         """Record when this agent can be at each of its group tasks on its own (what its
-        partners wait for); the group starts at the latest of its members' times."""
+        partners wait for); the group starts at the latest of its members' times. `ready`:
+        those times along the current path when already known (`path_starts`' ready_out
+        with the same lower bounds)."""
         if not self.group_idx:
             return
         i = self.index
-        ready: list[float] = []
-        path_starts(self.problem, i, self.path, self._lower_bounds(self.path), ready)
+        if ready is None:
+            ready = []
+            path_starts(self.problem, i, self.path, self._lower_bounds(self.path), ready)
         t = self.t
         for j in self.group_idx:
             t[j][i] = 0.0
@@ -209,8 +270,9 @@ class CbgaAgent(BundleBuilding):
         held = False
         while True:
             bad: list[int] = []
+            ready: list[float] = []
             times, ok = path_starts(self.problem, self.index, self.path,
-                                    self._lower_bounds(self.path), bad_out=bad)
+                                    self._lower_bounds(self.path), ready, bad)
             if ok:
                 break
             j = self.path[bad[0]]
@@ -228,7 +290,7 @@ class CbgaAgent(BundleBuilding):
         moved = dropped or times != self.times
         if moved:
             self._set_path(self.path, times)
-        self._publish_times()
+        self._publish_times(ready)
         if moved:
             self.needs_build = True
         return moved
@@ -301,41 +363,38 @@ class CbgaAgent(BundleBuilding):
 
         Tasks are tried in the order of an upper bound of their bid, and the search stops
         at the first bound below the best valid bid found; a group task with a pending
-        quit ban or yield is always evaluated, since evaluating it may lift those."""
-        p, i = self.problem, self.index
-        lst = p.lists
+        yield is always evaluated, since evaluating it may lift the yield. A task this
+        agent quit is not tried while its group is no larger than the ban allows."""
+        i = self.index
         held = set(self.bundle)
         blocked = self._blocked
-        eligible = lst.eligible[i]
-        bound = lst.gain_bound[i]
+        yielded = self.yielded
         single = self.single
         rows = self.x
+        required = self.problem.lists.required
         gains = self.path_gains()
+        known_bounds = gains.bounds_known
+        partners = self._partners
+        cands = self._candidates
+        if cands is None:
+            cands = self._build_candidates()
+            if partners is not None:  # (inside a build: kept until it ends)
+                self._candidates = cands
         cap = rows[self.bundle[-1]][i] if self.bundle else math.inf
         team = self.options.team_reward
-        required, team_reward = lst.required, lst.team_reward
         forced: list[tuple[float, int, float]] = []
         order: list[tuple[float, int, float]] = []
-        for j in range(p.n_tasks):
-            if not eligible[j] or blocked[j] or j in held:
+        for j, ub, nb, one, bonus in cands:
+            if blocked[j] or j in held:
                 continue
-            ub = bound[j]
-            if single[j]:
-                nb = 0.0
-                if ub < max(rows[j]):
-                    continue
-            else:
-                nb = self.partners_time(j)
-                if self.banned[j] >= 0 or j in self.yielded:
-                    forced.append((0.0, j, nb))
-                    continue
-            tighter = gains.upper_bound(j, nb)
-            if tighter < ub:
-                ub = tighter
-            if not single[j] and team and required[j] > 1:
-                others = sum(1 for m, v in enumerate(rows[j]) if v > 0 and m != i)
-                size = required[j]
-                ub += team_reward[j] * min(others, size - 1) / (size - 1)
+            if yielded and not one and j in yielded:
+                forced.append((0.0, j, nb))
+                continue
+            hit = known_bounds.get(j)  # `PathGains.upper_bound`, inlined
+            if hit is not None and hit[0] == nb and hit[1] < ub:
+                ub = hit[1]
+            if bonus:
+                ub += bonus
             if cap < ub:
                 ub = cap
             if ub > 0.0:
@@ -345,12 +404,21 @@ class CbgaAgent(BundleBuilding):
         best_j = -1
         best_pos = 0
         replace: list[int] = []
-        for neg_ub, j, nb in forced + order:
+        plain = self._no_equipment
+        for neg_ub, j, nb in forced + order if forced else order:
             if neg_ub:  # (forced ones carry 0)
-                if -neg_ub < best:
+                ub = -neg_ub
+                if ub < best:
                     break
-                if -neg_ub == best and j > best_j:
+                if ub == best and j > best_j:
                     continue
+                row = rows[j]
+                if plain[j] and not single[j]:
+                    # a full group whose members all outbid even the bound keeps them (with
+                    # a margin: the bounds may fall short of a bid by a rounding error)
+                    above = ub + 1e-9 * (1.0 + ub)
+                    if max(row) > above and sum(1 for v in row if v > above) >= required[j]:
+                        continue
             g, pos = gains.gain(j, nb)
             if not g > 0.0:
                 continue
@@ -388,32 +456,44 @@ class CbgaAgent(BundleBuilding):
             row[:] = [0.0] * len(row)
         row[i] = best
         self.assigned_at[j] = now
-        if self._partners is not None:
-            self._partners.pop(j, None)
+        if partners is not None:
+            partners.pop(j, None)
         return True
 
     def _group_bid(self, j: int, row: list[float], gain: float, cap: float, team: bool
                    ) -> tuple[float | None, list[int]]:
         """This agent's bid on group task j if `select_group` would keep it (else None),
-        and the members it would push out. Clears a quit ban or a yield once the group's
-        other members have changed."""
+        and the members it would push out. Clears a yield once the partners it crossed
+        have left the group."""
         i = self.index
         members = [m for m, v in enumerate(row) if v > 0 and m != i]
-        if self.banned[j] >= 0:
-            if len(members) <= self.banned[j]:
-                return None, []
-            self.banned[j] = -1
+        if len(members) <= self.banned[j]:
+            return None, []  # (a build's candidates already leave these out)
         if j in self.yielded:
             if self.yielded[j].intersection(members):
                 return None, []
             del self.yielded[j]
-        size = self.problem.lists.required[j]
+        lst = self.problem.lists
+        size = lst.required[j]
         bid = gain
         if team and size > 1:
             others = min(len(members), size - 1)
-            bid = min(bid + self.problem.lists.team_reward[j] * others / (size - 1), cap)
-        if len(members) < size and not self.problem.task_equipment[j]:
-            return bid, []  # room left and nothing to cover: select_group keeps everyone
+            bid = min(bid + lst.team_reward[j] * others / (size - 1), cap)
+        if not self.problem.task_equipment[j]:
+            if len(members) < size:
+                return bid, []  # room left and nothing to cover: select_group keeps everyone
+            # select_group without equipment: the `size` strongest (equal bids: the higher
+            # index first) stay
+            stronger = 0
+            for m in members:
+                v = row[m]
+                if v > bid or (v == bid and m > i):
+                    stronger += 1
+            if stronger >= size:
+                return None, []
+            ranked = sorted(members, key=lambda m: (-row[m], -m))
+            kept = set(ranked[:size - 1])
+            return bid, [m for m in members if m not in kept]
         bids = {m: row[m] for m in members}
         bids[i] = bid
         chosen = self.select_group(j, bids)
@@ -423,15 +503,33 @@ class CbgaAgent(BundleBuilding):
 
     def _insert(self, j: int, position: int) -> bool:
         path = [*self.path[:position], j, *self.path[position:]]
-        times, ok = path_starts(self.problem, self.index, path, self._lower_bounds(path))
+        ready: list[float] = []
+        times, ok = path_starts(self.problem, self.index, path, self._lower_bounds(path),
+                                ready)
         if not ok:
             return False
         self._set_path(path, times, grown=True)
         self.bundle.append(j)
-        self._publish_times()
+        self._publish_times(ready)
         return True
 
     # -- phase 2 ------------------------------------------------------------------------
+    def sent_counts(self) -> tuple[int, int]:
+        """What `message` would carry: (non-zero bids, members' planned times)."""
+        n = self.problem.n_agents
+        x, t = self.x, self.t
+        entries = n * len(x) - sum(row.count(0.0) for row in x)
+        starts = 0
+        for j in self.group_idx:
+            trow = t[j]
+            if trow.count(0.0) == n:
+                continue
+            row = x[j]
+            for m, at in enumerate(trow):
+                if at > 0 and row[m] > 0:
+                    starts += 1
+        return entries, starts
+
     def message(self, now: float) -> ConsensusMessage:
         s = self.s[:-1]
         s[self.index] = now
@@ -474,7 +572,9 @@ class CbgaAgent(BundleBuilding):
     def receive_rows(self, k: int, x_k: Matrix, t_k: Matrix, s_k: list[float], now: float,
                      first: int = 0, end: int | None = None, merge: bool = True) -> bool:
         """Merge sender k's X, T and timestamps (s_k[k] must be the send time) for the
-        task rows [first, end); True if X or T changed."""
+        task rows [first, end); True if X or T changed. A changed row is replaced by a new
+        list, never changed in place, and no row of the sender's is kept (so a snapshot of
+        the row lists, not of the rows, holds what an agent sent this round)."""
         i = self.index
         x_i, t_i = self.x, self.t
         stop = len(x_i) if end is None else end
@@ -482,12 +582,16 @@ class CbgaAgent(BundleBuilding):
         changed = False
         singles: list[int] = []
         groups: list[int] = []
-        same = x_i == x_k and t_i == t_k  # nothing to merge: only the timestamps move
-        for j in range(first, first if same else stop):
+        if x_i == x_k and t_i == t_k:
+            rows: list[int] = []  # nothing to merge: only the timestamps move
+        elif first == 0 and stop == len(x_i):
+            rows = list(compress(range(stop), map(or_, map(ne, x_i, x_k), map(ne, t_i, t_k))))
+        else:
+            rows = [j for j in range(first, stop) if x_i[j] != x_k[j] or t_i[j] != t_k[j]]
+        for j in rows:  # (single-agent rows have no times)
             if single[j]:
-                if x_i[j] != x_k[j]:
-                    singles.append(j)
-            elif x_i[j] != x_k[j] or t_i[j] != t_k[j]:
+                singles.append(j)
+            else:
                 groups.append(j)
         if singles:
             changed = self._merge_single_rows(k, singles, x_k, s_k)
@@ -498,12 +602,12 @@ class CbgaAgent(BundleBuilding):
             s_i = self.s
             known = [m for m in range(len(s_i) - 1)
                      if m != i and (m == k or s_k[m] > s_i[m])]
-            for j in groups:
-                xi, xk, ti, tk = x_i[j], x_k[j], t_i[j], t_k[j]
-                for m in known:
-                    if xi[m] != xk[m] or ti[m] != tk[m]:
+            if known:
+                pick = itemgetter(*known)
+                for j in groups:
+                    xk, tk = x_k[j], t_k[j]
+                    if pick(x_i[j]) != pick(xk) or pick(t_i[j]) != pick(tk):
                         changed |= self._merge_group_row(j, xk, known, tk)
-                        break
         if merge:
             merge_timestamps(self.s, s_k, i, k, now)
         if changed:
@@ -540,29 +644,34 @@ class CbgaAgent(BundleBuilding):
         this agent's own entry is never taken from a sender."""
         before = self.x[j]
         row = list(before)
-        # phase 1: refresh what we believe from a sender who knows better
+        # phase 1: refresh what we believe from a sender who knows better; phase 2: add
+        # the sender's other members, then keep the group select_group picks. Both take
+        # the sender's entry for every member it knows better (bids are positive, 0 = not
+        # in the group), so the candidates are the row with those entries replaced.
         for m in known:
-            if row[m] > 0:
-                row[m] = row_k[m]
-        # phase 2: add the sender's other members, then keep the group select_group picks
-        bids = {m: v for m, v in enumerate(row) if v > 0}
-        fresh = False
-        for m in known:
-            if row_k[m] > 0 and m not in bids:
-                bids[m] = row_k[m]
-                fresh = True
-        if fresh or row != before:
-            chosen = self.select_group(j, bids)
-            row = [0.0] * len(row)
-            for m in chosen:
-                row[m] = bids[m]
+            row[m] = row_k[m]
+        if row != before:
+            size = self.problem.lists.required[j]
+            if not self._no_equipment[j]:
+                bids = {m: v for m, v in enumerate(row) if v > 0}
+                row = [0.0] * len(row)
+                for m in self.select_group(j, bids):
+                    row[m] = bids[m]
+            elif size < len(row) - row.count(0.0):
+                # select_group without equipment: the `size` strongest stay
+                ranked = sorted([m for m, v in enumerate(row) if v > 0],
+                                key=lambda m: (-row[m], -m))
+                for m in ranked[size:]:
+                    row[m] = 0.0
+            # (otherwise select_group keeps every candidate: the row stands)
         # planned times follow whoever knows the member better; non-members have none
-        i = self.index
         starts_before = self.t[j]
-        starts = [a if v > 0 or m == i else 0.0
-                  for m, (v, a) in enumerate(zip(row, starts_before, strict=True))]
+        starts = [a if v > 0 else 0.0 for v, a in zip(row, starts_before, strict=True)]
+        i = self.index
+        starts[i] = starts_before[i]
         for m in known:
-            if row[m] > 0 and row_k[m] == row[m]:
+            v = row[m]
+            if v > 0 and row_k[m] == v:
                 starts[m] = starts_k[m]
         changed = row != before or starts != starts_before
         if changed:
@@ -580,7 +689,16 @@ class CbgaAgent(BundleBuilding):
         return False
 
     def quit_stalled(self, now: float) -> bool:
-        """Task quitting: leave the first group task still incomplete after its threshold."""
+        """Task quitting: leave the first group task still incomplete after its threshold.
+
+        The agent then stays out of the task until it sees more agents in the group than
+        when it left (the paper's "until other agents assign themselves"). News of a
+        larger group can be stale: two pairs holding two stalled tasks quit in the same
+        round, each sees the other pair's task as partly filled and joins it, and the pairs
+        swap tasks for ever; agents that quit can also outbid members of another group,
+        whose displaced members join the emptied task and later quit it in turn. So an
+        agent quits one task at most `quit_limit` times and then gives it up for the rest
+        of the run: quits are finite, and once they stop the run is plain CBGA."""
         if not self.options.task_quitting or not self.active:
             return False
         p = self.problem
@@ -595,7 +713,11 @@ class CbgaAgent(BundleBuilding):
                 self._set_path(path, path_starts(p, self.index, path,
                                                  self._lower_bounds(path))[0])
                 self._publish_times()
-                self.banned[j] = max(others, 0)
+                # stay out until more agents are there than now; after `quit_limit` quits
+                # of j, for good (so quitting ends: see `quit_stalled`)
+                self.quits[j] += 1
+                limit = self.options.quit_limit
+                self.banned[j] = max(others, 0) if self.quits[j] < limit else p.n_agents
                 self.needs_build = True
                 return True
         return False
@@ -636,6 +758,7 @@ class CbgaAgent(BundleBuilding):
         self.t.extend(zeros(extra, problem.n_agents))
         self.assigned_at.extend([math.nan] * extra)
         self.banned.extend([-1] * extra)
+        self.quits.extend([0] * extra)
         self._refresh_static()
         self._forget_paths()
         self.needs_build = True

@@ -170,6 +170,12 @@ def _compile() -> tuple[np.ndarray, np.ndarray]:
 _TABLE, _LUT = _compile()
 
 
+def rule_arrays() -> tuple[np.ndarray, np.ndarray]:
+    """The table as the arrays `resolve_many` indexes (copies): rule number by (sender code,
+    receiver code), and action by (rule number, facts code)."""
+    return _TABLE.copy(), _LUT.copy()
+
+
 def resolve_many(i: np.ndarray, k: np.ndarray, y_k: np.ndarray, z_k: np.ndarray,
                  y_i: np.ndarray, z_i: np.ndarray, s_k: np.ndarray, s_i: np.ndarray
                  ) -> np.ndarray:

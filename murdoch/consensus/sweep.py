@@ -11,6 +11,7 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+from murdoch.consensus.cbba_fast import load_compiled_cbba
 from murdoch.consensus.experiments import EXPERIMENTS, RunRecord, run_one
 
 log = logging.getLogger(__name__)
@@ -80,13 +81,19 @@ def run_jobs(jobs: Sequence[Job], n_procs: int,
     size = max(1, min(25, len(jobs) // max(1, n_procs * 8)))
     chunks = [list(jobs[i:i + size]) for i in range(0, len(jobs), size)]
     out: list[RunRecord] = []
+    # the compiled CBBA is loaded (or compiled and cached on disk) once here, before any
+    # worker starts: workers then only load it, outside the solve times they record
+    cbba = any(EXPERIMENTS[j.experiment][j.variant_index].algorithm == "cbba" for j in jobs)
+    if cbba:
+        load_compiled_cbba()
     if n_procs <= 1:
         for chunk in chunks:
             out.extend(_run_chunk(chunk))
             if progress:
                 progress(len(out), len(jobs))
         return out
-    with ProcessPoolExecutor(max_workers=n_procs) as pool:
+    with ProcessPoolExecutor(max_workers=n_procs,
+                             initializer=load_compiled_cbba if cbba else None) as pool:
         for records in pool.map(_run_chunk, chunks):
             out.extend(records)
             if progress:

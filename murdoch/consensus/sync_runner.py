@@ -15,10 +15,11 @@ and no task-quitting timer is pending, or at
 
 from __future__ import annotations
 
+import logging
 import math
 from collections import deque
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
 from murdoch.consensus.cbba import CbbaAgent
@@ -29,6 +30,8 @@ from murdoch.consensus.scenario import Scenario, Task
 from murdoch.consensus.scoring import Problem, build_problem, evaluate_plan
 
 Algorithm = Literal["cbba", "cbga"]
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -225,15 +228,7 @@ class SyncRunner:
             if isinstance(a, CbbaAgent):
                 entries = len(a.z) - a.z.count(NONE)
             else:
-                entries = sum(n - row.count(0.0) for row in a.x)
-                for j in a.group_idx:
-                    trow = a.t[j]
-                    if trow.count(0.0) == n:
-                        continue
-                    row = a.x[j]
-                    for m, at in enumerate(trow):
-                        if at > 0 and row[m] > 0:
-                            starts += 1
+                entries, starts = a.sent_counts()
             msgs += d
             nbytes += d * encoded_size(entries, n, starts)
         self.per_round.append((msgs, nbytes))
@@ -254,13 +249,15 @@ class SyncRunner:
                 agent.apply(k, y_k, z_k, s_k, now)
 
     def _consensus_cbga(self, now: float) -> None:
-        # what every agent sends this round (rows are replaced or copied, never shared)
+        # what every agent sends this round: merging replaces an agent's rows (never
+        # changes one in place) and never keeps a sender's row, so a copy of the row lists
+        # holds the rows as they were sent
         sent = []
         for k, a in enumerate(self.agents):
             assert isinstance(a, CbgaAgent)
             s_k = list(a.s)
             s_k[k] = now
-            sent.append(([list(r) for r in a.x], [list(r) for r in a.t], s_k))
+            sent.append((list(a.x), list(a.t), s_k))
         for i, ks in enumerate(self.neighbours):
             agent = self.agents[i]
             assert isinstance(agent, CbgaAgent)
@@ -320,6 +317,25 @@ class SyncRunner:
 
 
 def allocate(scenario: Scenario, algorithm: Algorithm = "cbba",
-             options: CbgaOptions | None = None, max_rounds: int = 1000) -> AllocationResult:
-    """Run an allocator to convergence in synchronous rounds."""
-    return SyncRunner(scenario, algorithm, options, max_rounds).run()
+             options: CbgaOptions | None = None, max_rounds: int = 1000,
+             compiled: bool = True) -> AllocationResult:
+    """Run an allocator to convergence in synchronous rounds.
+
+    CBBA runs as one compiled function (`cbba_fast`) when `compiled` is true and the scenario
+    allows it, with the same results as the agents; otherwise, and for CBGA, the agents of
+    `SyncRunner` run. ``result.extra["engine"]`` says which ran ("compiled" or "agents") and,
+    when CBBA fell back to the agents, ``extra["engine_note"]`` says why."""
+    note = "not requested"
+    if algorithm == "cbba" and compiled:
+        from murdoch.consensus.cbba_fast import allocate_compiled, compiled_cbba_unsupported
+
+        reason = compiled_cbba_unsupported(scenario)
+        if reason is None:
+            return allocate_compiled(scenario, max_rounds)
+        note = reason
+        log.debug("CBBA on %s runs on the agents: %s", scenario.name, reason)
+    result = SyncRunner(scenario, algorithm, options, max_rounds).run()
+    extra: dict[str, Any] = {"engine": "agents"}
+    if algorithm == "cbba":
+        extra["engine_note"] = note
+    return replace(result, extra=extra)

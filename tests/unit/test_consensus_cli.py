@@ -22,6 +22,17 @@ def test_allocate_prints_the_result(worlds_dir: Path) -> None:
     assert set(out["assignment"]) == {"a1", "a2", "a3", "a4", "a5"}
 
 
+def test_allocate_engines_print_the_same_result(worlds_dir: Path) -> None:
+    f = worlds_dir / "scenarios" / "consensus-small.json"
+    outs = []
+    for engine in ("compiled", "agents"):
+        r = CliRunner().invoke(main, ["allocate", str(f), "--engine", engine])
+        assert r.exit_code == 0, r.output
+        outs.append(json.loads(r.output))
+    assert outs[0] == outs[1]
+    assert outs[0]["assignment"] and outs[0]["conflict_free"] is True
+
+
 def test_allocate_cbba_refuses_group_tasks(worlds_dir: Path) -> None:
     f = worlds_dir / "scenarios" / "consensus-groups.json"
     r = CliRunner().invoke(main, ["allocate", str(f), "--algorithm", "cbba"])

@@ -2,12 +2,14 @@
 
 The rows were recorded from the reference implementation (same assignment, score, comm steps
 and messages); any change to bid evaluation or conflict resolution that is meant to be a pure
-speed-up must keep them. The assignment is compared through a short digest of its JSON.
+speed-up must keep them. CBBA rows are checked both compiled and on the agents. The
+assignment is compared through a short digest of its JSON.
 """
 
 from __future__ import annotations
 
 import hashlib
+import importlib.util
 import json
 
 import pytest
@@ -57,13 +59,24 @@ def digest(assignment: dict[str, list[str]]) -> str:
     return hashlib.sha1(json.dumps(assignment, sort_keys=True).encode()).hexdigest()[:12]
 
 
+# CBBA rows run twice: compiled (what `allocate` picks) and on the agents
+CASES = [(*row, compiled) for row in GOLDEN
+         for compiled in ((True, False) if EXPERIMENTS[row[0]][row[1]].algorithm == "cbba"
+                          else (True,))]
+
+
 @pytest.mark.parametrize(("experiment", "variant", "agents", "run", "sha", "score", "steps",
-                          "messages"), GOLDEN)
+                          "messages", "compiled"), CASES)
 def test_allocation_matches_recorded(experiment: str, variant: int, agents: int, run: int,
-                                     sha: str, score: float, steps: int, messages: int) -> None:
+                                     sha: str, score: float, steps: int, messages: int,
+                                     compiled: bool) -> None:
     v = EXPERIMENTS[experiment][variant]
     result = allocate(v.make(agents, run_seed(0, agents, run)), v.algorithm,  # type: ignore[arg-type]
-                      v.options)
+                      v.options, compiled=compiled)
+    if v.algorithm == "cbba" and compiled and importlib.util.find_spec("numba") is not None:
+        assert result.extra["engine"] == "compiled"
+    else:
+        assert result.extra["engine"] == "agents"
     assert result.converged
     assert digest(result.assignment) == sha, result.assignment
     assert result.total_score == pytest.approx(score, abs=1e-6)

@@ -1,0 +1,476 @@
+"""A whole synchronous CBBA run as one compiled function over arrays (numba).
+
+This is the agent-based run of `sync_runner.SyncRunner` with `cbba.CbbaAgent` (bundle building
+with time-window insertion, the 17-rule conflict table, timestamps, release of outbid tasks,
+message and byte counting, convergence detection) restated over (agents x tasks) arrays, step
+for step and with the same floating-point operations in the same order, so that it gives the
+same bids, paths, rounds and counts. `cbba_fast.py` decides when it applies and turns its
+output into an `AllocationResult`; the agent-based code stays the reference (see
+`test_consensus_fastpath.py`).
+
+Differences in how, not what: candidates are tried in the order of the direct-travel bound
+`Problem.gain_bound` and skipped once it cannot beat the best bid found, as the agents do, but
+without the tighter bounds the agents inherit from ancestor paths (so the kernel evaluates a
+few more tasks, and picks the same one); each agent's gains are kept until its path changes,
+but paths met earlier are not remembered.
+
+Layout: `tasks` is (6, M): window start, latest start (raw, no tolerance), duration, score
+reference time, reward, discount; task j's prerequisites are pre_idx[pre_ptr[j]:pre_ptr[j+1]];
+the state is one row per agent (y, z, bundle in insertion order, path in execution order and
+its start times). Each phase is its own small function (which also compiles faster).
+Compiled on first use and cached on disk next to this module (``cache=True``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+_EPS = 1e-9  # the latest-start tolerance of `scoring._EPS`
+_NONE = -1
+# rows of `tasks`
+_WS, _WE, _DUR, _REF, _REW, _DISC = 0, 1, 2, 3, 4, 5
+# rows of the per-path work array (what `gains.PathGains.__init__` computes)
+_READY, _CUM, _OLD, _LAM, _ROOM = 0, 1, 2, 3, 4
+
+
+@njit(cache=True)
+def _path_starts(at_row: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np.ndarray,
+                 pre_idx: np.ndarray, speed: float, avail: float, path: np.ndarray,
+                 n_path: int, out: np.ndarray) -> bool:
+    """`scoring.path_starts` without group bounds: start times along the path (into `out`)
+    and whether each fits its window after its prerequisites, earlier on the path."""
+    ok = True
+    ready = avail
+    prev = -1
+    finish = np.full(tasks.shape[1], np.nan)  # nan: not (yet) on the path
+    for n in range(n_path):
+        j = path[n]
+        if prev < 0:
+            start = ready + at_row[j] / speed
+        else:
+            start = ready + tt[prev, j] / speed
+        if tasks[_WS, j] > start:
+            start = tasks[_WS, j]
+        for e in range(pre_ptr[j], pre_ptr[j + 1]):
+            f = finish[pre_idx[e]]
+            if math.isnan(f):
+                ok = False
+            elif f > start:
+                start = f
+        if start > tasks[_WE, j] + _EPS:
+            ok = False
+        out[n] = start
+        ready = start + tasks[_DUR, j]
+        finish[j] = ready
+        prev = j
+    return ok
+
+
+@njit(cache=True)
+def _prepare(at_row: np.ndarray, tt: np.ndarray, tasks: np.ndarray, speed: float,
+             avail: float, path: np.ndarray, times: np.ndarray, n_path: int,
+             work: np.ndarray, pos_of: np.ndarray) -> bool:
+    """What `gains.PathGains.__init__` computes once per path (and each task's position on
+    it, -1 when absent); returns its `_late`."""
+    for j in range(pos_of.shape[0]):
+        pos_of[j] = -1
+    work[_READY, 0] = avail
+    total_wait = 0.0
+    late = False
+    for n in range(n_path):
+        j = path[n]
+        pos_of[j] = n
+        t = times[n]
+        if n == 0:
+            d = at_row[j]
+        else:
+            d = tt[path[n - 1], j]
+        wait = t - (work[_READY, n] + d / speed)
+        total_wait += wait if wait > 0.0 else 0.0
+        work[_CUM, n] = total_wait
+        dj = tasks[_DISC, j]
+        work[_OLD, n] = tasks[_REW, j] * math.exp(-dj * (t - tasks[_REF, j]))
+        work[_LAM, n] = dj
+        room = tasks[_WE, j] - t + _EPS
+        work[_ROOM, n] = room
+        if room < 0.0:
+            late = True
+        work[_READY, n + 1] = t + tasks[_DUR, j]
+    return late
+
+
+@njit(cache=True)
+def _gain(c: int, at_row: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np.ndarray,
+          pre_idx: np.ndarray, speed: float, path: np.ndarray, times: np.ndarray,
+          n_path: int, late: bool, work: np.ndarray, pos_of: np.ndarray
+          ) -> tuple[float, int]:
+    """`gains.PathGains._evaluate` with not-before time 0: (best gain, its position)."""
+    lower = 0.0
+    first = 0
+    if pre_ptr[c + 1] > pre_ptr[c]:
+        # after every prerequisite, which must all be on the path
+        last = -1
+        done = -math.inf
+        for e in range(pre_ptr[c], pre_ptr[c + 1]):
+            q = pre_idx[e]
+            if pos_of[q] < 0:
+                return -math.inf, 0
+            if pos_of[q] > last:
+                last = pos_of[q]
+            f = times[pos_of[q]] + tasks[_DUR, q]
+            if f > done:
+                done = f
+        first = last + 1
+        if done > lower:
+            lower = done
+    w_s = tasks[_WS, c]
+    w_e = tasks[_WE, c] + _EPS
+    d_c = tasks[_DUR, c]
+    ref_c = tasks[_REF, c]
+    rew_c = tasks[_REW, c]
+    disc_c = tasks[_DISC, c]
+    best = -math.inf
+    at = 0
+    for q in range(first, n_path + 1):
+        r = work[_READY, q]
+        if r > w_e:
+            break
+        if q == 0:
+            d = at_row[c]
+        else:
+            d = tt[path[q - 1], c]
+        start = r + d / speed
+        if start < w_s:
+            start = w_s
+        if start < lower:
+            start = lower
+        if start > w_e:
+            continue
+        total = rew_c * math.exp(-disc_c * (start - ref_c))
+        if total <= best:
+            continue
+        if q < n_path:
+            d0 = start + d_c + tt[path[q], c] / speed - times[q]
+            if d0 > 0.0:
+                if late:
+                    continue
+                if d0 > work[_ROOM, q]:
+                    continue
+                change = work[_OLD, q] * math.expm1(-work[_LAM, q] * d0)
+                base = work[_CUM, q]
+                feasible = True
+                for k in range(q + 1, n_path):
+                    delay = d0 - (work[_CUM, k] - base)
+                    if delay <= 0.0:
+                        break
+                    if delay > work[_ROOM, k]:
+                        feasible = False
+                        break
+                    change += work[_OLD, k] * math.expm1(-work[_LAM, k] * delay)
+                if not feasible:
+                    continue
+                total += change
+        if total > best:
+            best = total
+            at = q
+    return best, at
+
+
+@njit(cache=True)
+def _build(i: int, y: np.ndarray, z: np.ndarray, bundle: np.ndarray, blen: np.ndarray,
+           path: np.ndarray, times: np.ndarray, plen: np.ndarray, at_row: np.ndarray,
+           tt: np.ndarray, tasks: np.ndarray, pre_ptr: np.ndarray, pre_idx: np.ndarray,
+           speed: float, avail: float,
+           eligible: np.ndarray, bound: np.ndarray, max_depth: int, gain_val: np.ndarray,
+           gain_pos: np.ndarray, gain_ok: np.ndarray, work: np.ndarray) -> None:
+    """Agent i's bundle building (`BundleBuilding.build_bundle` with `CbbaAgent._add_best`);
+    y, z, bundle, path, times, gain_* are agent i's rows."""
+    m = y.shape[0]
+    blocked = np.zeros(m, dtype=np.bool_)
+    held = np.zeros(m, dtype=np.bool_)
+    cand_ub = np.zeros(m)
+    cand_j = np.zeros(m, dtype=np.int64)
+    new_path = np.zeros(m + 1, dtype=np.int64)
+    new_times = np.zeros(m + 1)
+    pos_of = np.zeros(m, dtype=np.int64)
+    for b in range(blen[i]):
+        held[bundle[b]] = True
+    while blen[i] < max_depth:
+        n_path = plen[i]
+        late = _prepare(at_row, tt, tasks, speed, avail, path, times, n_path, work, pos_of)
+        cap = y[bundle[blen[i] - 1]] if blen[i] > 0 else math.inf
+        # candidates by upper bound, highest first (ties: lower index first), as
+        # `CbbaAgent._add_best` filters and orders them
+        n_cand = 0
+        for j in range(m):
+            yj = y[j]
+            ub = bound[j]
+            if not eligible[j] or blocked[j] or ub < yj or held[j]:
+                continue
+            if cap < ub:
+                ub = cap
+            if ub > 0.0 and ub >= yj:
+                q = n_cand  # insertion sort: after every higher or equal bound
+                while q > 0 and cand_ub[q - 1] < ub:
+                    cand_ub[q] = cand_ub[q - 1]
+                    cand_j[q] = cand_j[q - 1]
+                    q -= 1
+                cand_ub[q] = ub
+                cand_j[q] = j
+                n_cand += 1
+        best = -math.inf
+        best_j = -1
+        best_pos = 0
+        for o in range(n_cand):
+            ub = cand_ub[o]
+            j = cand_j[o]
+            if ub < best:
+                break
+            if ub == best and j > best_j:
+                continue
+            if gain_ok[j]:
+                g = gain_val[j]
+                pos = gain_pos[j]
+            else:
+                g, pos = _gain(j, at_row, tt, tasks, pre_ptr, pre_idx, speed, path, times,
+                               n_path, late, work, pos_of)
+                gain_val[j] = g
+                gain_pos[j] = pos
+                gain_ok[j] = True
+            if g > cap:
+                g = cap
+            yj = y[j]
+            if g > 0.0 and (g > yj or (g == yj and z[j] >= i)) and (
+                    g > best or (g == best and j < best_j)):
+                best = g
+                best_j = j
+                best_pos = pos
+        if best_j < 0:
+            return
+        # insert best_j at best_pos and re-time the path
+        for q in range(best_pos):
+            new_path[q] = path[q]
+        new_path[best_pos] = best_j
+        for q in range(best_pos, n_path):
+            new_path[q + 1] = path[q]
+        if not _path_starts(at_row, tt, tasks, pre_ptr, pre_idx, speed, avail, new_path,
+                            n_path + 1, new_times):
+            blocked[best_j] = True
+            continue
+        for q in range(n_path + 1):
+            path[q] = new_path[q]
+            times[q] = new_times[q]
+        plen[i] = n_path + 1
+        for j in range(m):
+            gain_ok[j] = False
+        bundle[blen[i]] = best_j
+        blen[i] += 1
+        held[best_j] = True
+        y[best_j] = best
+        z[best_j] = i
+
+
+@njit(cache=True)
+def _merge(i: int, k: int, now: float, y: np.ndarray, z: np.ndarray, s: np.ndarray,
+           y_k: np.ndarray, z_k: np.ndarray, s_k: np.ndarray, table: np.ndarray,
+           lut: np.ndarray) -> bool:
+    """Receiver i applies sender k's message (`conflict.resolve_lists`, then
+    `cbba.merge_timestamps`); rows are i's and k's. True if y or z changed."""
+    n = s.shape[0] - 1
+    changed = False
+    for j in range(y.shape[0]):
+        zk = z_k[j]
+        zi = z[j]
+        yk = y_k[j]
+        yi = y[j]
+        if zk == zi and yk == yi:
+            continue
+        if zk == k:
+            sc = 0
+        elif zk == i:
+            sc = 1
+        elif zk == _NONE:
+            sc = 3
+        else:
+            sc = 2
+        if zi == i:
+            rc = 0
+        elif zi == k:
+            rc = 1
+        elif zi == _NONE:
+            rc = 4
+        elif sc == 2 and zi != zk:
+            rc = 3
+        else:
+            rc = 2
+        zk_at = zk if zk >= 0 else n  # the last stamp (-inf) stands for "no winner"
+        zi_at = zi if zi >= 0 else n
+        sk_zk = s_k[zk_at]
+        si_zk = s[zk_at]
+        beats = yk > yi or (yk == yi and zk != _NONE and (zi == _NONE or zk < zi))
+        code = ((1 if beats else 0) + (2 if sk_zk > si_zk else 0)
+                + (4 if s_k[zi_at] > s[zi_at] else 0) + (8 if si_zk > sk_zk else 0))
+        action = lut[table[sc, rc], code]
+        if action == 1:
+            y[j] = yk
+            z[j] = zk
+            changed = True
+        elif action == 2 and (yi != 0.0 or zi != _NONE):
+            y[j] = 0.0
+            z[j] = _NONE
+            changed = True
+    for q in range(n):
+        if s_k[q] > s[q]:
+            s[q] = s_k[q]
+    s[k] = now
+    if now > s[i]:
+        s[i] = now
+    s[n] = -math.inf
+    return changed
+
+
+@njit(cache=True)
+def _release(i: int, y: np.ndarray, z: np.ndarray, bundle: np.ndarray, blen: np.ndarray,
+             path: np.ndarray, times: np.ndarray, plen: np.ndarray, at_row: np.ndarray,
+             tt: np.ndarray, tasks: np.ndarray, pre_ptr: np.ndarray, pre_idx: np.ndarray,
+             speed: float, avail: float, gain_ok: np.ndarray) -> bool:
+    """`CbbaAgent.release_outbid`: drop the first bundle task agent i no longer wins and
+    every task after it (those are reset); True if anything was dropped."""
+    for b in range(blen[i]):
+        if z[bundle[b]] == i:
+            continue
+        drop = np.zeros(y.shape[0], dtype=np.bool_)
+        for r in range(b, blen[i]):
+            drop[bundle[r]] = True
+            if r > b:
+                y[bundle[r]] = 0.0
+                z[bundle[r]] = _NONE
+        blen[i] = b
+        kept = 0
+        for q in range(plen[i]):
+            if not drop[path[q]]:
+                path[kept] = path[q]
+                kept += 1
+        plen[i] = kept
+        for j in range(gain_ok.shape[0]):
+            gain_ok[j] = False
+        _path_starts(at_row, tt, tasks, pre_ptr, pre_idx, speed, avail, path, kept, times)
+        return True
+    return False
+
+
+@njit(cache=True)
+def run_cbba(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np.ndarray,
+             pre_idx: np.ndarray, speed: np.ndarray, avail: np.ndarray, eligible: np.ndarray,
+             gain_bound: np.ndarray, max_depth: int, nbr_ptr: np.ndarray, nbr_idx: np.ndarray,
+             out_degree: np.ndarray, diameter: int, max_rounds: int, table: np.ndarray,
+             lut: np.ndarray, msg_base: int, msg_entry: int
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, int,
+                        int, int, bool]:
+    """Synchronous CBBA to convergence. Returns (paths (N, M + 1), path lengths, winners z
+    (N, M), bids y (N, M), start times (N, M + 1), rounds, comm_steps, messages, bytes,
+    converged)."""
+    n, m = at_dist.shape
+    y = np.zeros((n, m))
+    z = np.full((n, m), _NONE, dtype=np.int64)
+    s = np.full((n, n + 1), -math.inf)
+    bundle = np.zeros((n, m), dtype=np.int64)
+    blen = np.zeros(n, dtype=np.int64)
+    path = np.zeros((n, m + 1), dtype=np.int64)
+    times = np.zeros((n, m + 1))
+    plen = np.zeros(n, dtype=np.int64)
+    needs = np.ones(n, dtype=np.bool_)
+    # gains of each agent's current path, evaluated on demand (valid until it changes)
+    gain_val = np.zeros((n, m))
+    gain_pos = np.zeros((n, m), dtype=np.int64)
+    gain_ok = np.zeros((n, m), dtype=np.bool_)
+    work = np.zeros((5, m + 2))
+    y_sent = y.copy()
+    z_sent = z.copy()
+    s_sent = s.copy()
+    y_before = y.copy()
+    z_before = z.copy()
+    b_before = bundle.copy()
+    blen_before = blen.copy()
+    sent_msgs = 0  # transmissions so far, and through the last round with a change
+    sent_bytes = 0
+    messages = 0
+    nbytes = 0
+    rnd = 0
+    last_change = 0
+    quiet = 0
+    while not quiet >= diameter + 1 and rnd < max_rounds:
+        rnd += 1
+        now = float(rnd)
+        for i in range(n):
+            blen_before[i] = blen[i]
+            for b in range(blen[i]):
+                b_before[i, b] = bundle[i, b]
+            for j in range(m):
+                y_before[i, j] = y[i, j]
+                z_before[i, j] = z[i, j]
+        # -- phase 1: bundle building, agent by agent
+        for i in range(n):
+            if needs[i]:
+                needs[i] = False
+                _build(i, y[i], z[i], bundle[i], blen, path[i], times[i], plen, at_dist[i],
+                       tt, tasks, pre_ptr, pre_idx, speed[i], avail[i], eligible[i],
+                       gain_bound[i],
+                       max_depth, gain_val[i], gain_pos[i], gain_ok[i], work)
+        # -- what the round's messages cost
+        for k in range(n):
+            d = out_degree[k]
+            if d == 0:
+                continue
+            entries = 0
+            for j in range(m):
+                if z[k, j] != _NONE:
+                    entries += 1
+            sent_msgs += d
+            sent_bytes += d * (msg_base + entries * msg_entry)
+        # -- phase 2: everyone sends, then each merges its neighbours' messages in order
+        for i in range(n):
+            for j in range(m):
+                y_sent[i, j] = y[i, j]
+                z_sent[i, j] = z[i, j]
+            for q in range(n + 1):
+                s_sent[i, q] = s[i, q]
+            s_sent[i, i] = now
+        for i in range(n):
+            for e in range(nbr_ptr[i], nbr_ptr[i + 1]):
+                k = nbr_idx[e]
+                if _merge(i, k, now, y[i], z[i], s[i], y_sent[k], z_sent[k], s_sent[k],
+                          table, lut):
+                    needs[i] = True
+        # -- release the first outbid bundle task and every task added after it
+        for i in range(n):
+            if _release(i, y[i], z[i], bundle[i], blen, path[i], times[i], plen,
+                        at_dist[i], tt, tasks, pre_ptr, pre_idx, speed[i], avail[i],
+                        gain_ok[i]):
+                needs[i] = True
+        # -- did anything that comm_steps watches (y, z, bundles) change over the round?
+        changed = False
+        for i in range(n):
+            if changed:
+                break
+            if blen[i] != blen_before[i]:
+                changed = True
+                break
+            for b in range(blen[i]):
+                if bundle[i, b] != b_before[i, b]:
+                    changed = True
+            for j in range(m):
+                if y[i, j] != y_before[i, j] or z[i, j] != z_before[i, j]:
+                    changed = True
+        if changed:
+            last_change = rnd
+            messages = sent_msgs
+            nbytes = sent_bytes
+            quiet = 0
+        else:
+            quiet += 1
+    converged = quiet >= diameter + 1
+    return path, plen, z, y, times, rnd, last_change, messages, nbytes, converged
