@@ -65,10 +65,16 @@ class RobotProcess:
     log_file: Any = None
 
 
-def _start_robot(rp: RobotProcess, args: list[str], log_path: Path) -> None:
+def _start_robot(rp: RobotProcess, args: list[str], log_path: Path, nice: int = 0) -> None:
     rp.log_file = log_path.open("ab")
     rp.proc = subprocess.Popen(args, stdout=rp.log_file, stderr=subprocess.STDOUT,
                                stdin=subprocess.DEVNULL)
+    if nice > 0:
+        # a lower priority than the simulator's serving thread, which every robot waits on
+        try:
+            os.setpriority(os.PRIO_PROCESS, rp.proc.pid, nice)
+        except OSError as exc:  # the process may have gone already
+            log.warning("could not lower the priority of robot %s: %s", rp.name, exc)
 
 
 def _robot_command() -> list[str]:
@@ -132,11 +138,14 @@ def _stop_robot(rp: RobotProcess, *, kill: bool = False, timeout_s: float = 5.0)
 @click.option("--pipelined/--no-pipelined", default=True, show_default=True,
               help="Lockstep: the server sends each round before it steps and computes the "
                    "next one while the robots work (their commands act one tick later).")
+@click.option("--robot-nice", type=click.IntRange(0, 19), default=0, show_default=True,
+              help="Niceness of the robot processes: above 0 the simulator's serving thread, "
+                   "which every robot waits on, wins the CPU when both are ready to run.")
 def run(experiment: str, sim_hours: float | None, until: str | None, speedup: float, seed: int,
         meshcat: bool, out: Path, world: str | None, task_interval: float,
         kills: tuple[str, ...], restarts: tuple[str, ...], switch_offs: tuple[str, ...],
         switch_ons: tuple[str, ...], goal_radius: float | None, no_replay: bool,
-        pipelined: bool) -> None:
+        pipelined: bool, robot_nice: int) -> None:
     """Run EXPERIMENT end to end and leave a run directory behind."""
     if sim_hours is not None and until is not None:
         raise click.UsageError("give --sim-hours or --until, not both")
@@ -149,7 +158,7 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
         restarts=[parse_at(r) for r in restarts], replay=not no_replay,
         switch_offs=[parse_at(r) for r in switch_offs],
         switch_ons=[parse_at(r) for r in switch_ons], goal_radius_m=goal_radius,
-        pipelined=pipelined,
+        pipelined=pipelined, robot_nice=robot_nice,
     )
     sys.exit(code)
 
@@ -160,7 +169,7 @@ def run_experiment(
     restarts: list[tuple[str, float]], replay: bool,
     switch_offs: list[tuple[str, float]] | None = None,
     switch_ons: list[tuple[str, float]] | None = None, goal_radius_m: float | None = None,
-    pipelined: bool = True,
+    pipelined: bool = True, robot_nice: int = 0,
 ) -> int:
     from behaviors.library import TASKS
     from experiments import boxpush as bp
@@ -202,7 +211,7 @@ def run_experiment(
         "experiment": experiment, "seed": seed, "world": str(spec.source),
         "duration_s": duration_s, "speedup": speedup, "lockstep": lockstep,
         "task_interval_s": task_interval_s, "multicast_port": mcast_port,
-        "pipelined": lockstep and pipelined,
+        "pipelined": lockstep and pipelined, "robot_nice": robot_nice,
         "kills": [f"{r}@{t:g}s" for r, t in kills],
         "restarts": [f"{r}@{t:g}s" for r, t in restarts],
     }
@@ -262,7 +271,8 @@ def run_experiment(
 
         for ep in endpoints:
             rp = RobotProcess(ep.name, ports[ep.name])
-            _start_robot(rp, robot_args(ep.name), rec.run.log_file(f"robot-{ep.name}"))
+            _start_robot(rp, robot_args(ep.name), rec.run.log_file(f"robot-{ep.name}"),
+                         robot_nice)
             robots[ep.name] = rp
             tails[ep.name] = JsonlTail(rec.run.logs / f"{ep.name}.events.jsonl")
             auction_tails[ep.name] = JsonlTail(rec.run.logs / f"{ep.name}.auction.jsonl")
@@ -405,7 +415,8 @@ def run_experiment(
                     # placed by hand and told where it is: odometry stays in the shared frame
                     actions.put(lambda s, n=name, p=pose, o=odo: _place(s, n, p, o))
                     if target.proc is None or target.proc.poll() is not None:
-                        _start_robot(target, robot_args(name), rec.run.log_file(f"robot-{name}"))
+                        _start_robot(target, robot_args(name),
+                                     rec.run.log_file(f"robot-{name}"), robot_nice)
                     assert target.proc is not None
                     rec.event(now, ev.ROBOT_SWITCH_ON, robot=name, x=round(pose[0], 3),
                               y=round(pose[1], 3), yaw=round(pose[2], 3), pid=target.proc.pid)
@@ -414,7 +425,8 @@ def run_experiment(
                     _stop_robot(target, kill=True)
                     rec.event(now, ev.ROBOT_FAILURE, robot=name, reason="killed", pid=pid)
                 else:
-                    _start_robot(target, robot_args(name), rec.run.log_file(f"robot-{name}"))
+                    _start_robot(target, robot_args(name), rec.run.log_file(f"robot-{name}"),
+                                 robot_nice)
                     assert target.proc is not None
                     rec.event(now, ev.ROBOT_RESTART, robot=name, pid=target.proc.pid)
             node.step(0.02)
