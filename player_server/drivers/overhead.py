@@ -90,8 +90,6 @@ class OverheadBlobfinderDriver(Driver):
     def data(self) -> Sequence[tuple[int, Any]]:
         cam = self.cam
         width, height = cam.width_px, cam.height_px
-        cx, cy, vx, vy = cam.x, cam.y, cam.view_size_x_m, cam.view_size_y_m
-        half_w, half_h = width / 2.0, height / 2.0
         known = self._known
         blobs = []
         for i, t in enumerate(self.sim.overhead()):
@@ -102,8 +100,7 @@ class OverheadBlobfinderDriver(Driver):
                 if hit[3] is not None:
                     blobs.append(hit[3])
                 continue
-            u = (x - cx) / vx * width + half_w  # the arithmetic of `to_pixels`
-            v = half_h - (y - cy) / vy * height
+            u, v = self.to_pixels(x, y)
             blob = None
             if 0 <= u < width and 0 <= v < height:
                 ru, rv, area = self._disc(t.name)
