@@ -8,19 +8,19 @@ sensors; each tick only evaluates them.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-from player_server.sim.readings import Blob
+from player_server.sim.blob_kernel import blob_boxes, pending_pairs
+from player_server.sim.readings import Blob, fast_constructor
 from player_server.sim.world_arrays import WorldArrays
 from worlds import RobotSpec
 
 F64 = NDArray[np.float64]
 C128 = NDArray[np.complex128]
-_LIM = float(np.radians(89.0))
+_make_blob = fast_constructor(Blob)
 
 
 @dataclass(frozen=True)
@@ -121,6 +121,7 @@ class Pending:
     near: F64
     bearing: F64  # relative to the camera axis, anticlockwise
     half: F64  # angular half-width
+    rows: F64  # (4, pairs): dist, near, bearing, half
 
 
 @dataclass(frozen=True)
@@ -204,32 +205,13 @@ class BlobPlan:
         pan and zoom are per robot (zoom 0: the camera's own field of view); hidden marks
         targets that cannot be seen at all (stored objects).
         """
-        r = self.robot
-        head = frame.head[r]
-        origin = frame.pos[r] + head * self.mount
-        v = t_pos[self.target] - origin
-        dist = np.abs(v)
-        unit = v / np.maximum(dist, 1e-9)
-        # The target's orientation relative to the line of sight (for rectangles): with
-        # cs = (|cos|, |sin|), half width and depth are hx |sin| + hy |cos| and
-        # hx |cos| + hy |sin| (plus the radius of a circle, whose hx = hy = 0).
-        rel = t_head[self.target] * unit.conjugate()
-        cs = np.abs(rel.view(np.float64).reshape(-1, 2))
-        wd = self.half_xx * cs[:, ::-1]
-        wd += self.half_yy * cs
-        wd += self.radius2
-        near = dist - wd[:, 1]
-        half = np.arcsin(np.minimum(wd[:, 0] / np.maximum(dist, 1e-6), 1.0))
-        cam_yaw = frame.yaw[r] + self.mount_yaw + pan[r]
-        bearing = np.angle(unit * np.exp(-1j * cam_yaw))
-        zr = zoom[r]
-        fov = np.where(zr > 0, zr, self.fov)
-        keep = (near <= self.max_range) & (np.abs(bearing) - half < fov / 2) & (near > 1e-3)
-        if hidden is not None:
-            keep &= ~hidden[self.target]
-        idx = np.flatnonzero(keep)
-        out = np.vstack([dist, near, bearing, half])[:, idx]
-        return Pending(idx, origin[idx], unit[idx], out[0], out[1], out[2], out[3])
+        if hidden is None:
+            hidden = np.zeros(t_pos.shape[0], dtype=np.bool_)
+        idx, origin, unit, rows = pending_pairs(
+            self.robot, self.target, self.mount, self.mount_yaw, self.fov, self.max_range,
+            self.half_x, self.half_y, self.radius, frame.pos, frame.head, frame.yaw, t_pos,
+            t_head, pan, zoom, hidden)
+        return Pending(idx, origin, unit, rows[0], rows[1], rows[2], rows[3], rows)
 
     def project(self, p: Pending, visible: NDArray[np.bool_], pan: F64, tilt: F64,
                 zoom: F64) -> list[tuple[Blob, ...]]:
@@ -239,33 +221,11 @@ class BlobPlan:
         sel = np.flatnonzero(visible)
         if sel.size == 0:
             return [() for _ in self.cams]
-        # A few blobs per camera: plain Python per blob costs less than numpy calls on them.
         idx = p.pair[sel]
-        seen = np.vstack([p.bearing, p.half, p.near, p.dist])[:, sel].T.tolist()
-        consts = self.consts[idx].tolist()
-        meta = self.meta[idx].tolist()
-        zoom_l, tilt_l = zoom.tolist(), tilt.tolist()
-        tan, ceil, floor, atan2 = math.tan, math.ceil, math.floor, math.atan2
-        lim = _LIM
-        for (b, half, near, dist), (hw, hh, fov_c, tilt_c, dz_t, dz_b, min_area, w1, h1), \
-                (r, sl, ch, col) in zip(seen, consts, meta, strict=True):
-            z = zoom_l[r]
-            f = hw / tan((z if z > 0 else fov_c) / 2)
-            # Horizontal: the angular edges (left is the larger angle, hence smaller x).
-            left = max(ceil(hw - f * tan(min(b + half, lim))), 0)
-            right = min(floor(hw - f * tan(max(b - half, -lim))), w1)
-            # Vertical: the top edge is the top at the near side when above the camera, else
-            # at the far side; the bottom edge likewise.
-            cos_b = max(math.cos(b), 1e-3)
-            near_d = near * cos_b
-            far_d = (2.0 * dist - near) * cos_b
-            tilt_all = tilt_c + tilt_l[r]
-            e_top = atan2(dz_t, near_d if dz_t > 0 else far_d) - tilt_all
-            e_bot = atan2(dz_b, near_d if dz_b < 0 else far_d) - tilt_all
-            top = max(ceil(hh - f * tan(min(e_top, lim))), 0)
-            bottom = min(floor(hh - f * tan(max(e_bot, -lim))), h1)
-            area = max(right - left + 1, 0) * max(bottom - top + 1, 0)
-            if area >= min_area:
-                out[sl].append(Blob(ch, col, area, (left + right) // 2, (top + bottom) // 2,
-                                    left, right, top, bottom, near))
+        boxes = blob_boxes(self.robot[idx], self.consts[idx], p.rows[:, sel], zoom, tilt)
+        make = _make_blob
+        for (area, x, y, left, right, top, bottom), (_, sl, ch, col), near in zip(
+                boxes.tolist(), self.meta[idx].tolist(), p.near[sel].tolist(), strict=True):
+            if area:
+                out[sl].append(make(ch, col, area, x, y, left, right, top, bottom, near))
         return [tuple(sorted(bl, key=lambda b: (b.id, -b.area, b.x))) for bl in out]

@@ -1,4 +1,8 @@
-"""A culling 2-D ray caster over whole footprints (pure numpy): the one the simulation uses.
+"""A culling 2-D ray caster over whole footprints (pure numpy), and the footprint types.
+
+The simulation casts with the compiled loop of ``cast_kernel``, which takes the same
+footprints and agrees with this caster to float64 noise (tested); this one is its vectorised
+reference.
 
 Footprints are oriented rectangles and circles, each with the height of its top, inside an
 optional rectangular room centred on the origin whose walls face inwards. Planar points and

@@ -2,7 +2,24 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, fields
+from typing import Any
+
+
+def fast_constructor(cls: type) -> Callable[..., Any]:
+    """A positional constructor of a frozen dataclass (without slots) that fills the
+    instance's dict in one go: an equal, equally frozen object, built without the
+    ``object.__setattr__`` per field of the generated ``__init__`` (about 2.5 times faster; the
+    simulator builds thousands of readings per simulated second)."""
+    names = [f.name for f in fields(cls)]
+    args = ", ".join(f"a{i}" for i in range(len(names)))
+    items = ", ".join(f"{n!r}: a{i}" for i, n in enumerate(names))
+    src = (f"def make({args}):\n    o = _new(_cls)\n    o.__dict__.update({{{items}}})\n"
+           f"    return o\n")
+    ns: dict[str, Any] = {"_new": object.__new__, "_cls": cls}
+    exec(src, ns)
+    return ns["make"]  # type: ignore[no-any-return]
 
 
 @dataclass(frozen=True)

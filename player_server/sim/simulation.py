@@ -22,9 +22,10 @@ from numpy.typing import NDArray
 from player_server.sim import blobs as blobmod
 from player_server.sim.battery import Battery
 from player_server.sim.bodies import BodyIds, build_world
+from player_server.sim.cast_kernel import CompiledCaster
 from player_server.sim.drive import integrate, ramp, to_robot_frame, wrap_angle
 from player_server.sim.fastsense import BlobPlan, Frame, RangePlan
-from player_server.sim.footprint_cast import FootprintCaster, Footprints
+from player_server.sim.footprint_cast import Footprints
 from player_server.sim.readings import (
     Blob,
     BodyPose,
@@ -35,11 +36,15 @@ from player_server.sim.readings import (
     PtzState,
     SceneSnapshot,
     TrackedObject,
+    fast_constructor,
 )
 from player_server.sim.world_arrays import WorldArrays
 from worlds import RobotSpec, WorldSpec
 
 log = logging.getLogger(__name__)
+
+_make_pose = fast_constructor(BodyPose)
+_make_tracked = fast_constructor(TrackedObject)
 
 _GRIPPER_COMMANDS = ("open", "close", "stop", "store", "retrieve")
 _HIDDEN_Z_M = -50.0
@@ -139,7 +144,7 @@ class Simulation:
         self.timings = Timings()
         self._client = pb.connect(pb.DIRECT)
         self._closed = False
-        self._caster = FootprintCaster()
+        self._caster = CompiledCaster()
         self._robot_index = {r.name: i for i, r in enumerate(spec.robots)}
         self._active_ranges: set[tuple[int, str]] = set()
         self._active_cameras: set[int] = set()
@@ -161,6 +166,9 @@ class Simulation:
         self._cache: dict[object, object] = {}
         self._cache_tick = -1
         self._colours: dict[str, int] | None = None  # see `_spec_colours`
+        self._poses: dict[str, BodyPose] = {}  # the last pose of each body (see `snapshot`)
+        # the last pose of each body the overhead camera saw, and what it made of it
+        self._seen: dict[str, tuple[BodyPose, TrackedObject]] = {}
         seeds = np.random.SeedSequence(self.seed).spawn(len(self.spec.robots) + 1)
         self._noise_seed = int(seeds[-1].generate_state(1)[0])
         self._robots: list[_Robot] = []
@@ -185,6 +193,7 @@ class Simulation:
                          + [self._ids.objects[o.name] for o in self.spec.objects])
         self._dyn_row = {n: i for i, n in enumerate(
             [b.name for b in self.spec.boxes] + [o.name for o in self.spec.objects])}
+        self._dyn_kinds = ["box"] * len(self.spec.boxes) + ["object"] * len(self.spec.objects)
         self._obj_row = {o.name: i for i, o in enumerate(self.spec.objects)}
         self._obj_visible = np.ones(len(self.spec.objects), dtype=bool)
         self._blob_hidden = np.zeros(len(self.spec.objects), dtype=bool)
@@ -1089,16 +1098,24 @@ class Simulation:
             noise = None
             if oc.position_noise_m > 0:
                 noise = np.random.default_rng([self._noise_seed, self.tick])
+            half_x, half_y = oc.view_size_x_m / 2, oc.view_size_y_m / 2
+            seen = self._seen
+            make = _make_tracked
             out = []
             for bp in self.snapshot().bodies:
-                if abs(bp.x - oc.x) > oc.view_size_x_m / 2 or \
-                        abs(bp.y - oc.y) > oc.view_size_y_m / 2:
+                if abs(bp.x - oc.x) > half_x or abs(bp.y - oc.y) > half_y:
                     continue
-                x, y = bp.x, bp.y
                 if noise is not None:
                     n = noise.standard_normal(2) * oc.position_noise_m
-                    x, y = x + float(n[0]), y + float(n[1])
-                out.append(TrackedObject(bp.name, bp.kind, colours[bp.name], x, y, bp.yaw))
+                    out.append(make(bp.name, bp.kind, colours[bp.name], bp.x + float(n[0]),
+                                    bp.y + float(n[1]), bp.yaw))
+                    continue
+                # a body that has not moved keeps its pose object, and its tracked thing
+                hit = seen.get(bp.name)
+                if hit is None or hit[0] is not bp:
+                    hit = seen[bp.name] = (bp, make(bp.name, bp.kind, colours[bp.name], bp.x,
+                                                    bp.y, bp.yaw))
+                out.append(hit[1])
             return tuple(out)
 
         return self._cached("overhead", compute)  # type: ignore[return-value]
@@ -1116,17 +1133,25 @@ class Simulation:
 
     def snapshot(self) -> SceneSnapshot:
         def compute() -> SceneSnapshot:
-            bodies: list[BodyPose] = [
-                BodyPose(st.spec.name, "robot", st.x, st.y, st.yaw) for st in self._robots
-            ]
-            poses = self._dynamic_poses()
-            names = list(self._dyn_row)
-            kinds = ["box"] * len(self._box_specs) + ["object"] * len(self._obj_specs)
-            for name, kind, (x, y, yaw) in zip(names, kinds, poses.tolist(), strict=True):
-                if name not in self._hidden:
-                    bodies.append(BodyPose(name, kind, x, y, yaw))
-            bodies += [BodyPose(m.name, "marker", *self._marker_pos[m.name])
-                       for m in self.spec.markers]
+            poses = self._poses
+            make = _make_pose
+
+            def pose(name: str, kind: str, x: float, y: float, yaw: float) -> BodyPose:
+                # a body that has not moved keeps its pose object (readers compare by identity)
+                bp = poses.get(name)
+                if bp is None or bp.x != x or bp.y != y or bp.yaw != yaw or bp.kind != kind:
+                    bp = poses[name] = make(name, kind, x, y, yaw)
+                return bp
+
+            bodies = [pose(st.spec.name, "robot", st.x, st.y, st.yaw) for st in self._robots]
+            kinds = self._dyn_kinds
+            hidden = self._hidden
+            for name, kind, (x, y, yaw) in zip(self._dyn_row, kinds,
+                                               self._dynamic_poses().tolist(), strict=True):
+                if name not in hidden:
+                    bodies.append(pose(name, kind, x, y, yaw))
+            marker_pos = self._marker_pos
+            bodies += [pose(m.name, "marker", *marker_pos[m.name]) for m in self.spec.markers]
             return SceneSnapshot(self.time_s, self.tick, tuple(bodies))
 
         return self._cached("snapshot", compute)  # type: ignore[return-value]

@@ -1,4 +1,5 @@
-"""The culling footprint caster against hand geometry and against the face caster."""
+"""The footprint casters (the compiled one the simulation uses and the vectorised numpy one)
+against hand geometry, the face caster, brute force and each other."""
 
 from __future__ import annotations
 
@@ -9,8 +10,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from player_server.sim.cast_kernel import CompiledCaster
 from player_server.sim.footprint_cast import FootprintCaster, Footprints, Room, room_exit
 from player_server.sim.raycast import Circles, Faces, RayCaster, arena_faces, rectangle_faces
+
+CASTERS = pytest.mark.parametrize("caster", [CompiledCaster, FootprintCaster],
+                                  ids=["compiled", "numpy"])
 
 
 def footprints(rects: np.ndarray, circles: np.ndarray) -> Footprints:
@@ -23,38 +28,43 @@ def footprints(rects: np.ndarray, circles: np.ndarray) -> Footprints:
 
 
 def cast(ox: float, oy: float, angles: list[float] | np.ndarray, fp: Footprints,
-         room: Room | None, max_range: float = 10.0, z: float = 0.2) -> np.ndarray:
+         room: Room | None, max_range: float = 10.0, z: float = 0.2,
+         caster: type = CompiledCaster) -> np.ndarray:
     a = np.asarray(angles, dtype=np.float64)
     n = a.size
-    return FootprintCaster().cast(np.full(n, complex(ox, oy)), np.exp(1j * a),
-                                  np.full(n, max_range), np.full(n, z), fp, room)
+    return caster().cast(np.full(n, complex(ox, oy)), np.exp(1j * a), np.full(n, max_range),
+                         np.full(n, z), fp, room)
 
 
-def test_room_box_and_circle_by_hand() -> None:
+@CASTERS
+def test_room_box_and_circle_by_hand(caster: type) -> None:
     fp = footprints(np.array([2.0, 0.0, 0.0, 0.5, 0.25, 1.0]), np.array([-2.0, 0.0, 0.5, 1.0]))
     room = Room(5.0, 4.0, 0.5)
-    r = cast(0.0, 0.0, [0, math.pi / 2, math.pi, -math.pi / 2], fp, room)
+    r = cast(0.0, 0.0, [0, math.pi / 2, math.pi, -math.pi / 2], fp, room, caster=caster)
     assert r == pytest.approx([1.5, 4.0, 1.5, 4.0], abs=1e-9)
     a = math.atan2(4.0, 5.0) + 0.3
-    assert cast(0.0, 0.0, [a], fp, room)[0] == pytest.approx(4.0 / math.sin(a), rel=1e-9)
+    hit = cast(0.0, 0.0, [a], fp, room, caster=caster)[0]
+    assert hit == pytest.approx(4.0 / math.sin(a), rel=1e-9)
     # Axis-parallel rays beside a box miss it; one grazing inside its width hits.
-    r = cast(0.0, 0.3, [0.0], fp, room)
+    r = cast(0.0, 0.3, [0.0], fp, room, caster=caster)
     assert r[0] == pytest.approx(5.0)
-    r = cast(0.0, 0.2, [0.0], fp, room)
+    r = cast(0.0, 0.2, [0.0], fp, room, caster=caster)
     assert r[0] == pytest.approx(1.5)
 
 
-def test_inside_own_body_low_footprints_and_max_range() -> None:
+@CASTERS
+def test_inside_own_body_low_footprints_and_max_range(caster: type) -> None:
     fp = footprints(np.array([[0.0, 0.0, 0.3, 0.3, 0.2, 1.0], [3.0, 0.0, math.pi / 4, 0.5,
                                                                 0.5, 0.2]]),
                     np.array([0.0, 3.0, 0.2, 0.1]))
-    r = cast(0.05, 0.0, [0.0, math.pi / 2], fp, None, z=0.1, max_range=8.0)
+    r = cast(0.05, 0.0, [0.0, math.pi / 2], fp, None, z=0.1, max_range=8.0, caster=caster)
     assert r == pytest.approx([3.0 - 0.5 * math.sqrt(2) - 0.05, 3.0 - math.sqrt(0.2**2 - 0.05**2)],
                               abs=1e-9)
-    r = cast(0.05, 0.0, [0.0, math.pi / 2, math.pi], fp, None, z=0.3, max_range=8.0)
+    r = cast(0.05, 0.0, [0.0, math.pi / 2, math.pi], fp, None, z=0.3, max_range=8.0,
+             caster=caster)
     assert r == pytest.approx([8.0, 8.0, 8.0])
     # From inside a circle, the circle is not seen.
-    r = cast(0.0, 3.0, [0.0], fp, Room(4.0, 4.0, 1.0), z=0.05)
+    r = cast(0.0, 3.0, [0.0], fp, Room(4.0, 4.0, 1.0), z=0.05, caster=caster)
     assert r[0] == pytest.approx(4.0)
 
 
@@ -65,9 +75,10 @@ def test_room_exit_from_outside_is_infinite() -> None:
     assert r[1] == pytest.approx(11.0)
 
 
+@CASTERS
 @settings(max_examples=40, deadline=None)
 @given(st.integers(min_value=0, max_value=2**31 - 1))
-def test_matches_the_face_caster(seed: int) -> None:
+def test_matches_the_face_caster(caster: type, seed: int) -> None:
     rng = np.random.default_rng(seed)
     k, m, n = int(rng.integers(0, 8)), int(rng.integers(0, 5)), 97
     rects = np.column_stack([rng.uniform(-4, 4, (k, 2)), rng.uniform(-3, 3, k),
@@ -84,7 +95,7 @@ def test_matches_the_face_caster(seed: int) -> None:
     d = np.exp(1j * a)
     z = rng.choice([0.0, 0.25, 0.5, 0.9], n)
     limit = rng.uniform(0.5, 12.0, n)
-    got = FootprintCaster().cast(o, d, limit, z, footprints(rects, circles), room)
+    got = caster().cast(o, d, limit, z, footprints(rects, circles), room)
     faces = Faces.concat([
         arena_faces(room.half_x, room.half_y, room.top),
         rectangle_faces(rects[:, 0], rects[:, 1], rects[:, 2], rects[:, 3], rects[:, 4],
@@ -97,7 +108,8 @@ def test_matches_the_face_caster(seed: int) -> None:
     assert close.all(), (got[~close], want[~close])
 
 
-def test_many_rays_are_cast_in_chunks() -> None:
+@CASTERS
+def test_many_rays_are_cast_in_chunks(caster: type) -> None:
     rng = np.random.default_rng(3)
     k = 300
     rects = np.column_stack([rng.uniform(-9, 9, (k, 2)), rng.uniform(-3, 3, k),
@@ -107,8 +119,8 @@ def test_many_rays_are_cast_in_chunks() -> None:
     o = np.full(n, 0.0 + 0j)
     d = np.exp(1j * np.linspace(-math.pi, math.pi, n, endpoint=False))
     lim, z = np.full(n, 20.0), np.zeros(n)
-    all_at_once = FootprintCaster().cast(o, d, lim, z, fp, Room(10.0, 10.0, 1.0))
-    one_by_one = np.array([FootprintCaster().cast(o[i:i + 1], d[i:i + 1], lim[i:i + 1],
+    all_at_once = caster().cast(o, d, lim, z, fp, Room(10.0, 10.0, 1.0))
+    one_by_one = np.array([caster().cast(o[i:i + 1], d[i:i + 1], lim[i:i + 1],
                                                   z[i:i + 1], fp, Room(10.0, 10.0, 1.0))[0]
                            for i in range(0, n, 50)])
     assert all_at_once[::50] == pytest.approx(one_by_one)
@@ -141,9 +153,10 @@ def _reference(o: complex, a: float, rects: np.ndarray, circles: np.ndarray,
     return best
 
 
+@CASTERS
 @settings(max_examples=25, deadline=None)
 @given(st.integers(min_value=0, max_value=2**31 - 1))
-def test_matches_brute_force_to_float64_noise(seed: int) -> None:
+def test_matches_brute_force_to_float64_noise(caster: type, seed: int) -> None:
     rng = np.random.default_rng(seed)
     rects = np.column_stack([rng.uniform(-4, 4, (4, 2)), rng.uniform(-3, 3, 4),
                              rng.uniform(0.1, 0.8, (4, 2)), np.ones(4)])
@@ -157,12 +170,14 @@ def test_matches_brute_force_to_float64_noise(seed: int) -> None:
     if any(abs(o - complex(cx, cy)) <= r for cx, cy, r, _ in circles):
         return
     angles = np.linspace(-math.pi, math.pi, 73)
-    got = cast(o.real, o.imag, angles, footprints(rects, circles), None, max_range=12.0)
+    got = cast(o.real, o.imag, angles, footprints(rects, circles), None, max_range=12.0,
+               caster=caster)
     want = [_reference(o, a, rects, circles, 12.0) for a in angles]
     assert np.allclose(got, want, rtol=0, atol=1e-9)
 
 
-def test_naming_the_own_footprint_changes_nothing() -> None:
+@CASTERS
+def test_naming_the_own_footprint_changes_nothing(caster: type) -> None:
     rng = np.random.default_rng(5)
     rects = np.column_stack([rng.uniform(-3, 3, (6, 2)), rng.uniform(-3, 3, 6),
                              np.full((6, 2), 0.3), np.ones(6)])
@@ -173,6 +188,35 @@ def test_naming_the_own_footprint_changes_nothing() -> None:
     own = np.repeat([0, 1, 2, -1], 90)
     lim, z = np.full(o.size, 9.0), np.zeros(o.size)
     room = Room(5.0, 5.0, 1.0)
-    caster = FootprintCaster()
-    assert np.array_equal(caster.cast(o, d, lim, z, fp, room, own),
-                          caster.cast(o, d, lim, z, fp, room))
+    assert np.array_equal(caster().cast(o, d, lim, z, fp, room, own),
+                          caster().cast(o, d, lim, z, fp, room))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(min_value=0, max_value=2**31 - 1))
+def test_compiled_equals_numpy_to_float64_noise(seed: int) -> None:
+    """Random scenes: rectangles and circles of mixed heights, rays of mixed heights from
+    inside and outside the room, shared origins, axis-parallel rays, named own footprints."""
+    rng = np.random.default_rng(seed)
+    nr, nc, n = int(rng.integers(0, 12)), int(rng.integers(0, 8)), int(rng.integers(1, 300))
+    fp = Footprints.build(rng.uniform(-5, 5, nr) + 1j * rng.uniform(-4, 4, nr),
+                          np.exp(1j * rng.choice([0.0, 0.4, -2.0, math.pi / 2], nr)),
+                          rng.uniform(0.05, 1, nr), rng.uniform(0.05, 1, nr),
+                          rng.uniform(0, 1, nr),
+                          rng.uniform(-5, 5, nc) + 1j * rng.uniform(-4, 4, nc),
+                          rng.uniform(0.05, 0.6, nc), rng.uniform(0, 1, nc))
+    room = Room(6.0, 5.0, 0.5) if seed % 3 else None
+    o = rng.uniform(-6.5, 6.5, n) + 1j * rng.uniform(-5.5, 5.5, n)
+    o[: n // 3] = o[0]
+    d = np.exp(1j * rng.uniform(-4, 4, n))
+    d[::5] = 1.0
+    d[1::5] = 1j
+    limit, z = rng.uniform(0.5, 8, n), rng.choice([0.0, 0.3, 0.6, 1.0], n)
+    own = None
+    if nr + nc:
+        own = np.where(rng.uniform(size=n) < 0.2, rng.integers(0, nr + nc, n), -1)
+    got = CompiledCaster().cast(o, d, limit, z, fp, room, own)
+    want = FootprintCaster().cast(o, d, limit, z, fp, room, own)
+    assert np.array_equal(np.isinf(got), np.isinf(want))
+    fin = np.isfinite(want)
+    assert np.allclose(got[fin], want[fin], rtol=0, atol=1e-9)

@@ -1,0 +1,125 @@
+"""The fast blobfinder's per-pair geometry as compiled loops (numba).
+
+`BlobPlan.pending` and `BlobPlan.project` (``fastsense``) call these; the formulas are theirs,
+restated per (camera, target) pair:
+
+- `pending_pairs`: the pairs whose target lies within the camera's range and field of view
+  (its near side in range, its angular extent overlapping the field of view, not hidden);
+- `blob_boxes`: the pinhole box of each pair that passed the occlusion test, and its area.
+
+Compiled on first use and cached on disk next to this module (``cache=True``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+_LIM = math.radians(89.0)  # edge angles are clipped to +-89 degrees before tan()
+_NEAR_MIN = 1e-3  # a target closer than this (inside the camera) is not seen
+# columns of the plan's per-pair constants (BlobPlan.consts)
+_HW, _HH, _FOV, _TILT, _DZT, _DZB, _MIN_AREA, _W1, _H1 = range(9)
+
+
+@njit(cache=True, error_model="numpy")
+def pending_pairs(robot: np.ndarray, target: np.ndarray, mount: np.ndarray,
+                  mount_yaw: np.ndarray, fov: np.ndarray, max_range: np.ndarray,
+                  half_x: np.ndarray, half_y: np.ndarray, radius: np.ndarray,
+                  pos: np.ndarray, head: np.ndarray, yaw: np.ndarray, t_pos: np.ndarray,
+                  t_head: np.ndarray, pan: np.ndarray, zoom: np.ndarray,
+                  hidden: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Pairs in range and in view: their indices, camera origins, unit directions to the
+    target centres, and (dist, near, bearing, half) rows.
+
+    Per pair: the robot, the target, the camera's mount (complex, robot frame), mount yaw,
+    field of view and range, the target's half extents (rectangles) or radius (circles).
+    Per robot: position, heading exp(i yaw), yaw, pan and zoom (0: the camera's own field of
+    view). Per target: position, heading, hidden (cannot be seen at all).
+    """
+    m = robot.shape[0]
+    idx = np.empty(m, np.int64)
+    origin = np.empty(m, np.complex128)
+    unit = np.empty(m, np.complex128)
+    rows = np.empty((4, m))
+    k = 0
+    for p in range(m):
+        t = target[p]
+        if hidden[t]:
+            continue
+        r = robot[p]
+        o = pos[r] + head[r] * mount[p]
+        v = t_pos[t] - o
+        dist = abs(v)
+        u = v / max(dist, 1e-9)
+        # The target's orientation relative to the line of sight: its half width across the
+        # line and its half depth along it (plus the radius of a circle, whose extents are 0).
+        rel = t_head[t] * u.conjugate()
+        c = abs(rel.real)
+        s = abs(rel.imag)
+        across = half_x[p] * s + half_y[p] * c + radius[p]
+        along = half_x[p] * c + half_y[p] * s + radius[p]
+        near = dist - along
+        if not (near <= max_range[p] and near > _NEAR_MIN):
+            continue
+        half = math.asin(min(across / max(dist, 1e-6), 1.0))
+        cam_yaw = yaw[r] + mount_yaw[p] + pan[r]
+        w = u * complex(math.cos(cam_yaw), -math.sin(cam_yaw))
+        bearing = math.atan2(w.imag, w.real)
+        f = zoom[r] if zoom[r] > 0 else fov[p]
+        if abs(bearing) - half < f / 2:
+            idx[k] = p
+            origin[k] = o
+            unit[k] = u
+            rows[0, k] = dist
+            rows[1, k] = near
+            rows[2, k] = bearing
+            rows[3, k] = half
+            k += 1
+    return idx[:k], origin[:k], unit[:k], rows[:, :k]
+
+
+@njit(cache=True, error_model="numpy")
+def blob_boxes(robot: np.ndarray, consts: np.ndarray, rows: np.ndarray, zoom: np.ndarray,
+               tilt: np.ndarray) -> np.ndarray:
+    """Per visible pair (its robot, the plan's constants row, its (dist, near, bearing, half)
+    row): area, centre x, y and box left, right, top, bottom in pixels (area 0: too small)."""
+    n = robot.shape[0]
+    out = np.zeros((n, 7), np.int64)
+    for p in range(n):
+        r = robot[p]
+        c = consts[p]
+        dist = rows[0, p]
+        near = rows[1, p]
+        b = rows[2, p]
+        half = rows[3, p]
+        hw = c[_HW]
+        hh = c[_HH]
+        z = zoom[r]
+        f = hw / math.tan((z if z > 0 else c[_FOV]) / 2)
+        # Horizontal: the angular edges (left is the larger angle, hence smaller x).
+        left = max(math.ceil(hw - f * math.tan(min(b + half, _LIM))), 0)
+        right = min(math.floor(hw - f * math.tan(max(b - half, -_LIM))), int(c[_W1]))
+        # Vertical: the top edge is the top at the near side when above the camera, else at
+        # the far side; the bottom edge likewise.
+        cos_b = max(math.cos(b), 1e-3)
+        near_d = near * cos_b
+        far_d = (2.0 * dist - near) * cos_b
+        tilt_all = c[_TILT] + tilt[r]
+        dz_t = c[_DZT]
+        dz_b = c[_DZB]
+        e_top = math.atan2(dz_t, near_d if dz_t > 0 else far_d) - tilt_all
+        e_bot = math.atan2(dz_b, near_d if dz_b < 0 else far_d) - tilt_all
+        top = max(math.ceil(hh - f * math.tan(min(e_top, _LIM))), 0)
+        bottom = min(math.floor(hh - f * math.tan(max(e_bot, -_LIM))), int(c[_H1]))
+        area = max(right - left + 1, 0) * max(bottom - top + 1, 0)
+        if area >= c[_MIN_AREA]:
+            out[p, 0] = area
+            out[p, 1] = (left + right) // 2
+            out[p, 2] = (top + bottom) // 2
+            out[p, 3] = left
+            out[p, 4] = right
+            out[p, 5] = top
+            out[p, 6] = bottom
+    return out
