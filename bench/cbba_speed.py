@@ -3,9 +3,9 @@
 The scenarios are the CBGA-paper set-ups of `murdoch.consensus.experiments` (fig5): 20
 single-agent tasks for CBBA and 20 two-agent tasks for CBGA, seeds 0..19, no bundle limit.
 A solve is a whole synchronous run to convergence (bundle building, consensus rounds and the
-final plan evaluation). CBBA runs compiled (`murdoch.consensus.cbba_fast`); its one-off load
-or compile time is printed first and not counted. Prints one line per algorithm, then exactly
-`cbba_solve_ms_median=<x> cbga_solve_ms_median=<y>`.
+final plan evaluation). Both run compiled (`murdoch.consensus.cbba_fast`, `cbga_fast`); the
+one-off load or compile time of each kernel is printed first and not counted. Prints one line
+per algorithm, then exactly `cbba_solve_ms_median=<x> cbga_solve_ms_median=<y>`.
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ import time
 import numpy as np
 
 from murdoch.consensus.cbba_fast import load_compiled_cbba
+from murdoch.consensus.cbga_fast import load_compiled_cbga
 from murdoch.consensus.experiments import EXPERIMENTS, run_seed
 from murdoch.consensus.sync_runner import allocate
 
@@ -54,13 +55,17 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=1,
                         help="solve each scenario this many times and keep the fastest")
     parser.add_argument("--engine", choices=("compiled", "agents"), default="compiled",
-                        help="CBBA engine (agents: the reference, for comparison)")
+                        help="engine of both algorithms (agents: the reference, for "
+                             "comparison)")
     args = parser.parse_args()
     print(f"numpy_op_us={machine_load_us():.2f} (before)")
     # numba import + loading the kernel (compiling it when there is no on-disk cache yet)
     t0 = time.perf_counter()
     loaded = load_compiled_cbba()
     print(f"cbba_kernel_load_s={time.perf_counter() - t0:.2f} (compiled CBBA: {loaded})")
+    t0 = time.perf_counter()
+    loaded = load_compiled_cbga()
+    print(f"cbga_kernel_load_s={time.perf_counter() - t0:.2f} (compiled CBGA: {loaded})")
     medians = {}
     for name, index in (("cbba", 0), ("cbga", 1)):
         ms = measure(index, args.agents, args.seeds, args.repeats,

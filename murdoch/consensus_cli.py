@@ -27,8 +27,9 @@ from murdoch.consensus.sync_runner import allocate as run_allocation
 @click.option("--max-rounds", type=click.IntRange(1), default=1000, show_default=True)
 @click.option("--engine", type=click.Choice(["compiled", "agents"]), default="compiled",
               show_default=True,
-              help="CBBA: the compiled run (same results; about 1.5 s to load numba) or the "
-                   "agent-based reference (no start-up cost; slower on big problems).")
+              help="CBBA and CBGA: the compiled run (same results; about 1.5 s to load "
+                   "numba) or the agent-based reference (no start-up cost; slower on big "
+                   "problems).")
 def allocate(scenario: Path, algorithm: str, task_quitting: bool, team_reward: bool,
              max_rounds: int, engine: str) -> None:
     """Run CBBA or CBGA on SCENARIO (JSON) in synchronous rounds; print the result as JSON."""

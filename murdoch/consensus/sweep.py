@@ -12,6 +12,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from murdoch.consensus.cbba_fast import load_compiled_cbba
+from murdoch.consensus.cbga_fast import load_compiled_cbga
 from murdoch.consensus.experiments import EXPERIMENTS, RunRecord, run_one
 
 log = logging.getLogger(__name__)
@@ -71,6 +72,14 @@ def jobs_for(experiment: str, agents: Sequence[int], runs: int, seed: int) -> li
             for n in agents for v in range(len(variants)) for r in range(runs)]
 
 
+def load_kernels(cbba: bool, cbga: bool) -> None:
+    """Load the compiled CBBA and/or CBGA runs in this process (a pool initialiser)."""
+    if cbba:
+        load_compiled_cbba()
+    if cbga:
+        load_compiled_cbga()
+
+
 def _run_chunk(chunk: list[Job]) -> list[RunRecord]:
     return [run_one(j.experiment, j.variant_index, j.n_agents, j.run, j.seed) for j in chunk]
 
@@ -81,11 +90,13 @@ def run_jobs(jobs: Sequence[Job], n_procs: int,
     size = max(1, min(25, len(jobs) // max(1, n_procs * 8)))
     chunks = [list(jobs[i:i + size]) for i in range(0, len(jobs), size)]
     out: list[RunRecord] = []
-    # the compiled CBBA is loaded (or compiled and cached on disk) once here, before any
-    # worker starts: workers then only load it, outside the solve times they record
-    cbba = any(EXPERIMENTS[j.experiment][j.variant_index].algorithm == "cbba" for j in jobs)
-    if cbba:
-        load_compiled_cbba()
+    # the compiled runs the jobs use are loaded (or compiled and cached on disk) once here,
+    # before any worker starts: workers then only load them, outside the solve times they
+    # record
+    algorithms = {EXPERIMENTS[j.experiment][j.variant_index].algorithm for j in jobs}
+    cbba, cbga = "cbba" in algorithms, "cbga" in algorithms
+    if cbba or cbga:
+        load_kernels(cbba, cbga)
     if n_procs <= 1:
         for chunk in chunks:
             out.extend(_run_chunk(chunk))
@@ -93,7 +104,7 @@ def run_jobs(jobs: Sequence[Job], n_procs: int,
                 progress(len(out), len(jobs))
         return out
     with ProcessPoolExecutor(max_workers=n_procs,
-                             initializer=load_compiled_cbba if cbba else None) as pool:
+                             initializer=load_kernels, initargs=(cbba, cbga)) as pool:
         for records in pool.map(_run_chunk, chunks):
             out.extend(records)
             if progress:

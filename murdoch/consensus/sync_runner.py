@@ -321,12 +321,13 @@ def allocate(scenario: Scenario, algorithm: Algorithm = "cbba",
              compiled: bool = True) -> AllocationResult:
     """Run an allocator to convergence in synchronous rounds.
 
-    CBBA runs as one compiled function (`cbba_fast`) when `compiled` is true and the scenario
-    allows it, with the same results as the agents; otherwise, and for CBGA, the agents of
-    `SyncRunner` run. ``result.extra["engine"]`` says which ran ("compiled" or "agents") and,
-    when CBBA fell back to the agents, ``extra["engine_note"]`` says why."""
+    CBBA and CBGA each run as one compiled function (`cbba_fast`, `cbga_fast`) when
+    `compiled` is true and the scenario allows it, with the same results as the agents;
+    otherwise the agents of `SyncRunner` run. ``result.extra["engine"]`` says which ran
+    ("compiled" or "agents") and, when the compiled run was requested but could not take
+    the scenario, ``extra["engine_note"]`` says why."""
     note = "not requested"
-    if algorithm == "cbba" and compiled:
+    if compiled and algorithm == "cbba":
         from murdoch.consensus.cbba_fast import allocate_compiled, compiled_cbba_unsupported
 
         reason = compiled_cbba_unsupported(scenario)
@@ -334,8 +335,16 @@ def allocate(scenario: Scenario, algorithm: Algorithm = "cbba",
             return allocate_compiled(scenario, max_rounds)
         note = reason
         log.debug("CBBA on %s runs on the agents: %s", scenario.name, reason)
+    elif compiled and algorithm == "cbga":
+        from murdoch.consensus.cbga_fast import (
+            allocate_compiled_cbga,
+            compiled_cbga_unsupported,
+        )
+
+        reason = compiled_cbga_unsupported(scenario, options)
+        if reason is None:
+            return allocate_compiled_cbga(scenario, options, max_rounds)
+        note = reason
+        log.debug("CBGA on %s runs on the agents: %s", scenario.name, reason)
     result = SyncRunner(scenario, algorithm, options, max_rounds).run()
-    extra: dict[str, Any] = {"engine": "agents"}
-    if algorithm == "cbba":
-        extra["engine_note"] = note
-    return replace(result, extra=extra)
+    return replace(result, extra={"engine": "agents", "engine_note": note})

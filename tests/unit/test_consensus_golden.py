@@ -2,7 +2,7 @@
 
 The rows were recorded from the reference implementation (same assignment, score, comm steps
 and messages); any change to bid evaluation or conflict resolution that is meant to be a pure
-speed-up must keep them. CBBA rows are checked both compiled and on the agents. The
+speed-up must keep them. Every row is checked both compiled and on the agents. The
 assignment is compared through a short digest of its JSON.
 """
 
@@ -59,10 +59,8 @@ def digest(assignment: dict[str, list[str]]) -> str:
     return hashlib.sha1(json.dumps(assignment, sort_keys=True).encode()).hexdigest()[:12]
 
 
-# CBBA rows run twice: compiled (what `allocate` picks) and on the agents
-CASES = [(*row, compiled) for row in GOLDEN
-         for compiled in ((True, False) if EXPERIMENTS[row[0]][row[1]].algorithm == "cbba"
-                          else (True,))]
+# every row runs twice: compiled (what `allocate` picks) and on the agents
+CASES = [(*row, compiled) for row in GOLDEN for compiled in (True, False)]
 
 
 @pytest.mark.parametrize(("experiment", "variant", "agents", "run", "sha", "score", "steps",
@@ -73,7 +71,7 @@ def test_allocation_matches_recorded(experiment: str, variant: int, agents: int,
     v = EXPERIMENTS[experiment][variant]
     result = allocate(v.make(agents, run_seed(0, agents, run)), v.algorithm,  # type: ignore[arg-type]
                       v.options, compiled=compiled)
-    if v.algorithm == "cbba" and compiled and importlib.util.find_spec("numba") is not None:
+    if compiled and importlib.util.find_spec("numba") is not None:
         assert result.extra["engine"] == "compiled"
     else:
         assert result.extra["engine"] == "agents"
