@@ -9,17 +9,23 @@ resource subjects and runs until SIGINT/SIGTERM (or, with --exit-when-done, unti
 ends). Events (JSON lines) go to --events ("-" = stdout). With --mcast-port the robot joins
 MURDOCH on that loopback multicast group (`behaviors.murdoch_link`): it offers its subjects,
 bids on announcements with its tasks' metrics and runs the tasks it wins.
+
+With ``MURDOCH_ROBOT_PROFILE_DIR`` set, a MURDOCH robot writes a cProfile of its main loop, in
+the main thread's CPU time, to ``<dir>/<name>.prof`` when it stops.
 """
 
 from __future__ import annotations
 
 import argparse
+import cProfile
 import gc
 import json
 import logging
+import os
 import signal
 import sys
 import threading
+import time
 from pathlib import Path
 from types import FrameType
 from typing import IO
@@ -32,6 +38,7 @@ from behaviors.robot import build_agent
 from player_server.client import PlayerClient, PlayerConnectionError, PlayerError
 
 log = logging.getLogger("murdoch-robot")
+PROFILE_ENV = "MURDOCH_ROBOT_PROFILE_DIR"
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -138,10 +145,19 @@ def main(argv: list[str] | None = None) -> int:
                 MulticastConfig(group=args.mcast_group, port=args.mcast_port),
             )
             link = MurdochLink(agent, transport, events, auction_log)
+            profile_dir = os.environ.get(PROFILE_ENV)
+            profiler = cProfile.Profile(time.thread_time) if profile_dir else None
+            if profiler is not None:
+                profiler.enable()
             ticks = 0
-            while not stop.is_set() and (not args.max_ticks or ticks < args.max_ticks):
-                link.step()
-                ticks += 1
+            try:
+                while not stop.is_set() and (not args.max_ticks or ticks < args.max_ticks):
+                    link.step()
+                    ticks += 1
+            finally:
+                if profiler is not None and profile_dir:
+                    profiler.disable()
+                    profiler.dump_stats(os.path.join(profile_dir, f"{name}.prof"))
         else:
             agent.run(stop, max_ticks=args.max_ticks or None)
     except ParamError as exc:

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import os
+import pstats
 import subprocess
 import sys
 from pathlib import Path
@@ -55,12 +57,19 @@ def test_short_longterm_run_with_a_killed_winner(tmp_path: Path) -> None:
 
 def test_short_boxpush_run_auctions_pushing_subtasks(tmp_path: Path) -> None:
     out = tmp_path / "runs"
+    profiles = tmp_path / "profiles"
+    profiles.mkdir()
     proc = subprocess.run(
         [*_murdoch(), "run", "boxpush", "--until", "40s", "--seed", "2", "--no-replay",
          "--out", str(out)],
         capture_output=True, text=True, timeout=200, check=False,
+        env={**os.environ, "MURDOCH_ROBOT_PROFILE_DIR": str(profiles)},
     )
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    # each robot wrote a profile of its loop when it stopped
+    written = sorted(p.stem for p in profiles.glob("*.prof"))
+    assert written == ["pusher1", "pusher2", "watcher"]
+    assert pstats.Stats(str(profiles / "watcher.prof")).total_calls > 1000  # type: ignore[attr-defined]
     (run,) = out.iterdir()
     events = ev.read_events(run / "events.jsonl")
     assert not any(terminal_state_problems(events).values())
