@@ -21,6 +21,11 @@ a bit mask per agent and per task. Agent i's beliefs are x[i] (M, N: bids, 0 = n
 and t[i] (M, N: when each member can be at a group task on its own, 0 = unknown), its
 timestamps s[i] (N + 1, the last one -inf), its bundle (insertion order) and path (execution
 order) with start times. Compiled on first use and cached on disk next to this module.
+
+The path preparation and the insertion gain (`_prepare`, `_gain`) are the ones of
+`cbba_kernel.py` with a not-before time added, restated here rather than imported: numba's
+on-disk cache of a function is invalidated by changes to its own file only, so a compiled
+function calling into another module could keep running a stale copy of it.
 """
 
 from __future__ import annotations
