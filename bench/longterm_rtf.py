@@ -1,6 +1,6 @@
 """Real-time factor of the long-term experiment.
 
-    python bench/longterm_rtf.py [--sim-hours 3] [--keep]
+    python bench/longterm_rtf.py [--sim-hours 3] [--keep] [--no-pin-cpus]
 
 Runs `murdoch run longterm --sim-hours H --speedup 0` into a temporary directory, prints the
 resident memory of every process at the start and at the end of the run, and as its last line
@@ -48,6 +48,8 @@ def main() -> int:
     p.add_argument("--keep", action="store_true", help="keep the run directory")
     p.add_argument("--robot-nice", type=int, default=None,
                    help="niceness of the robot processes (default: murdoch run's)")
+    p.add_argument("--no-pin-cpus", action="store_true",
+                   help="let the serving thread share its CPU (murdoch run --no-pin-cpus)")
     args = p.parse_args()
     out = Path(tempfile.mkdtemp(prefix="bench-longterm-"))
     murdoch = Path(sys.executable).parent / "murdoch"
@@ -55,6 +57,8 @@ def main() -> int:
            "--seed", str(args.seed), "--out", str(out), "--no-replay"]
     if args.robot_nice is not None:
         cmd += ["--robot-nice", str(args.robot_nice)]
+    if args.no_pin_cpus:
+        cmd.append("--no-pin-cpus")
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     ticks0 = cpu_ticks()
     proc = subprocess.run(cmd, stdout=subprocess.DEVNULL, check=False)

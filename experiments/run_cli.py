@@ -141,11 +141,14 @@ def _stop_robot(rp: RobotProcess, *, kill: bool = False, timeout_s: float = 5.0)
 @click.option("--robot-nice", type=click.IntRange(0, 19), default=0, show_default=True,
               help="Niceness of the robot processes: above 0 the simulator's serving thread, "
                    "which every robot waits on, wins the CPU when both are ready to run.")
+@click.option("--pin-cpus/--no-pin-cpus", default=True, show_default=True,
+              help="Give the simulator's serving thread a CPU of its own and run everything "
+                   "else (robots, runner) on the others (Linux, at least two CPUs).")
 def run(experiment: str, sim_hours: float | None, until: str | None, speedup: float, seed: int,
         meshcat: bool, out: Path, world: str | None, task_interval: float,
         kills: tuple[str, ...], restarts: tuple[str, ...], switch_offs: tuple[str, ...],
         switch_ons: tuple[str, ...], goal_radius: float | None, no_replay: bool,
-        pipelined: bool, robot_nice: int) -> None:
+        pipelined: bool, robot_nice: int, pin_cpus: bool) -> None:
     """Run EXPERIMENT end to end and leave a run directory behind."""
     if sim_hours is not None and until is not None:
         raise click.UsageError("give --sim-hours or --until, not both")
@@ -158,7 +161,7 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
         restarts=[parse_at(r) for r in restarts], replay=not no_replay,
         switch_offs=[parse_at(r) for r in switch_offs],
         switch_ons=[parse_at(r) for r in switch_ons], goal_radius_m=goal_radius,
-        pipelined=pipelined, robot_nice=robot_nice,
+        pipelined=pipelined, robot_nice=robot_nice, pin_cpus=pin_cpus,
     )
     sys.exit(code)
 
@@ -169,7 +172,7 @@ def run_experiment(
     restarts: list[tuple[str, float]], replay: bool,
     switch_offs: list[tuple[str, float]] | None = None,
     switch_ons: list[tuple[str, float]] | None = None, goal_radius_m: float | None = None,
-    pipelined: bool = True, robot_nice: int = 0,
+    pipelined: bool = True, robot_nice: int = 0, pin_cpus: bool = False,
 ) -> int:
     from behaviors.library import TASKS
     from experiments import boxpush as bp
@@ -182,6 +185,7 @@ def run_experiment(
     from murdoch.multicast import MulticastConfig, MulticastTransport
     from murdoch.node import Node
     from murdoch.user_agent import RandomizedBackoff
+    from player_server.server.affinity import allowed_cpus, pin_current_thread, plan_split
     from player_server.server.assembly import world_endpoints
     from player_server.server.core import CoreConfig
     from player_server.server.runner import PlayerServer
@@ -207,11 +211,14 @@ def run_experiment(
                                  tuple(r.name for r in spec.robots if r.mobile))
         actions = bp.SimActions()
     mcast_port = free_udp_port()
+    own_cpus = allowed_cpus()
+    split = plan_split(own_cpus) if pin_cpus and own_cpus is not None else None
     config = {
         "experiment": experiment, "seed": seed, "world": str(spec.source),
         "duration_s": duration_s, "speedup": speedup, "lockstep": lockstep,
         "task_interval_s": task_interval_s, "multicast_port": mcast_port,
         "pipelined": lockstep and pipelined, "robot_nice": robot_nice,
+        "cpu_affinity": split.as_dict() if split is not None else None,
         "kills": [f"{r}@{t:g}s" for r, t in kills],
         "restarts": [f"{r}@{t:g}s" for r, t in restarts],
     }
@@ -226,6 +233,10 @@ def run_experiment(
     click.echo(f"run directory: {rec.run.root}")
     sim = Simulation(spec, seed=seed)
     endpoints = world_endpoints(spec, sim, 0)
+    if split is not None:
+        # this thread, and so every thread and robot process started from now on, keeps off
+        # the serving thread's CPU
+        pin_current_thread(split.others)
     samplers: tuple[tuple[float, Any], ...] = ()
     if goal_watch is not None and actions is not None:
         samplers = ((0.5, goal_watch.sample), (0.0, actions.apply))
@@ -236,6 +247,7 @@ def run_experiment(
         config=CoreConfig(lockstep=lockstep,
                           lockstep_clients=max(1, sum(1 for e in endpoints if e.mobile)),
                           lockstep_timeout_s=5.0, pipelined=pipelined),
+        cpus=split.serving if split is not None else None,
     )
     robots: dict[str, RobotProcess] = {}
     tails: dict[str, JsonlTail] = {}
@@ -485,6 +497,8 @@ def run_experiment(
             log.error("server: %s", exc)
             reason = "server-error"
         sim.close()
+        if split is not None and own_cpus is not None:
+            pin_current_thread(own_cpus)  # the report may use every CPU again
     report = rec.finish(reason, replay=replay)
     problems = terminal_state_problems(ev.read_events(rec.run.events))
     s = report.summary

@@ -14,6 +14,7 @@ from collections.abc import Callable, Sequence
 from typing import Protocol
 
 from player_server.drivers.base import Driver
+from player_server.server.affinity import pin_current_thread
 from player_server.server.core import CoreConfig, ServerCore
 from player_server.server.endpoint import Endpoint
 from player_server.server.tcp import TcpFrontEnd
@@ -38,6 +39,7 @@ class PlayerServer:
 
     speedup: simulated seconds per wall second (0 = as fast as possible).
     quit_time_s: stop once simulation time reaches it (0 = never).
+    cpus: CPUs the serving thread pins itself to when it starts (None: left as inherited).
     """
 
     def __init__(
@@ -51,6 +53,7 @@ class PlayerServer:
         speedup: float = 1.0,
         config: CoreConfig | None = None,
         quit_time_s: float = 0.0,
+        cpus: frozenset[int] | None = None,
     ) -> None:
         if interval_s <= 0:
             raise ValueError(f"interval_s must be positive, got {interval_s}")
@@ -61,6 +64,7 @@ class PlayerServer:
         self.interval_s = interval_s
         self.speedup = speedup
         self.quit_time_s = quit_time_s
+        self.cpus = cpus
         self._clock = clock
         self.core = ServerCore(self.endpoints, lambda: float(sim.time_s), config)
         self.tcp = TcpFrontEnd(self.core, host)
@@ -117,7 +121,14 @@ class PlayerServer:
         return "\n".join(f"{a:<{w0}}  {b:>{w1}}  {d}" for a, b, d in rows)
 
     # -- the loop -------------------------------------------------------------------------------
+    @property
+    def thread_id(self) -> int | None:
+        """The serving thread's native id while it runs (for affinity and /proc)."""
+        return self._thread.native_id if self._thread is not None else None
+
     def _run(self) -> None:
+        if self.cpus:
+            pin_current_thread(self.cpus)
         try:
             self._loop()
         except BaseException as exc:  # seen by the owner in stop()

@@ -34,7 +34,12 @@ def test_short_longterm_run_with_a_killed_winner(tmp_path: Path) -> None:
     for name in ("config.json", "events.jsonl", "poses.jsonl", "summary.json", "replay.html",
                  "plots/tasks.png", "plots/battery.png", "plots/allocation.png"):
         assert (run / name).is_file(), name
-    assert json.loads((run / "config.json").read_text())["seed"] == 4
+    config = json.loads((run / "config.json").read_text())
+    assert config["seed"] == 4
+    cpus = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else set()
+    if len(cpus) >= 2:  # the serving thread got a CPU of its own (the default)
+        pinned = config["cpu_affinity"]
+        assert len(pinned["serving"]) == 1 and pinned["serving"][0] not in pinned["others"]
     events = ev.read_events(run / "events.jsonl")
     # every task ends in exactly one terminal state
     assert not any(terminal_state_problems(events).values())
