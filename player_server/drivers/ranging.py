@@ -45,10 +45,17 @@ class SonarDriver(Driver):
         self.powered = True
         self.properties = {"max_range": float(self.spec.max_range_m)}
         self._geom = self.geometry()
+        # the last reading and what was made of it: the simulator hands back the same array
+        # while the reading is unchanged, and then so does this driver
+        self._last: tuple[Any, Any] = (None, None)
 
     def data(self) -> Sequence[tuple[int, Any]]:
-        return ((c.PLAYER_SONAR_DATA_RANGES, _MAKE_SONAR(_ranges(self.sim.sonar(
-            self.robot.name)))),)
+        reading = self.sim.sonar(self.robot.name)
+        last_in, body = self._last
+        if reading is not last_in:
+            body = _MAKE_SONAR(_ranges(reading))
+            self._last = (reading, body)
+        return ((c.PLAYER_SONAR_DATA_RANGES, body),)
 
     def geometry(self) -> sm.SonarGeom:
         return sm.SonarGeom(tuple(mount_pose(m) for m in self.spec.poses))
@@ -75,6 +82,7 @@ class LaserDriver(Driver):
         self.powered = True
         self.properties = {"max_range": float(self.spec.max_range_m)}
         self._geom = sm.LaserGeom(mount_pose(self.spec.pose), LASER_SIZE)
+        self._last: tuple[Any, tuple[float, ...]] = (None, ())  # reading, its ranges
 
     def config(self) -> sm.LaserConfig:
         s = self.spec
@@ -83,7 +91,11 @@ class LaserDriver(Driver):
 
     def data(self) -> Sequence[tuple[int, Any]]:
         s = self.spec
-        ranges = _ranges(self.sim.laser(self.robot.name))
+        reading = self.sim.laser(self.robot.name)
+        last_in, ranges = self._last
+        if reading is not last_in:  # (the scan's id changes every tick, its ranges may not)
+            ranges = _ranges(reading)
+            self._last = (reading, ranges)
         res = s.resolution_rad if len(ranges) == s.samples else (
             (s.max_angle_rad - s.min_angle_rad) / max(len(ranges) - 1, 1))
         return ((c.PLAYER_LASER_DATA_SCAN, _MAKE_LASER(

@@ -81,17 +81,24 @@ class BlobfinderDriver(Driver):
         cam = robot.devices.camera
         self.width = int(cam.width_px) if cam is not None else 0
         self.height = int(cam.height_px) if cam is not None else 0
+        self._last: tuple[Any, Any] = (None, None)  # the simulator's blobs, the body made
 
     def data(self) -> Sequence[tuple[int, Any]]:
+        seen = self.sim.blobs(self.robot.name)
+        last_in, body = self._last
+        if seen is last_in:  # the simulator hands back the same blobs while they are unchanged
+            return ((c.PLAYER_BLOBFINDER_DATA_BLOBS, body),)
         # pixel quantities are whole non-negative numbers on the wire (u32), whatever
         # numeric type the simulator hands over
         blobs = tuple([
             _MAKE_BLOB(_u32(b.id), int(b.colour) & 0xFFFFFF, _u32(b.area), _u32(b.x),
                        _u32(b.y), _u32(b.l), _u32(b.r), _u32(b.t), _u32(b.b),
                        float(b.range_m))
-            for b in self.sim.blobs(self.robot.name)
+            for b in seen
         ])
-        return ((c.PLAYER_BLOBFINDER_DATA_BLOBS, _MAKE_BLOBS(self.width, self.height, blobs)),)
+        body = _MAKE_BLOBS(self.width, self.height, blobs)
+        self._last = (seen, body)
+        return ((c.PLAYER_BLOBFINDER_DATA_BLOBS, body),)
 
 
 class FiducialDriver(Driver):

@@ -57,6 +57,26 @@ def encode_message(
     return head + payload
 
 
+def encode_payload(body: Any) -> bytes:
+    """A body's XDR bytes (what `encode_message` puts after the header)."""
+    try:
+        encoder = type(body).xdr_encode
+    except AttributeError:
+        raise EncodeError(f"{type(body).__name__} is not a message body") from None
+    return encoder(body)  # type: ignore[no-any-return]
+
+
+def encode_with_payload(interf: int, index: int, msg_type: int, subtype: int, payload: bytes,
+                        *, timestamp: float = 0.0, robot: int = 0) -> bytes:
+    """Header + an already encoded body (`encode_payload`), as `encode_message` makes them."""
+    try:
+        head = _pack_header(0, robot, interf, index, msg_type, subtype, timestamp, 0,
+                            len(payload))
+    except Exception as exc:
+        raise EncodeError(f"bad header field: {exc}") from exc
+    return head + payload
+
+
 def encode(msg: Message) -> bytes:
     """Encode a ``Message`` (its header's ``size`` is recomputed)."""
     h = msg.header

@@ -39,7 +39,14 @@ from typing import Any
 from player_server.drivers.base import Driver, Reply, Unsupported
 from player_server.protocol import constants as c
 from player_server.protocol import player_msgs as pm
-from player_server.protocol.codec import NEED_DATA, Decoder, Undecodable, encode_message
+from player_server.protocol.codec import (
+    NEED_DATA,
+    Decoder,
+    Undecodable,
+    encode_message,
+    encode_payload,
+    encode_with_payload,
+)
 from player_server.protocol.common import DevAddr
 from player_server.protocol.constants import Interface, MsgType
 from player_server.protocol.errors import EncodeError, FrameError
@@ -159,6 +166,8 @@ class ServerCore:
         self.sessions: dict[int, Session] = {}
         self.round_seq = 0
         self._cache: dict[tuple[int, int, int], tuple[Any, list[tuple[DataKey, bytes]]]] = {}
+        # the last body of each device's DATA subtype and its encoded bytes (see _device_data)
+        self._payloads: dict[tuple[tuple[int, int, int], int], tuple[Any, bytes]] = {}
         #: bumped whenever a driver handles a request or command (state may have changed)
         self._mutations = 0
         self.participants_seen = 0
@@ -444,12 +453,22 @@ class ServerCore:
         if hit is not None and hit[0] == version:
             return hit[1]
         out: list[tuple[DataKey, bytes]] = []
+        payloads = self._payloads
         try:
             items = driver.data()
             t = version[0]
             for subtype, body in items:
-                out.append(((key[0], key[1], _DATA, subtype), encode_message(
-                    key[0], key[1], _DATA, subtype, body, timestamp=t, robot=ep.port)))
+                # a driver hands back the same body object while its reading is unchanged
+                # (a robot standing still): its bytes are re-used, only the header is new
+                pk = (ck, subtype)
+                hit = payloads.get(pk)
+                if hit is not None and hit[0] is body:
+                    payload = hit[1]
+                else:
+                    payload = encode_payload(body)
+                    payloads[pk] = (body, payload)
+                out.append(((key[0], key[1], _DATA, subtype), encode_with_payload(
+                    key[0], key[1], _DATA, subtype, payload, timestamp=t, robot=ep.port)))
         except Exception:
             log.exception("driver %s failed to produce data", driver.driver_name)
             out = []

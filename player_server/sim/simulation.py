@@ -167,6 +167,9 @@ class Simulation:
         self._cache_tick = -1
         self._colours: dict[str, int] | None = None  # see `_spec_colours`
         self._poses: dict[str, BodyPose] = {}  # the last pose of each body (see `snapshot`)
+        # the last fast reading of each range sensor and camera (see `_sense_fast`)
+        self._last_ranges: dict[tuple[int, str], np.ndarray] = {}
+        self._last_blobs: dict[int, tuple[Blob, ...]] = {}
         # the last pose of each body the overhead camera saw, and what it made of it
         self._seen: dict[str, tuple[BodyPose, TrackedObject]] = {}
         seeds = np.random.SeedSequence(self.seed).spawn(len(self.spec.robots) + 1)
@@ -633,14 +636,33 @@ class Simulation:
                                      self._footprints(), self._arrays.room,
                                      np.concatenate(own) if len(own) > 1 else own[0])
         t2 = self._now()
+        # a reading equal to the last one is handed out as the same object (a robot standing
+        # still in a still world), so that readers can tell it has not changed by identity
         if plan is not None:
-            cache["ranges"].update(plan.split(hits[:n_range]))
+            fresh = plan.split(hits[:n_range])
+            last = self._last_ranges
+            for key, reading in fresh.items():
+                old = last.get(key)
+                if (old is not None and old.dtype == reading.dtype
+                        and old.tobytes() == reading.tobytes()):
+                    fresh[key] = old
+                else:
+                    last[key] = reading
+            cache["ranges"].update(fresh)
         t3 = self._now()
         if bplan is not None and pending is not None:
             visible = hits[n_range:] >= pending.near - 0.05
             pan, tilt, zoom = self._ptz_arrays()
-            cache["blobs"].update(zip(cams, bplan.project(pending, visible, pan, tilt, zoom),
-                                      strict=True))
+            last_blobs = self._last_blobs
+            seen = cache["blobs"]
+            for cam, blobs in zip(cams, bplan.project(pending, visible, pan, tilt, zoom),
+                                  strict=True):
+                old_blobs = last_blobs.get(cam)
+                if old_blobs is not None and old_blobs == blobs:
+                    blobs = old_blobs
+                else:
+                    last_blobs[cam] = blobs
+                seen[cam] = blobs
         if self._clock is not None:
             t4 = self._now()
             share = n_range / max(1, hits.size)
