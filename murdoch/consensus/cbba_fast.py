@@ -11,14 +11,15 @@ against each other on the recorded and on random scenarios).
 from __future__ import annotations
 
 import importlib.util
-from dataclasses import replace
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
 from murdoch.consensus.conflict import rule_arrays
 from murdoch.consensus.messages import encoded_size
 from murdoch.consensus.scenario import Agent, Scenario, Task
-from murdoch.consensus.scoring import build_problem
+from murdoch.consensus.scoring import Problem, build_problem
 from murdoch.consensus.sync_runner import AllocationResult, build_result, graph_diameter
 
 ENGINE_COMPILED = "compiled"  # result.extra["engine"]; the agents' runs say "agents"
@@ -37,12 +38,25 @@ def compiled_cbba_unsupported(scenario: Scenario) -> str | None:
     return None
 
 
-def allocate_compiled(scenario: Scenario, max_rounds: int = 1000) -> AllocationResult:
-    """Run synchronous CBBA to convergence with the compiled kernel (the caller checks
-    `compiled_cbba_unsupported` first)."""
-    from murdoch.consensus.cbba_kernel import run_cbba
+@dataclass(frozen=True)
+class KernelArrays:
+    """What both compiled runs take besides the problem: the communication graph as
+    neighbour lists and in CSR form (nbr_idx[nbr_ptr[i]:nbr_ptr[i + 1]] are agent i's) with
+    each agent's out-degree and the graph's diameter; the tasks' rows (window start, latest
+    start, duration, score reference time, reward, discount) and their prerequisites in CSR
+    form."""
 
-    p = build_problem(scenario)
+    neighbours: Any
+    nbr_ptr: np.ndarray
+    nbr_idx: np.ndarray
+    out_degree: np.ndarray
+    diameter: int
+    tasks: np.ndarray
+    pre_ptr: np.ndarray
+    pre_idx: np.ndarray
+
+
+def kernel_arrays(scenario: Scenario, p: Problem) -> KernelArrays:
     n, m = p.n_agents, p.n_tasks
     neighbours = scenario.neighbours()
     nbr_ptr = np.zeros(n + 1, dtype=np.int64)
@@ -53,25 +67,38 @@ def allocate_compiled(scenario: Scenario, max_rounds: int = 1000) -> AllocationR
     for ks in neighbours:
         for k in ks:
             out_degree[k] += 1
-    active = [True] * n
     # a full graph's diameter is 1 (graph_diameter's answer, without the search)
-    diameter = 1 if scenario.comm_graph.edges is None else graph_diameter(neighbours, active)
+    diameter = (1 if scenario.comm_graph.edges is None
+                else graph_diameter(neighbours, [True] * n))
     tasks = np.stack([p.window_start, p.window_end, p.duration, p.score_ref, p.reward,
                       p.discount])
     pre_ptr = np.zeros(m + 1, dtype=np.int64)
     for j, pre in enumerate(p.prereqs):
         pre_ptr[j + 1] = pre_ptr[j] + len(pre)
     pre_idx = np.array([q for pre in p.prereqs for q in pre], dtype=np.int64)
+    return KernelArrays(neighbours, nbr_ptr, nbr_idx, out_degree, diameter, tasks, pre_ptr,
+                        pre_idx)
+
+
+def allocate_compiled(scenario: Scenario, max_rounds: int = 1000) -> AllocationResult:
+    """Run synchronous CBBA to convergence with the compiled kernel (the caller checks
+    `compiled_cbba_unsupported` first)."""
+    from murdoch.consensus.cbba_kernel import run_cbba
+
+    p = build_problem(scenario)
+    n, m = p.n_agents, p.n_tasks
+    a = kernel_arrays(scenario, p)
+    active = [True] * n
     table, lut = rule_arrays()
     base = encoded_size(0, n, 0)
     per_entry = encoded_size(1, n, 0) - base
     paths_a, plen, z, _y, _t, rounds, steps, messages, nbytes, converged = run_cbba(
-        p.agent_task_dist, p.task_task_dist, tasks, pre_ptr, pre_idx, p.speed, p.availability,
-        p.eligible, p.gain_bound, min(p.max_depth, m), nbr_ptr, nbr_idx, out_degree, diameter,
-        max_rounds, table, lut, base, per_entry)
+        p.agent_task_dist, p.task_task_dist, a.tasks, a.pre_ptr, a.pre_idx, p.speed,
+        p.availability, p.eligible, p.gain_bound, min(p.max_depth, m), a.nbr_ptr, a.nbr_idx,
+        a.out_degree, a.diameter, max_rounds, table, lut, base, per_entry)
     paths = [paths_a[i, :plen[i]].tolist() for i in range(n)]
     views = [[frozenset() if w < 0 else frozenset((w,)) for w in row] for row in z.tolist()]
-    result = build_result("cbba", p, paths, views, active, neighbours, bool(converged),
+    result = build_result("cbba", p, paths, views, active, a.neighbours, bool(converged),
                           int(steps), int(messages), int(nbytes), int(rounds))
     return replace(result, extra={"engine": ENGINE_COMPILED})
 

@@ -15,13 +15,13 @@ from typing import Any
 
 import numpy as np
 
-from murdoch.consensus.cbba_fast import ENGINE_COMPILED
+from murdoch.consensus.cbba_fast import ENGINE_COMPILED, kernel_arrays
 from murdoch.consensus.cbga import CbgaOptions
 from murdoch.consensus.conflict import rule_arrays
 from murdoch.consensus.messages import encoded_size
 from murdoch.consensus.scenario import Agent, Scenario, Task
 from murdoch.consensus.scoring import Problem, build_problem
-from murdoch.consensus.sync_runner import AllocationResult, build_result, graph_diameter
+from murdoch.consensus.sync_runner import AllocationResult, build_result
 
 _MAX_ITEMS = 62  # equipment items travel as bits of an int64
 
@@ -66,24 +66,7 @@ def _run(scenario: Scenario, options: CbgaOptions | None, max_rounds: int
     opts = options or CbgaOptions()
     p = build_problem(scenario)
     n, m = p.n_agents, p.n_tasks
-    neighbours = scenario.neighbours()
-    nbr_ptr = np.zeros(n + 1, dtype=np.int64)
-    for i, ks in enumerate(neighbours):
-        nbr_ptr[i + 1] = nbr_ptr[i] + len(ks)
-    nbr_idx = np.array([k for ks in neighbours for k in ks], dtype=np.int64)
-    out_degree = np.zeros(n, dtype=np.int64)
-    for ks in neighbours:
-        for k in ks:
-            out_degree[k] += 1
-    # a full graph's diameter is 1 (graph_diameter's answer, without the search)
-    diameter = (1 if scenario.comm_graph.edges is None
-                else graph_diameter(neighbours, [True] * n))
-    tasks = np.stack([p.window_start, p.window_end, p.duration, p.score_ref, p.reward,
-                      p.discount])
-    pre_ptr = np.zeros(m + 1, dtype=np.int64)
-    for j, pre in enumerate(p.prereqs):
-        pre_ptr[j + 1] = pre_ptr[j] + len(pre)
-    pre_idx = np.array([q for pre in p.prereqs for q in pre], dtype=np.int64)
+    a = kernel_arrays(scenario, p)
     bits = _items(scenario)
     task_eq = np.array([_mask(e, bits) for e in p.task_equipment], dtype=np.int64)
     agent_eq = np.array([_mask(e, bits) for e in p.agent_equipment], dtype=np.int64)
@@ -91,12 +74,12 @@ def _run(scenario: Scenario, options: CbgaOptions | None, max_rounds: int
     base = encoded_size(0, n, 0)
     per_entry = encoded_size(1, n, 0) - base
     out = run_cbga(
-        p.agent_task_dist, p.task_task_dist, tasks, pre_ptr, pre_idx, p.speed, p.availability,
-        p.eligible, p.gain_bound, min(p.max_depth, m), p.required, p.team_reward,
-        p.quit_after, task_eq, agent_eq, opts.task_quitting, opts.team_reward,
-        opts.quit_limit, nbr_ptr, nbr_idx, out_degree, diameter, max_rounds, table, lut,
-        base, per_entry)
-    return p, neighbours, out
+        p.agent_task_dist, p.task_task_dist, a.tasks, a.pre_ptr, a.pre_idx, p.speed,
+        p.availability, p.eligible, p.gain_bound, min(p.max_depth, m), p.required,
+        p.team_reward, p.quit_after, task_eq, agent_eq, opts.task_quitting, opts.team_reward,
+        opts.quit_limit, a.nbr_ptr, a.nbr_idx, a.out_degree, a.diameter, max_rounds, table,
+        lut, base, per_entry)
+    return p, a.neighbours, out
 
 
 def allocate_compiled_cbga(scenario: Scenario, options: CbgaOptions | None = None,
