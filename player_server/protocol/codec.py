@@ -40,14 +40,7 @@ def encode_message(
     seq: int = 0,
 ) -> bytes:
     """Header + XDR body as one bytes object; ``size`` is the encoded body length."""
-    if body is None:
-        payload = b""
-    else:
-        try:
-            encoder = type(body).xdr_encode
-        except AttributeError:
-            raise EncodeError(f"{type(body).__name__} is not a message body") from None
-        payload = encoder(body)
+    payload = b"" if body is None else encode_payload(body)
     try:
         head = _pack_header(
             host, robot, interf, index, msg_type, subtype, timestamp, seq, len(payload)

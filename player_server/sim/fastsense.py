@@ -154,9 +154,6 @@ class BlobPlan:
     consts: F64
     meta: NDArray[np.int64]
     own: NDArray[np.int64]  # footprint of the robot's body when its camera is inside, or -1
-    half_xx: F64  # (pairs, 2): target half length, twice
-    half_yy: F64  # (pairs, 2): target half width, twice
-    radius2: F64  # (pairs, 2): target radius (circles), twice
 
     @staticmethod
     def build(cams: tuple[int, ...], wa: WorldArrays) -> BlobPlan:
@@ -193,9 +190,6 @@ class BlobPlan:
             meta=np.column_stack([robot, slot, ch[slot, target],
                                   wa.t_colour[target]]).astype(np.int64),
             own=wa.own_body(robot, cam[:, 0] + 1j * cam[:, 1]),
-            half_xx=np.repeat(wa.t_half_x[target][:, None], 2, axis=1),
-            half_yy=np.repeat(wa.t_half_y[target][:, None], 2, axis=1),
-            radius2=np.repeat(wa.t_radius[target][:, None], 2, axis=1),
         )
 
     def pending(self, frame: Frame, t_pos: C128, t_head: C128, pan: F64, zoom: F64,
