@@ -3,7 +3,7 @@
 A signed datagram is the plain datagram (see `murdoch.wire`) with one more member at the end,
 written exactly as ``,"mac":"<64 lowercase hex digits>"}``::
 
-    {"h":[2,"bid","r2","9c41d2e7",17,"task.x"],"b":{...},"mac":"3f0c...e1"}
+    {"h":[3,"bid","r2","9c41d2e7",17,"task.x",-1,""],"b":{...},"mac":"3f0c...e1"}
 
 The tag is HMAC-SHA256(key, every byte before ``,"mac":``), so it covers the exact bytes of
 the header and the body, everything a receiver acts on, with no re-serialisation on either

@@ -1,14 +1,19 @@
-"""The wire format shared by every transport (version 2): one JSON object per datagram.
+"""The wire format shared by every transport (version 3): one JSON object per datagram.
 
 A datagram is one UTF-8 JSON object with a header array and the message's fields::
 
-    {"h":[2,"bid","r2","9c41d2e7",17,"task.user.5e1f07.4"],"b":{"task_id":...,"score":0.8}}
+    {"h":[3,"bid","r2","9c41d2e7",17,"task.user.5e1f07.4",1234,"e5"],"b":{"task_id":...}}
 
-The header is `[version, kind, sender, instance, seq, subjects]`: the wire version (2), the
-message class's KIND, the sender id, an instance nonce drawn when a transport is opened (``""``
-for none; a process that restarts under the same sender id is a new (sender, instance) pair
-whose sequence numbers start again at 0), the per-sender sequence number, and the subject set
-as one comma-separated, sorted string (``""`` for the empty set). `b` holds the message's fields.
+The header is `[version, kind, sender, instance, seq, subjects, tick, epoch]`: the wire
+version (3), the message class's KIND, the sender id, an instance nonce drawn when a transport
+is opened (``""`` for none; a process that restarts under the same sender id is a new
+(sender, instance) pair whose sequence numbers start again at 0), the per-sender sequence
+number, the subject set as one comma-separated, sorted string (``""`` for the empty set), the
+sender's simulation tick when it sent the datagram (``-1``: the sender keeps no simulation
+clock, e.g. a command-line tool) and the run epoch (``""`` for none; a token a run draws once
+so that datagrams of one run are never taken for another's). `b` holds the message's fields.
+With a team key the tag covers the header, so tick and epoch cannot be altered: a receiver
+rejects datagrams of another epoch and datagrams whose tick is stale (`murdoch.transport`).
 
 Senders always write the same shape: ``{"h":`` first, no spaces, then ``,"b":``. No header
 token can contain ``"``, ``\\``, ``[`` or ``]`` (kinds, sender ids, instances and subject names
@@ -47,7 +52,8 @@ from typing import Any, ClassVar, NamedTuple, Protocol
 
 from murdoch.subjects import SubjectError, SubjectSet, subject_set
 
-WIRE_VERSION = 2
+WIRE_VERSION = 3
+MAX_TICK = (1 << 53) - 1
 MAX_DATAGRAM_BYTES = 1400
 """Hard limit; typical auction messages are 120-380 bytes (73 more when signed)."""
 KIND_PATTERN = re.compile(r"^[a-z0-9][a-z0-9._-]{0,31}$")
@@ -73,10 +79,11 @@ _FLAT_VALUE = (
 null, true or false (anything else goes through the JSON decoder)."""
 _FLAT_HINTS = (str, int, float, bool, type(None))
 _PLAIN_HEADER = re.compile(
-    rb'\{"h":\[2,"(([a-z0-9][a-z0-9._-]{0,31})","([!#-Z^-~]{1,80})","([!#-Z^-~]{0,80}))",'
-    rb'(0|[1-9][0-9]{0,18}),"([a-z0-9._:/,-]*)"\],"b":'
+    rb'\{"h":\[3,"(([a-z0-9][a-z0-9._-]{0,31})","([!#-Z^-~]{1,80})","([!#-Z^-~]{0,80}))",'
+    rb'(0|[1-9][0-9]{0,18}),"([a-z0-9._:/,-]*)",(-1|0|[1-9][0-9]{0,15}),"([!#-Z^-~]{0,80})"\],'
+    rb'"b":'
 )
-"""How every sender begins a datagram (version 2): the header tokens it may hold, unescaped."""
+"""How every sender begins a datagram (version 3): the header tokens it may hold, unescaped."""
 _plain_header_match = _PLAIN_HEADER.match
 _BODY_ENDS = b"},"
 
@@ -125,6 +132,9 @@ class Envelope:
     message: Any
     size_bytes: int
     received_at: float
+    instance: str = ""
+    tick: int = -1
+    """The sender's simulation tick when it sent the message (-1: none)."""
 
     @property
     def kind(self) -> str:
@@ -141,6 +151,8 @@ class Frame:
     subjects: SubjectSet
     body: Mapping[str, Any]
     instance: str = ""
+    tick: int = -1
+    epoch: str = ""
 
 
 class Header(NamedTuple):
@@ -158,6 +170,8 @@ class Header(NamedTuple):
     body_at: int
     body_end: int
     body: Mapping[str, Any] | None = None
+    tick: int = -1
+    epoch: str = ""
 
 
 def freeze(value: Any) -> Any:
@@ -312,6 +326,7 @@ class Codec:
         self._flat_builders: dict[str, _FlatBuilder] = {}
         self._flat_keys: dict[str, tuple[str, ...]] = {}
         self._plain_idents: dict[bytes, tuple[str, str, str]] = {}
+        self._plain_epochs: dict[bytes, str] = {}
         """Kind, sender and instance of headers read by `_PLAIN_HEADER`, as text."""
         self._plain_subjects: dict[bytes, SubjectSet] = {}
         self._decoder = json.JSONDecoder(
@@ -368,7 +383,8 @@ class Codec:
 
     # -- encoding
     def encode_frame(
-        self, sender: str, seq: int, subjects: SubjectSet, message: Any, instance: str = ""
+        self, sender: str, seq: int, subjects: SubjectSet, message: Any, instance: str = "",
+        tick: int = -1, epoch: str = "",
     ) -> bytes:
         """The unauthenticated datagram bytes of one message (the standard shape)."""
         encoded = self._flat_body(message)
@@ -388,6 +404,11 @@ class Codec:
             tokens.update((sender, instance) if instance else (sender,))
         if type(seq) is not int or not 0 <= seq <= MAX_SEQ:
             raise ValueError(f"sequence must be an int in [0, 2**63), got {seq!r}")
+        if type(tick) is not int or not -1 <= tick <= MAX_TICK:
+            raise ValueError(f"tick must be an int in [-1, 2**53), got {tick!r}")
+        if epoch and epoch not in tokens:
+            check_token(epoch, "epoch")
+            tokens.add(epoch)
         subject_text = self._subject_text.get(subjects)
         if subject_text is None:
             # subject names are checked by subject_set(): a-z 0-9 . _ : / - only
@@ -395,13 +416,15 @@ class Codec:
             if len(self._subject_text) >= 4096:
                 self._subject_text.clear()
             self._subject_text[subjects] = subject_text
-        data = b'{"h":[%d,"%s","%s","%s",%d,"%s"],"b":%s}' % (
+        data = b'{"h":[%d,"%s","%s","%s",%d,"%s",%d,"%s"],"b":%s}' % (
             WIRE_VERSION,
             message.KIND.encode("ascii"),
             sender.encode("ascii"),
             instance.encode("ascii"),
             seq,
             subject_text,
+            tick,
+            epoch.encode("ascii"),
             encoded,
         )
         if len(data) > self.max_datagram_bytes:
@@ -484,8 +507,10 @@ class Codec:
                     except (UnicodeDecodeError, ValueError):
                         fields = None
                     if type(fields) is list:
-                        kind, sender, instance, seq, subjects = self._header_fields(fields)
-                        return Header(kind, sender, instance, seq, subjects, end + 6, body_end)
+                        kind, sender, instance, seq, subjects, tick, epoch = (
+                            self._header_fields(fields))
+                        return Header(kind, sender, instance, seq, subjects, end + 6, body_end,
+                                      None, tick, epoch)
         return self._parse_whole(data)
 
     def _plain_header(self, data: bytes, plain: re.Match[bytes]) -> Header | None:
@@ -493,7 +518,7 @@ class Codec:
         compact, no escapes, every token of the allowed characters), with the subject set
         and the kind looked up in caches; None when something needs the general path to
         judge it (an unchecked subject set, a sequence number out of range, no body)."""
-        ident_b, seq_b, subjects_b = plain.group(1, 5, 6)
+        ident_b, seq_b, subjects_b, tick_b, epoch_b = plain.group(1, 5, 6, 7, 8)
         subjects = self._plain_subjects.get(subjects_b)
         if subjects is None:
             try:
@@ -519,7 +544,17 @@ class Codec:
                 body_end = signed_end
         if seq > MAX_SEQ or body_end <= body_at or data[body_end] not in _BODY_ENDS:
             return None
-        return Header(ident[0], ident[1], ident[2], seq, subjects, body_at, body_end)
+        tick = int(tick_b)
+        if tick > MAX_TICK:
+            return None
+        epoch = self._plain_epochs.get(epoch_b)
+        if epoch is None:
+            epoch = epoch_b.decode("ascii")
+            if len(self._plain_epochs) >= 64:
+                self._plain_epochs.clear()
+            self._plain_epochs[epoch_b] = epoch
+        return Header(ident[0], ident[1], ident[2], seq, subjects, body_at, body_end, None,
+                      tick, epoch)
 
     def decode_body(self, data: bytes, header: Header) -> Mapping[str, Any]:
         """The body's fields as a plain dict (`message_from` checks them)."""
@@ -537,7 +572,7 @@ class Codec:
         if type(body) is dict:
             return body
         whole = self._parse_whole(data)  # not the standard shape after all: decode it whole
-        if whole[:5] != header[:5]:
+        if whole[:5] != header[:5] or whole[8:] != header[8:]:
             raise WireError("malformed", "header and datagram disagree")
         assert whole.body is not None
         return whole.body
@@ -547,7 +582,7 @@ class Codec:
         header = self.parse_header(data)
         body = self.decode_body(data, header)
         return Frame(header.kind, header.sender, header.seq, header.subjects, body,
-                     header.instance)
+                     header.instance, header.tick, header.epoch)
 
     def _parse_whole(self, data: bytes) -> Header:
         try:
@@ -563,7 +598,7 @@ class Codec:
             raise WireError("malformed", "no header")
         if type(fields) is not list:
             raise WireError("malformed", "header is not an array")
-        kind, sender, instance, seq, subjects = self._header_fields(fields)
+        kind, sender, instance, seq, subjects, tick, epoch = self._header_fields(fields)
         if not _TOP_MEMBERS.issuperset(obj):
             raise WireError("malformed", f"unexpected members {sorted(set(obj) - _TOP_MEMBERS)}")
         body = obj.get("b")
@@ -571,9 +606,11 @@ class Codec:
             raise WireError("malformed", "body is not a JSON object")
         if "mac" in obj and type(obj["mac"]) is not str:
             raise WireError("malformed", "tag is not a string")
-        return Header(kind, sender, instance, seq, subjects, -1, -1, body)
+        return Header(kind, sender, instance, seq, subjects, -1, -1, body, tick, epoch)
 
-    def _header_fields(self, fields: list[Any]) -> tuple[str, str, str, int, SubjectSet]:
+    def _header_fields(
+        self, fields: list[Any]
+    ) -> tuple[str, str, str, int, SubjectSet, int, str]:
         if not fields:
             raise WireError("malformed", "empty header")
         version = fields[0]
@@ -581,9 +618,9 @@ class Codec:
             raise WireError("malformed", f"version {version!r}"[:80])
         if version != WIRE_VERSION:
             raise WireError("bad_version", f"version {version}")
-        if len(fields) != 6:
-            raise WireError("malformed", f"header has {len(fields)} fields, not 6")
-        _, kind, sender, instance, seq, subjects = fields
+        if len(fields) != 8:
+            raise WireError("malformed", f"header has {len(fields)} fields, not 8")
+        _, kind, sender, instance, seq, subjects, tick, epoch = fields
         if type(kind) is not str or kind not in self._checked_kinds:
             if type(kind) is not str or not KIND_PATTERN.match(kind):
                 raise WireError("malformed", f"bad kind {kind!r}"[:80])
@@ -598,10 +635,16 @@ class Codec:
             self._token(instance)
         if type(seq) is not int or not 0 <= seq <= MAX_SEQ:
             raise WireError("malformed", f"bad sequence {seq!r}"[:80])
+        if type(tick) is not int or not -1 <= tick <= MAX_TICK:
+            raise WireError("malformed", f"bad tick {tick!r}"[:80])
+        if type(epoch) is not str:
+            raise WireError("malformed", f"bad epoch {epoch!r}"[:80])
+        if epoch and epoch not in tokens:
+            self._token(epoch)
         subject_fs = self._subject_cache.get(subjects) if type(subjects) is str else None
         if subject_fs is None:
             subject_fs = self._parse_subjects(subjects)
-        return kind, sender, instance, seq, subject_fs
+        return kind, sender, instance, seq, subject_fs, tick, epoch
 
     def _token(self, value: Any) -> None:
         if type(value) is not str or not TOKEN_PATTERN.match(value):

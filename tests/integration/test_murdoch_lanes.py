@@ -87,7 +87,7 @@ def test_by_default_everything_travels_on_one_group_as_one_json_value(
             seen = []
             while len(seen) < len(sent) and select.select([main_tap], [], [], 2.0)[0]:
                 seen.append(json.loads(main_tap.recv(2048)))  # one JSON value, whole
-            assert [obj["h"][:3] for obj in seen] == [[2, m.KIND, "tx"] for m in sent]
+            assert [obj["h"][:3] for obj in seen] == [[3, m.KIND, "tx"] for m in sent]
             assert [obj["h"][4] for obj in seen] == [0, 1, 2, 3]
             assert all(set(obj) == {"h", "b"} for obj in seen)
             with pytest.raises(BlockingIOError):
@@ -111,9 +111,9 @@ def test_replies_travel_apart_and_every_one_is_still_delivered(config: Multicast
             tx.publish({"task.t"}, Bid("t", 1, "tx", 1.0))
             tx.publish({"task.t"}, Renew("t", 1, "tx", 1))
             ready = select.select([main_tap], [], [], 2.0)[0]
-            assert ready and main_tap.recv(2048).startswith(b'{"h":[2,"renew","tx",')
+            assert ready and main_tap.recv(2048).startswith(b'{"h":[3,"renew","tx",')
             ready = select.select([reply_tap], [], [], 2.0)[0]
-            assert ready and reply_tap.recv(2048).startswith(b'{"h":[2,"bid","tx",')
+            assert ready and reply_tap.recv(2048).startswith(b'{"h":[3,"bid","tx",')
             with pytest.raises(BlockingIOError):
                 main_tap.recv(2048)  # the bid did not go to the main group
     finally:
@@ -158,9 +158,9 @@ def test_a_lazy_subscriber_is_not_woken_by_replies_but_reads_them_before_what_fo
         assert [e.kind for e in got] == ["report"]
 
 
-JUNK = (b'{"h":[2,"bid","tx","","x","task.mine"],"b":{}}', b'{"h":[2,"bid","tx"],"b":{}}',
-        b'{"h":[1,"bid","tx","",1,"a"],"b":{}}', b'{"h":[2,"bid","t\xffx","",1,"task.mine"]}',
-        b'{"h":[2,"bid","tx","",3,"task.mine"],"b":[]}')
+JUNK = (b'{"h":[3,"bid","tx","","x","task.mine",-1,""],"b":{}}', b'{"h":[2,"bid","tx"],"b":{}}',
+        b'{"h":[1,"bid","tx","",1,"a"],"b":{}}', b'{"h":[3,"bid","t\xffx","",1,"task.mine",-1,""]}',
+        b'{"h":[3,"bid","tx","",3,"task.mine",-1,""],"b":[]}')
 """Five broken datagrams: four malformed, one of another version."""
 
 
@@ -177,7 +177,7 @@ def test_traffic_nobody_listens_to_is_counted_not_decoded_and_the_rest_gets_thro
         rx.subscribe({"task.mine", "camera"}, callback=got.append)
         for n in range(4):
             tx.publish({"task.other"}, Bid("other", 1, "tx", float(n)))
-        tx.send_raw(b'{"h":[2,"bid","tx","",9,"task.other"],"b":{this is not json}',
+        tx.send_raw(b'{"h":[3,"bid","tx","",9,"task.other",-1,""],"b":{this is not json}',
                     reply=True)
         for junk in JUNK:
             tx.send_raw(junk)

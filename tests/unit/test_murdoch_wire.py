@@ -55,7 +55,7 @@ def frame(obj: dict[str, Any]) -> bytes:
 BID_BODY = {"task_id": "x", "attempt": 1, "bidder": "r2", "score": 1.0}
 
 
-def bid_frame(header: str = '2,"bid","r2","",3,"task.x"', body: Any = None) -> bytes:
+def bid_frame(header: str = '3,"bid","r2","",3,"task.x",-1,""', body: Any = None) -> bytes:
     """A hand-made datagram of the standard shape (a valid bid unless overridden)."""
     if body is None:
         body = BID_BODY
@@ -77,14 +77,14 @@ def test_wire_layout_is_the_documented_one() -> None:
     data = AUCTION_CODEC.encode_frame(
         "r2", 9, frozenset({"b", "a"}), Bid("t", 1, "r2", 2.5), instance="5e1f"
     )
-    assert data == (b'{"h":[2,"bid","r2","5e1f",9,"a,b"],'
+    assert data == (b'{"h":[3,"bid","r2","5e1f",9,"a,b",-1,""],'
                     b'"b":{"task_id":"t","attempt":1,"bidder":"r2","score":2.5}}')
     assert json.loads(data) == {  # one JSON value, whole
-        "h": [2, "bid", "r2", "5e1f", 9, "a,b"],
+        "h": [3, "bid", "r2", "5e1f", 9, "a,b", -1, ""],
         "b": {"task_id": "t", "attempt": 1, "bidder": "r2", "score": 2.5},
     }
     empty = AUCTION_CODEC.encode_frame("r2", 0, frozenset(), Renew("t", 1, "r2", 1))
-    assert empty.startswith(b'{"h":[2,"renew","r2","",0,""],"b":{')
+    assert empty.startswith(b'{"h":[3,"renew","r2","",0,"",-1,""],"b":{')
     assert AUCTION_CODEC.parse_header(empty).subjects == frozenset()
 
 
@@ -95,7 +95,7 @@ def test_every_datagram_is_one_json_object_signed_or_not(message: Any) -> None:
     signed = TeamKey("team-secret-1").sign(plain)
     for data in (plain, signed):
         obj = json.loads(data)
-        assert obj["h"] == [2, message.KIND, "r2", "ab12", 5, "idle,task.user-1.7"]
+        assert obj["h"] == [3, message.KIND, "r2", "ab12", 5, "idle,task.user-1.7", -1, ""]
         assert obj["b"] == AUCTION_CODEC.body_of(message)
         # the header-first reading and a whole decode of another layout agree
         relaid = json.dumps(obj, indent=1, sort_keys=True).encode()
@@ -121,14 +121,14 @@ def test_other_json_layouts_of_a_datagram_are_accepted() -> None:
     """Valid JSON that does not have the standard shape is decoded whole, same result."""
     core = EndpointCore("me", AUCTION_CODEC, clock=lambda: 0.0)
     sub = core.subscribe({"task.x"})
-    obj = {"h": [2, "bid", "r2", "", 3, "task.x"], "b": BID_BODY}
+    obj = {"h": [3, "bid", "r2", "", 3, "task.x", -1, ""], "b": BID_BODY}
     variants = [
         json.dumps(obj).encode(),  # spaces
         json.dumps(obj, indent=2).encode(),
         json.dumps({"b": BID_BODY, "h": obj["h"]}).encode(),  # body first
-        b'{"h":[2,"bid","r\\u0032","",3,"task.x"],"b":{"task_id":"x","attempt":1,'
+        b'{"h":[3,"bid","r\\u0032","",3,"task.x",-1,""],"b":{"task_id":"x","attempt":1,'
         b'"bidder":"r2","score":1.0}}',  # an escaped header token
-        b'{"h":[2,"bid","r2","",3,"task.x"],"b":{"task_id":"x","attempt":1,'
+        b'{"h":[3,"bid","r2","",3,"task.x",-1,""],"b":{"task_id":"x","attempt":1,'
         b'"bidder":"r2","score":1.0},"mac":"not checked without a key"}',
     ]
     for n, data in enumerate(variants):
@@ -152,32 +152,37 @@ BAD = [
     (b"", "malformed"),
     (frame({"v": 1, "k": "bid"}), "bad_version"),  # version 1
     (b"M2 bid r2 - 3 task.x\n{}", "malformed"),
-    (bid_frame('3,"bid","r2","",3,"task.x"'), "bad_version"),
+    (bid_frame('2,"bid","r2","",3,"task.x"'), "bad_version"),
     (bid_frame('"2","bid","r2","",3,"task.x"'), "malformed"),
-    (bid_frame('2,"bid","r2","",-1,"task.x"'), "malformed"),
-    (bid_frame('2,"bid","r2","","3","task.x"'), "malformed"),
-    (bid_frame('2,"bid","r2","",3.0,"task.x"'), "malformed"),
-    (bid_frame('2,"bid","","",3,"task.x"'), "malformed"),
-    (bid_frame('2,"bid","r 2","",3,"task.x"'), "malformed"),
-    (bid_frame('2,"bid","r2","",3'), "malformed"),
-    (bid_frame('2,"bid","r2","",3,"task.x","extra"'), "malformed"),
-    (bid_frame('2,"bid","r\\u0001","",3,"task.x"'), "malformed"),
-    (bid_frame('2,"Bid!","r2","",3,"task.x"'), "malformed"),
-    (bid_frame('2,"bid","r2","",3,"Not_A_Subject"'), "malformed"),
-    (bid_frame('2,"bid","r2","",3,"task.x,,y"'), "malformed"),
-    (bid_frame('2,"bid","r2","",3,["task.x"]'), "malformed"),
-    (bid_frame('2,"bid",["r2"],"",3,"task.x"'), "malformed"),
-    (b'{"h":[2,"bid","r2","",3,"task.x"]}', "malformed"),  # no body
-    (b'{"h":[2,"bid","r2","",3,"task.x"],"b":{}', "malformed"),  # cut short
-    (b'{"h":[2,"bid","r2","",3,"task.x"],"b":{},"x":1}', "malformed"),  # extra member
-    (b'{"h":[2,"bid","r2","",3,"task.x"],"b":{},"h":[2,"bid","r2","",3,"task.x"]}',
+    (bid_frame('3,"bid","r2","",-1,"task.x",-1,""'), "malformed"),
+    (bid_frame('3,"bid","r2","","3","task.x",-1,""'), "malformed"),
+    (bid_frame('3,"bid","r2","",3.0,"task.x",-1,""'), "malformed"),
+    (bid_frame('3,"bid","","",3,"task.x",-1,""'), "malformed"),
+    (bid_frame('3,"bid","r 2","",3,"task.x",-1,""'), "malformed"),
+    (bid_frame('3,"bid","r2","",3'), "malformed"),
+    (bid_frame('3,"bid","r2","",3,"task.x",-1,"","extra"'), "malformed"),
+    (bid_frame('3,"bid","r2","",3,"task.x",-2,""'), "malformed"),  # tick below -1
+    (bid_frame('3,"bid","r2","",3,"task.x",1.5,""'), "malformed"),  # tick not an int
+    (bid_frame('3,"bid","r2","",3,"task.x",9007199254740992,""'), "malformed"),  # tick too big
+    (bid_frame('3,"bid","r2","",3,"task.x",-1,"e 1"'), "malformed"),  # epoch not a token
+    (bid_frame('3,"bid","r2","",3,"task.x",-1,7'), "malformed"),  # epoch not a string
+    (bid_frame('3,"bid","r\\u0001","",3,"task.x",-1,""'), "malformed"),
+    (bid_frame('3,"Bid!","r2","",3,"task.x",-1,""'), "malformed"),
+    (bid_frame('3,"bid","r2","",3,"Not_A_Subject",-1,""'), "malformed"),
+    (bid_frame('3,"bid","r2","",3,"task.x,,y",-1,""'), "malformed"),
+    (bid_frame('3,"bid","r2","",3,["task.x"],-1,""'), "malformed"),
+    (bid_frame('3,"bid",["r2"],"",3,"task.x",-1,""'), "malformed"),
+    (b'{"h":[3,"bid","r2","",3,"task.x",-1,""]}', "malformed"),  # no body
+    (b'{"h":[3,"bid","r2","",3,"task.x",-1,""],"b":{}', "malformed"),  # cut short
+    (b'{"h":[3,"bid","r2","",3,"task.x",-1,""],"b":{},"x":1}', "malformed"),  # extra member
+    (b'{"h":[3,"bid","r2","",3,"task.x",-1,""],"b":{},"h":[3,"bid","r2","",3,"task.x",-1,""]}',
      "malformed"),  # repeated member
     (bid_frame(body=b'{"task_id":"x","task_id":"y","attempt":1,"bidder":"r2","score":1}'),
      "malformed"),
     (bid_frame(body=b"[1]"), "malformed"),
     (bid_frame(body=b"{not json"), "malformed"),
     (bid_frame(body=b"\xff"), "malformed"),
-    (bid_frame('2,"mystery","r2","",3,"task.x"'), "unknown_kind"),
+    (bid_frame('3,"mystery","r2","",3,"task.x",-1,""'), "unknown_kind"),
     (bid_frame(body={"task_id": "x"}), "bad_fields"),
     (bid_frame(body={"task_id": "x", "attempt": "1", "bidder": "r2", "score": 1.0}), "bad_fields"),
     (bid_frame(body={"task_id": "x", "attempt": 1, "bidder": "r2", "score": True}), "bad_fields"),
@@ -281,23 +286,23 @@ def test_unmatched_datagrams_are_dropped_before_the_body_is_read() -> None:
     """Nobody listens to task.y here: even a body that is not JSON only counts as unmatched."""
     core = EndpointCore("me", AUCTION_CODEC, clock=lambda: 0.0)
     sub = core.subscribe({"task.x", "camera", "idle"})
-    assert core.receive(bid_frame('2,"bid","r2","",3,"task.y"', body=b"{broken")) == 0
+    assert core.receive(bid_frame('3,"bid","r2","",3,"task.y",-1,""', body=b"{broken")) == 0
     assert core.counters.dropped == {"unmatched": 1}
     assert core.counters.received("bid") == 1
     # what the subscription covers is still decoded, checked and delivered
-    assert core.receive(bid_frame('2,"bid","r2","",4,"task.x"', body=b"{broken")) == 0
+    assert core.receive(bid_frame('3,"bid","r2","",4,"task.x",-1,""', body=b"{broken")) == 0
     assert core.counters.dropped == {"unmatched": 1, "malformed": 1}
-    assert core.receive(bid_frame('2,"bid","r2","",5,"task.x"')) == 1
+    assert core.receive(bid_frame('3,"bid","r2","",5,"task.x",-1,""')) == 1
     assert [e.seq for e in sub.drain()] == [5]
     # an unknown kind is an error even when nobody would have listened
-    assert core.receive(bid_frame('2,"mystery","r2","",6,"task.y"')) == 0
+    assert core.receive(bid_frame('3,"mystery","r2","",6,"task.y",-1,""')) == 0
     assert core.counters.dropped["unknown_kind"] == 1
     # changing the subscription changes the filter at once (no stale cached match)
     sub.update({"task.y"})
-    assert core.receive(bid_frame('2,"bid","r2","",7,"task.y"')) == 1
-    assert core.receive(bid_frame('2,"bid","r2","",8,"task.x"')) == 0
+    assert core.receive(bid_frame('3,"bid","r2","",7,"task.y",-1,""')) == 1
+    assert core.receive(bid_frame('3,"bid","r2","",8,"task.x",-1,""')) == 0
     sub.close()
-    assert core.receive(bid_frame('2,"bid","r2","",9,"task.y"')) == 0
+    assert core.receive(bid_frame('3,"bid","r2","",9,"task.y",-1,""')) == 0
 
 
 def test_keyed_endpoint_authenticates_what_it_acts_on_and_skips_the_rest() -> None:

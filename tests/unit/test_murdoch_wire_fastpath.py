@@ -66,8 +66,8 @@ def test_compact_bodies_decode_as_the_json_decoder_decodes_them(
              "progress": ["task_id", "attempt", "winner", "fraction", "note"]}[kind]
     members = [b'"%s":%s' % (n.encode(), t) for n, t in zip(names, tokens, strict=False)]
     body = b"{" + b",".join(members) + b"}"
-    compact = b'{"h":[2,"%s","r2","",3,"task.x"],"b":%s}' % (kind.encode(), body)
-    spaced = b'{ "h":[2,"%s","r2","",3,"task.x"],"b":%s}' % (kind.encode(), body)
+    compact = b'{"h":[3,"%s","r2","",3,"task.x",-1,""],"b":%s}' % (kind.encode(), body)
+    spaced = b'{ "h":[3,"%s","r2","",3,"task.x",-1,""],"b":%s}' % (kind.encode(), body)
     assert outcome(compact) == outcome(spaced)  # the spaced one is decoded whole, as JSON
 
 
@@ -98,7 +98,7 @@ def test_compact_bodies_are_written_as_the_json_encoder_writes_them(
 
 
 def test_an_integer_too_large_for_a_float_field_is_a_bad_field_not_a_crash() -> None:
-    data = b'{"h":[2,"bid","r2","",3,"task.x"],"b":{"task_id":"x","attempt":1,' \
+    data = b'{"h":[3,"bid","r2","",3,"task.x",-1,""],"b":{"task_id":"x","attempt":1,' \
            b'"bidder":"r2","score":1' + b"0" * 400 + b"}}"
     assert outcome(data) == ([], {"bad_fields": 1})
 
@@ -114,8 +114,8 @@ def test_compact_announcements_decode_as_the_json_decoder_decodes_them(
         token = data.draw(st.one_of(*[st.just(usual)] * 6, odd))  # mostly usual ones
         members.append(b'"%s":%s' % (name.encode(), token))
     body = b"{" + b",".join(members) + b"}"
-    compact = b'{"h":[2,"announce","u","",3,"camera,idle"],"b":%s}' % body
-    spaced = b'{ "h":[2,"announce","u","",3,"camera,idle"],"b":%s}' % body
+    compact = b'{"h":[3,"announce","u","",3,"camera,idle",-1,""],"b":%s}' % body
+    spaced = b'{ "h":[3,"announce","u","",3,"camera,idle",-1,""],"b":%s}' % body
     assert outcome(compact) == outcome(spaced)
 
 
@@ -124,7 +124,7 @@ def test_a_usual_announcement_is_read_by_the_compact_path_and_equals_the_json_on
         fields = {**ANNOUNCE_FIELDS, "subjects": subjects}
         members = [b'"%s":%s' % (n.encode(), t) for n, t in fields.items()]
         body = b"{" + b",".join(members) + b"}"
-        data = b'{"h":[2,"announce","u","",3,"camera,idle"],"b":%s}' % body
+        data = b'{"h":[3,"announce","u","",3,"camera,idle",-1,""],"b":%s}' % body
         header = AUCTION_CODEC.parse_header(data)
         fast = AUCTION_CODEC.decode_message(data, header)
         assert fast == AUCTION_CODEC.message_from("announce", json.loads(body))
