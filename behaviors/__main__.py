@@ -28,7 +28,7 @@ import threading
 import time
 from pathlib import Path
 from types import FrameType
-from typing import IO
+from typing import IO, Any
 
 from behaviors.battery import BatteryPolicy
 from behaviors.events import TASK_DONE, TASK_FAILED, TASK_STOPPED, Event, EventLog
@@ -39,6 +39,10 @@ from player_server.client import PlayerClient, PlayerConnectionError, PlayerErro
 
 log = logging.getLogger("murdoch-robot")
 PROFILE_ENV = "MURDOCH_ROBOT_PROFILE_DIR"
+KEY_ENV = "MURDOCH_TEAM_KEY"
+EPOCH_ENV = "MURDOCH_RUN_EPOCH"
+STALE_AFTER_TICKS = 100
+"""Outside lockstep, datagrams stamped more than this many ticks (10 s) ago are refused."""
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -66,6 +70,12 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--mcast-port", type=int, default=0,
                    help="join MURDOCH on this loopback multicast port (0 = do not)")
     p.add_argument("--mcast-group", default="239.255.74.17", help="MURDOCH multicast group")
+    p.add_argument("--lockstep-bus", action="store_true",
+                   help="lockstep run: act on MURDOCH datagrams at tick boundaries in tick order "
+                        "(needs the server's team clock device, opaque:0)")
+    p.add_argument("--instance", default="",
+                   help="this process's MURDOCH instance label (default: drawn at random; a run "
+                        "numbers each start of a robot 0, 1, ...)")
     p.add_argument("--auction-log", default="",
                    help="append this robot's auctioneer and bidder events (JSON lines) here")
     p.add_argument("--log-level", default="WARNING", help="logging level (default WARNING)")
@@ -118,7 +128,7 @@ def main(argv: list[str] | None = None) -> int:
         events.add_sink(on_event)
 
     battery = None if args.no_battery else BatteryPolicy(args.battery_low, args.battery_resume)
-    client = PlayerClient(args.host, args.port)
+    client = PlayerClient(args.host, args.port, lockstep=True if args.lockstep_bus else None)
     code = 0
     auction_log: IO[str] | None = None
     transport = link = None
@@ -136,15 +146,11 @@ def main(argv: list[str] | None = None) -> int:
             agent.start_task(args.task, params, args.task_id)
         if args.mcast_port:
             from behaviors.murdoch_link import MurdochLink
-            from murdoch.multicast import MulticastConfig, MulticastTransport
 
             if args.auction_log:
                 auction_log = open(args.auction_log, "a", encoding="utf-8")  # noqa: SIM115
-            transport = MulticastTransport(
-                name, lambda: float(agent.status().time_s),
-                MulticastConfig(group=args.mcast_group, port=args.mcast_port),
-            )
-            link = MurdochLink(agent, transport, events, auction_log)
+            transport, sync = _team_transport(args, name, agent, client, world)
+            link = MurdochLink(agent, transport, events, auction_log, tick_sync=sync)
             profile_dir = os.environ.get(PROFILE_ENV)
             profiler = cProfile.Profile(time.thread_time) if profile_dir else None
             if profiler is not None:
@@ -181,6 +187,41 @@ def main(argv: list[str] | None = None) -> int:
         if stream is not None and stream is not sys.stdout:
             stream.close()
     return code
+
+
+def _team_transport(args: argparse.Namespace, name: str, agent: Any, client: PlayerClient,
+                    world: Any) -> tuple[Any, Any]:
+    """The robot's MURDOCH transport (keyed and stamped with the run's epoch when the run
+    gives them, through the environment) and, in a lockstep run, its tick sync."""
+    from behaviors.murdoch_link import TickSync
+    from murdoch.auth import TeamKey
+    from murdoch.multicast import MulticastConfig, MulticastTransport
+    from murdoch.transport import TickConfig
+    from player_server.client import OpaqueProxy
+
+    interval_s = world.sim.interval_sim_s if world is not None else 0.1
+    secret = os.environ.get(KEY_ENV, "")
+    key = TeamKey(secret) if secret else None
+
+    def tick() -> int:
+        return round(float(agent.status().time_s) / interval_s)
+
+    ticks = TickConfig(tick, epoch=os.environ.get(EPOCH_ENV, ""), ordered=args.lockstep_bus,
+                       stale_after_ticks=0 if args.lockstep_bus else STALE_AFTER_TICKS,
+                       require_tick=key is not None)
+    transport = MulticastTransport(
+        name, lambda: float(agent.status().time_s),
+        MulticastConfig(group=args.mcast_group, port=args.mcast_port), key=key,
+        instance=args.instance or None, ticks=ticks,
+    )
+    sync = None
+    if args.lockstep_bus:
+        clock = client.proxies.get((OpaqueProxy.interf, 0))
+        if not isinstance(clock, OpaqueProxy):
+            transport.close()
+            raise PlayerError("--lockstep-bus needs the server's team clock device (opaque:0)")
+        sync = TickSync(clock, transport, interval_s, time.monotonic)
+    return transport, sync
 
 
 if __name__ == "__main__":

@@ -8,6 +8,10 @@ metrics, starts awarded tasks on the agent, and reports their completion or fail
 the auctioneer. A running task that says which tasks it needs (the box watcher's ``need``
 events) has them auctioned as its sub-tasks by this robot's own node. Time is simulation time
 from the robot's data.
+
+In a lockstep run (`TickSync`) the node acts on the team's datagrams only at the tick
+boundary, in tick order, and the robot declares how many it sent before it asks for the
+next round, so what it does repeats exactly.
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ import json
 import logging
 import random
 from collections import deque
+from collections.abc import Callable
 from typing import IO, Any
 
 from behaviors.events import TASK_DONE, TASK_FAILED, TASK_STOPPED
@@ -23,16 +28,53 @@ from behaviors.library import TASKS
 from murdoch.auction.messages import TaskSpec
 from murdoch.node import Node
 from murdoch.user_agent import RandomizedBackoff
+from player_server.protocol.team_clock import Declaration, decode_table
 
 log = logging.getLogger("murdoch-robot.link")
+
+
+class TickSync:
+    """The robot's side of the lockstep tick protocol (see `murdoch.tick_order`).
+
+    Each tick, after the robot has read its round: the team clock table that came with it
+    says how many datagrams every participant sent through the previous tick; the transport
+    waits for all of them and acts on them in tick order (`settle_tick`). After the node's
+    step, the robot declares its own count (opaque command) before it asks for the next
+    round."""
+
+    def __init__(self, clock_proxy: Any, transport: Any, interval_s: float,
+                 wait_clock: Callable[[], float], give_up_after_s: float = 60.0) -> None:
+        self.proxy = clock_proxy
+        self.transport = transport
+        self.interval_s = interval_s
+        self.wait_clock = wait_clock
+        self.give_up_after_s = give_up_after_s
+        self._last_declared = -1
+
+    def tick_of(self, time_s: float) -> int:
+        return round(time_s / self.interval_s)
+
+    def settle(self, time_s: float) -> None:
+        table = decode_table(self.proxy.data) if self.proxy.data else {}
+        self.transport.settle_tick(self.tick_of(time_s), table, wait_clock=self.wait_clock,
+                                   give_up_after_s=self.give_up_after_s)
+
+    def declare(self) -> None:
+        core = self.transport.core
+        count = core.sent_count
+        if count != self._last_declared:
+            self.proxy.send(Declaration(core.sender_key, count).encode())
+            self._last_declared = count
 
 
 class MurdochLink:
     """Glue between one `RobotAgent` and one MURDOCH `Node` (owner thread only)."""
 
     def __init__(self, agent: Any, transport: Any, events: Any,
-                 auction_log: IO[str] | None = None, *, subtask_patience_s: float = 60.0) -> None:
+                 auction_log: IO[str] | None = None, *, subtask_patience_s: float = 60.0,
+                 tick_sync: TickSync | None = None) -> None:
         self.agent = agent
+        self.tick_sync = tick_sync
         self._done_kinds = {TASK_DONE: "done", TASK_FAILED: "failed", TASK_STOPPED: "stopped"}
         self._finished: deque[tuple[str, str, str]] = deque(maxlen=64)
         self._needs: deque[tuple[str, tuple[str, ...]]] = deque(maxlen=64)
@@ -128,7 +170,11 @@ class MurdochLink:
                 self._subtasks[name] = self.node.announce(sub, patience_s=self._patience_s)
 
     def step(self) -> None:
+        sync = self.tick_sync
+        ticks = self.agent.ticks
         self.agent.step()
+        if sync is not None and self.agent.ticks != ticks:
+            sync.settle(self._now())
         while self._finished:
             task_id, how, reason = self._finished.popleft()
             if task_id != self._current:
@@ -144,6 +190,8 @@ class MurdochLink:
         if subjects != self.node.subjects:
             self.node.set_subjects(subjects)  # none while charging
         self.node.step(0.0)
+        if sync is not None:
+            sync.declare()
 
     def close(self) -> None:
         self.node.close()

@@ -164,7 +164,7 @@ class PlayerRobotIO:
                                                   and name in IMAGE_INTERFACES):
                 self.client.set_replace_rule(c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE,
                                              addr.interf, addr.index, int(MsgType.DATA))
-        self.interfaces = frozenset(found - {"simulation", "player"})
+        self.interfaces = frozenset(found - {"simulation", "player", "opaque"})
         self._read_geometry()
         self._resolve()
         logger.info("devices: %s; subscribed: %s", sorted(found), sorted(self.proxies))

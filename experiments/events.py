@@ -37,6 +37,12 @@ ROBOT_FAILURE = "robot_failure"
 ROBOT_RESTART = "robot_restart"
 BATTERY = "battery"
 PROCESS = "process"
+PROCESS_NOTE = "process_note"
+"""(processes.jsonl) a robot process started, was killed or exited, with its pid."""
+FAULT_SKIPPED = "fault_skipped"
+"""A fault of the schedule that found nothing to act on (e.g. kill busy with nobody busy)."""
+RUN_WALL = "run_wall"
+"""(processes.jsonl) the run's wall time when it ended."""
 ALARM = "alarm"
 POSES = "poses"
 GOAL_REACHED = "goal_reached"
@@ -51,7 +57,7 @@ OUTCOMES: tuple[str, ...] = (COMPLETED, FAILED, UNACHIEVABLE)
 
 REQUIRED_FIELDS: dict[str, tuple[str, ...]] = {
     RUN_START: ("experiment", "seed"),
-    RUN_END: ("wall_s", "reason"),
+    RUN_END: ("reason",),
     TASK_INTRODUCED: ("task", "task_kind"),
     MESSAGE: ("msg_kind", "sender", "bytes"),
     AWARD: ("task", "robot"),

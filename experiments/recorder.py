@@ -70,6 +70,7 @@ class RunRecorder:
         self._stream = stream
         self._events = ev.EventWriter(self.run.events, clock=wall_clock)
         self._poses_writer = ev.EventWriter(self.run.poses, clock=wall_clock)
+        self._processes = ev.EventWriter(self.run.processes, clock=wall_clock)
         self.poses = ev.PoseSampler(self._poses_writer, period_s=pose_period_s)
         robots = tuple(r.name for r in world.robots)
         self.tracker = ProgressTracker(robots)
@@ -156,11 +157,20 @@ class RunRecorder:
     def advance(self, sim_s: float) -> None:
         self.tracker.advance(sim_s)
 
+    def note_process(self, t: float, what: str, robot: str, pid: int | None,
+                     **fields: Any) -> None:
+        """A robot process started, killed or exited (pids are facts of this machine, not
+        of the run's history: processes.jsonl)."""
+        self._processes.write(t, ev.PROCESS_NOTE, what=what, robot=robot, pid=pid,
+                              wall_s=round(self.wall_s(), 3), **fields)
+
     def sample_processes(self, t: float, pids: Mapping[str, int]) -> None:
+        """Memory of each process, into processes.jsonl (wall-clock facts, not events)."""
         for name, pid in pids.items():
             mem = read_process_memory(pid)
             if mem is not None:
-                self.event(t, ev.PROCESS, name=name, pid=pid, **mem)
+                self._processes.write(t, ev.PROCESS, name=name, pid=pid,
+                                      wall_s=round(self.wall_s(), 3), **mem)
 
     def tick(self) -> None:
         self.display.tick()
@@ -171,17 +181,24 @@ class RunRecorder:
     def progress(self) -> Progress:
         return self.display.snapshot()
 
-    def finish(self, reason: str, *, replay: bool = True) -> Report:
-        """Write run_end, close the logs, stop the viewer, build summary, plots and replay."""
+    def finish(self, reason: str, *, replay: bool = True, end_t: float | None = None,
+               extra: Mapping[str, Any] | None = None) -> Report:
+        """Write run_end, close the logs, stop the viewer, build summary, plots and replay.
+
+        `extra`: wall-clock facts of the run (e.g. CPU affinity results) kept beside the
+        wall time in processes.jsonl and summary.json."""
         if self._finished:
             raise RuntimeError("the run is already finished")
         self._finished = True
-        t = self.tracker.progress(0.0).sim_s
+        t = self.tracker.progress(0.0).sim_s if end_t is None else end_t
         try:
-            self.event(t, ev.RUN_END, wall_s=round(self.wall_s(), 3), reason=reason)
+            self.event(t, ev.RUN_END, reason=reason)
+            self._processes.write(t, ev.RUN_WALL, wall_s=round(self.wall_s(), 3),
+                                  **dict(extra or {}))
         finally:
             self._events.close()
             self._poses_writer.close()
+            self._processes.close()
             self.display.stop()
             self._stop_viewer()
         return build_report(self.run, replay=replay)

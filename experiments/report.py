@@ -6,6 +6,7 @@ demand, so a report can always be rebuilt from ``events.jsonl`` (and ``poses.jso
 
 from __future__ import annotations
 
+import hashlib
 import logging
 from dataclasses import dataclass
 from pathlib import Path
@@ -44,7 +45,11 @@ def world_of(run: rd.RunDir) -> Any | None:
 def build_report(run: rd.RunDir, *, replay: bool = True) -> Report:
     stats = ev.ReadStats()
     events = ev.read_events(run.events, stats=stats)
-    summary = summarize(events)
+    processes = (ev.read_events(run.processes, stats=ev.ReadStats())
+                 if run.processes.is_file() else [])
+    summary = summarize(events, processes)
+    summary["events_sha256"] = (hashlib.sha256(run.events.read_bytes()).hexdigest()
+                                if run.events.is_file() else None)
     summary["malformed_event_lines"] = stats.malformed
     spec = world_of(run)
     robots = tuple(r.name for r in spec.robots) if spec is not None else ()

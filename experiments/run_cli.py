@@ -12,15 +12,17 @@ fast as possible (speedup 0), so a seeded run repeats.
 from __future__ import annotations
 
 import logging
-import math
 import os
 import random
 import re
+import secrets
 import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
@@ -31,6 +33,9 @@ import click
 log = logging.getLogger("murdoch.run")
 
 EXPERIMENT_WORLDS = {"longterm": "longterm", "boxpush": "boxpush"}
+KEY_ENV = "MURDOCH_TEAM_KEY"
+STALL_LIMIT_S = 180.0
+EPOCH_ENV = "MURDOCH_RUN_EPOCH"
 _DURATION_RE = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*([smh]?)\s*$")
 
 
@@ -65,10 +70,12 @@ class RobotProcess:
     log_file: Any = None
 
 
-def _start_robot(rp: RobotProcess, args: list[str], log_path: Path, nice: int = 0) -> None:
-    rp.log_file = log_path.open("ab")
+def _start_robot(rp: RobotProcess, args: list[str], log_path: Path, nice: int = 0,
+                 env: dict[str, str] | None = None) -> None:
+    if rp.log_file is None:
+        rp.log_file = log_path.open("ab")
     rp.proc = subprocess.Popen(args, stdout=rp.log_file, stderr=subprocess.STDOUT,
-                               stdin=subprocess.DEVNULL)
+                               stdin=subprocess.DEVNULL, env=env)
     if nice > 0:
         # a lower priority than the simulator's serving thread, which every robot waits on
         try:
@@ -141,6 +148,9 @@ def _stop_robot(rp: RobotProcess, *, kill: bool = False, timeout_s: float = 5.0)
 @click.option("--robot-nice", type=click.IntRange(0, 19), default=0, show_default=True,
               help="Niceness of the robot processes: above 0 the simulator's serving thread, "
                    "which every robot waits on, wins the CPU when both are ready to run.")
+@click.option("--key", default=None,
+              help="Team key for the run's MURDOCH traffic (default: $MURDOCH_TEAM_KEY, else a "
+                   "fresh key per run, handed to the robots through their environment).")
 @click.option("--pin-cpus/--no-pin-cpus", default=True, show_default=True,
               help="Give the simulator's serving thread a CPU of its own and run everything "
                    "else (robots, runner) on the others (Linux, at least two CPUs).")
@@ -148,7 +158,7 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
         meshcat: bool, out: Path, world: str | None, task_interval: float,
         kills: tuple[str, ...], restarts: tuple[str, ...], switch_offs: tuple[str, ...],
         switch_ons: tuple[str, ...], goal_radius: float | None, no_replay: bool,
-        pipelined: bool, robot_nice: int, pin_cpus: bool) -> None:
+        pipelined: bool, robot_nice: int, key: str | None, pin_cpus: bool) -> None:
     """Run EXPERIMENT end to end and leave a run directory behind."""
     if sim_hours is not None and until is not None:
         raise click.UsageError("give --sim-hours or --until, not both")
@@ -161,9 +171,83 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
         restarts=[parse_at(r) for r in restarts], replay=not no_replay,
         switch_offs=[parse_at(r) for r in switch_offs],
         switch_ons=[parse_at(r) for r in switch_ons], goal_radius_m=goal_radius,
-        pipelined=pipelined, robot_nice=robot_nice, pin_cpus=pin_cpus,
+        pipelined=pipelined, robot_nice=robot_nice, pin_cpus=pin_cpus, key=key,
     )
     sys.exit(code)
+
+
+class RobotSupervisor:
+    """The robot processes of a run: start, kill, notice deaths (`RobotProcesses`)."""
+
+    def __init__(self, command: Callable[[str, int], list[str]], log_path: Callable[[str], Path],
+                 env: dict[str, str], nice: int = 0) -> None:
+        self._command = command
+        self._log_path = log_path
+        self._env = env
+        self._nice = nice
+        self.robots: dict[str, RobotProcess] = {}
+        self._starts: dict[str, int] = {}
+        self._lock = threading.Lock()
+
+    def add(self, name: str, port: int) -> None:
+        self.robots[name] = RobotProcess(name, port)
+
+    def names(self) -> list[str]:
+        return list(self.robots)
+
+    def start(self, name: str) -> int:
+        with self._lock:
+            rp = self.robots[name]
+            start = self._starts.get(name, 0)
+            self._starts[name] = start + 1
+            _start_robot(rp, self._command(name, start), self._log_path(name), self._nice,
+                         self._env)
+            assert rp.proc is not None
+            return rp.proc.pid
+
+    def kill(self, name: str) -> int | None:
+        with self._lock:
+            rp = self.robots[name]
+            pid = rp.proc.pid if rp.proc is not None and rp.proc.poll() is None else None
+            _stop_robot(rp, kill=True)
+            rp.proc = None
+            return pid
+
+    def exited(self) -> list[tuple[str, int, int]]:
+        out = []
+        with self._lock:
+            for name, rp in self.robots.items():
+                proc = rp.proc
+                if proc is not None and proc.poll() is not None:
+                    out.append((name, proc.pid, int(proc.returncode)))
+                    _stop_robot(rp)
+                    rp.proc = None
+        return out
+
+    def pids(self) -> dict[str, int]:
+        with self._lock:
+            return {f"robot-{n}": rp.proc.pid for n, rp in self.robots.items()
+                    if rp.proc is not None and rp.proc.poll() is None}
+
+    def stop_all(self) -> None:
+        with self._lock:
+            for rp in self.robots.values():
+                _stop_robot(rp)
+
+
+def _task_spec(planned: Any) -> Any:
+    """The MURDOCH announcement of one planned task of the task source."""
+    from behaviors.library import TASKS
+    from experiments import run_loop as rl
+    from murdoch.auction.messages import TaskSpec
+
+    kind = planned.kind
+    return TaskSpec(kind, TASKS[kind].subjects, planned.params,
+                    duration_s=float(planned.params.get("duration_s", 0.0)),
+                    bid_window_s=rl.BID_WINDOW_S, renew_period_s=rl.RENEW_PERIOD_S,
+                    contract_timeout_s=rl.CONTRACT_TIMEOUT_S,
+                    abandon_after_s=rl.ABANDON_AFTER_S,
+                    timeout_s=float(planned.params["duration_s"]) + 600.0)
 
 
 def run_experiment(
@@ -173,18 +257,21 @@ def run_experiment(
     switch_offs: list[tuple[str, float]] | None = None,
     switch_ons: list[tuple[str, float]] | None = None, goal_radius_m: float | None = None,
     pipelined: bool = True, robot_nice: int = 0, pin_cpus: bool = False,
+    key: str | None = None,
 ) -> int:
-    from behaviors.library import TASKS
     from experiments import boxpush as bp
     from experiments import events as ev
-    from experiments.observe import JsonlTail, robot_event_to_run_events
+    from experiments.observe import JsonlTail
     from experiments.recorder import RunRecorder
+    from experiments.run_loop import Fault, RunLoop
     from experiments.summary import terminal_state_problems
     from experiments.task_source import boxpush_task, longterm_tasks
-    from murdoch.auction.messages import TaskSpec
+    from murdoch.auth import TeamKey
     from murdoch.multicast import MulticastConfig, MulticastTransport
     from murdoch.node import Node
+    from murdoch.transport import TickConfig
     from murdoch.user_agent import RandomizedBackoff
+    from player_server.drivers.team_clock import TeamClock, TeamClockDriver
     from player_server.server.affinity import allowed_cpus, pin_current_thread, plan_split
     from player_server.server.assembly import world_endpoints
     from player_server.server.core import CoreConfig
@@ -205,6 +292,9 @@ def run_experiment(
         raise click.BadParameter(str(exc)) from exc
     if (switch_offs or switch_ons) and experiment != "boxpush":
         raise click.UsageError("--switch-off/--switch-on are for the boxpush experiment")
+    if not any(r.mobile for r in spec.robots):
+        raise click.UsageError(f"world {spec.source}: no mobile robot can take part in "
+                               f"{experiment} (every robot lacks position2d)")
     goal_watch = actions = None
     if experiment == "boxpush":
         goal_watch = bp.GoalWatch(bp.box_goal(spec), goal_radius_m or bp.GOAL_RADIUS_M,
@@ -213,14 +303,19 @@ def run_experiment(
     mcast_port = free_udp_port()
     own_cpus = allowed_cpus()
     split = plan_split(own_cpus) if pin_cpus and own_cpus is not None else None
+    # a team of its own: a fresh key (and epoch) per run unless one is given; robots get
+    # them through the environment, never on the command line
+    secret = key or os.environ.get(KEY_ENV) or secrets.token_hex(16)
+    epoch = secrets.token_hex(4)
     config = {
         "experiment": experiment, "seed": seed, "world": str(spec.source),
         "duration_s": duration_s, "speedup": speedup, "lockstep": lockstep,
-        "task_interval_s": task_interval_s, "multicast_port": mcast_port,
+        "task_interval_s": task_interval_s,
         "pipelined": lockstep and pipelined, "robot_nice": robot_nice,
-        "cpu_affinity": split.as_dict() if split is not None else None,
+        "pin_cpus": bool(pin_cpus),
         "kills": [f"{r}@{t:g}s" for r, t in kills],
         "restarts": [f"{r}@{t:g}s" for r, t in restarts],
+        "team_key": "given" if key or os.environ.get(KEY_ENV) else "fresh",
     }
     if goal_watch is not None:
         config.update({
@@ -233,6 +328,11 @@ def run_experiment(
     click.echo(f"run directory: {rec.run.root}")
     sim = Simulation(spec, seed=seed)
     endpoints = world_endpoints(spec, sim, 0)
+    team_clock = TeamClock() if lockstep else None
+    if team_clock is not None:
+        for endpoint in endpoints:
+            drv = TeamClockDriver(team_clock, endpoint.name)
+            endpoint.drivers[(drv.interf, drv.index)] = drv
     if split is not None:
         # this thread, and so every thread and robot process started from now on, keeps off
         # the serving thread's CPU
@@ -242,232 +342,112 @@ def run_experiment(
         samplers = ((0.5, goal_watch.sample), (0.0, actions.apply))
     server = PlayerServer(
         rec.observe(sim, samplers=samplers), endpoints, interval_s=sim.interval_s,
-        clock=time.monotonic,
-        speedup=speedup, quit_time_s=duration_s,
-        config=CoreConfig(lockstep=lockstep,
-                          lockstep_clients=max(1, sum(1 for e in endpoints if e.mobile)),
-                          lockstep_timeout_s=5.0, pipelined=pipelined),
+        clock=time.monotonic, speedup=speedup, quit_time_s=0.0,
+        config=CoreConfig(lockstep=lockstep, lockstep_clients=1,
+                          lockstep_timeout_s=0.0 if lockstep else 5.0, pipelined=pipelined),
         cpus=split.serving if split is not None else None,
     )
-    robots: dict[str, RobotProcess] = {}
-    tails: dict[str, JsonlTail] = {}
-    introduced_tasks: set[str] = set()
-    finished_tasks: set[str] = set()
-    auction_tails: dict[str, JsonlTail] = {}
-    unachievable_reasons: dict[str, str] = {}
+    env = {**os.environ, KEY_ENV: secret, EPOCH_ENV: epoch}
+    tails: dict[str, tuple[JsonlTail, JsonlTail]] = {}
+    ports: dict[str, int] = {}
 
-    def sim_pose_of(name: str) -> tuple[float, float, float]:
-        poses = goal_watch.robot_poses if goal_watch is not None else {}
-        return poses.get(name, (0.0, 0.0, 0.0))
+    def robot_args(name: str, start: int) -> list[str]:
+        args = [*_robot_command(), "-p", str(ports[name]),
+                "--name", name, "--world", str(spec.source), "--mcast-port",
+                str(mcast_port), "--seed", str(seed), "--instance", str(start),
+                "--events", str(rec.run.logs / f"{name}.events.jsonl"),
+                "--auction-log", str(rec.run.logs / f"{name}.auction.jsonl")]
+        return [*args, "--lockstep-bus"] if lockstep else args
+
+    supervisor = RobotSupervisor(robot_args, lambda n: rec.run.log_file(f"robot-{n}"), env,
+                                 robot_nice)
+    interval = float(sim.interval_s)
+
+    def user_tick() -> int:
+        return round(float(sim.time_s) / interval)
+
+    sim_now = lambda: float(sim.time_s)  # noqa: E731 - a float read across threads
+    ticks = TickConfig(user_tick, epoch=epoch, ordered=lockstep, late_joiner=False,
+                       stale_after_ticks=0 if lockstep else 100, require_tick=True)
+    transport = MulticastTransport("user", sim_now, MulticastConfig(port=mcast_port),
+                                   key=TeamKey(secret), instance="0", ticks=ticks)
+    loop_ref: list[RunLoop] = []
+    node = Node(transport, sim_now, agent_id="user",
+                observer=lambda e: loop_ref[0].on_auction_event(e.to_dict()),
+                backoff=RandomizedBackoff(random.Random(seed), base_s=5.0, cap_s=60.0))
+    if experiment == "boxpush":
+        planned: Any = iter([boxpush_task(spec, duration_s), None])
+    else:
+        planned = longterm_tasks(spec, random.Random(seed + 1), mean_interval_s=task_interval_s)
+    faults = ([Fault(t, "kill", r) for r, t in kills]
+              + [Fault(t, "restart", r) for r, t in restarts]
+              + [Fault(t, "switch-off", r) for r, t in switch_offs]
+              + [Fault(t, "switch-on", r) for r, t in switch_ons])
+    loop = RunLoop(
+        rec=rec, sim=sim, node=node, transport=transport, processes=supervisor, tails=tails,
+        planned=planned, task_subjects=lambda k: (), task_spec=_task_spec,
+        duration_s=duration_s, faults=faults,
+        expect=server.core.expect if lockstep else None, team_clock=team_clock,
+        wait_clock=time.monotonic, request_stop=server.request_stop,
+        boxpush=(goal_watch, actions) if goal_watch is not None else None,
+        mobile=frozenset(r.name for r in spec.robots if r.mobile), spec=spec, place=_place,
+    )
+    loop_ref.append(loop)
+    monitor = transport.subscribe(None, loop.on_message)
+    server.on_round = loop.on_round
     stop_requested = [False]
 
     def on_signal(signum: int, frame: object) -> None:
         stop_requested[0] = True
+        server.request_stop()
 
     old_int = signal.signal(signal.SIGINT, on_signal)
     old_term = signal.signal(signal.SIGTERM, on_signal)
-    transport = node = None
-    drain_tails: Any = None
     reason = "completed"
     try:
         rec.start()
         server.start()
-        ports = server.ports
-
-        def robot_args(name: str) -> list[str]:
-            return [*_robot_command(), "-p", str(ports[name]),
-                    "--name", name, "--world", str(spec.source), "--mcast-port",
-                    str(mcast_port), "--seed", str(seed),
-                    "--events", str(rec.run.logs / f"{name}.events.jsonl"),
-                    "--auction-log", str(rec.run.logs / f"{name}.auction.jsonl")]
-
+        ports.update(server.ports)
         for ep in endpoints:
-            rp = RobotProcess(ep.name, ports[ep.name])
-            _start_robot(rp, robot_args(ep.name), rec.run.log_file(f"robot-{ep.name}"),
-                         robot_nice)
-            robots[ep.name] = rp
-            tails[ep.name] = JsonlTail(rec.run.logs / f"{ep.name}.events.jsonl")
-            auction_tails[ep.name] = JsonlTail(rec.run.logs / f"{ep.name}.auction.jsonl")
-
-        def drain_tails() -> None:
-            for tail in tails.values():
-                for d in tail.read_new():
-                    for e in robot_event_to_run_events(d):
-                        rec.event(e.pop("t"), e.pop("kind"), **e)
-            for tail in auction_tails.values():
-                for d in tail.read_new():
-                    if "time_s" in d and "kind" in d:
-                        on_auction_event(d)
-
-        sim_now = lambda: float(sim.time_s)  # noqa: E731 - a float read across threads
-        transport = MulticastTransport("user", sim_now, MulticastConfig(port=mcast_port))
-        announced_at: dict[str, float] = {}
-        finished_tasks.clear()
-
-        def on_message(envelope: Any) -> None:
-            msg = envelope.message
-            fields = {"task": getattr(msg, "task_id", None)} if hasattr(msg, "task_id") else {}
-            rec.event(sim_now(), ev.MESSAGE, msg_kind=envelope.kind, sender=envelope.sender,
-                      bytes=envelope.size_bytes, **fields)
-
-        monitor = transport.subscribe(None, on_message)
-
-        def on_auction_event(d: dict[str, Any]) -> None:
-            """An auctioneer's event (the runner's own or a robot's) as run events."""
-            kind, task_id, t = d.get("kind"), str(d.get("task_id")), float(d["time_s"])
-            if kind == "announce":
-                if task_id not in announced_at and d.get("agent") != "user":
-                    rec.event(t, ev.TASK_INTRODUCED, task=task_id, task_kind=d.get("name", ""),
-                              source=d.get("agent"))
-                    introduced_tasks.add(task_id)
-                announced_at[task_id] = t
-            elif kind == "award":
-                latency = t - announced_at.get(task_id, t)
-                rec.event(t, ev.AWARD, task=task_id, robot=d.get("winner"),
-                          bid=d.get("score"), latency_s=round(latency, 4))
-            elif kind == "reallocation":
-                rec.event(t, ev.REALLOCATION, task=task_id, from_robot=d.get("winner"),
-                          reason=d.get("reason", ""))
-            elif kind == "outcome" and task_id not in finished_tasks:
-                why = str(d.get("reason", ""))
-                if d.get("status") == "unachievable" or why.startswith("unachievable"):
-                    unachievable_reasons[task_id] = why or "unachievable"
-                rec.event(t, ev.TASK_OUTCOME, task=task_id, outcome=d.get("status"),
-                          robot=d.get("winner"), reason=d.get("reason", ""))
-                finished_tasks.add(task_id)
-
-        def observer(e: Any) -> None:
-            on_auction_event(e.to_dict())
-
-        node = Node(transport, sim_now, agent_id="user", observer=observer,
-                    backoff=RandomizedBackoff(random.Random(seed), base_s=5.0, cap_s=60.0))
-        if experiment == "boxpush":
-            planned = iter([boxpush_task(spec, duration_s), None])
-        else:
-            planned = longterm_tasks(spec, random.Random(seed + 1),
-                                     mean_interval_s=task_interval_s)
-        next_task = next(planned)
-        main_task: str | None = None
-        end_after_s: float | None = None
-        schedule = sorted([(t, "kill", r) for r, t in kills]
-                          + [(t, "restart", r) for r, t in restarts]
-                          + [(t, "switch-off", r) for r, t in switch_offs]
-                          + [(t, "switch-on", r) for r, t in switch_ons])
-        switched_off: dict[str, float] = {}  # robot -> its side along the box when switched off
-        goal_outcome: str | None = None
-        next_memory_t = 60.0  # first sample once every process is up and running
-        busy_killed: list[str] = []
-        next_tail_wall = 0.0
-        mobile = {r.name for r in spec.robots if r.mobile}
-        while not server.finished.is_set() and not stop_requested[0]:
-            now = sim_now()
-            while next_task is not None and next_task.t_s <= now and next_task.t_s < duration_s:
-                kind = next_task.kind
-                task_spec = TaskSpec(kind, TASKS[kind].subjects, next_task.params,
-                                     duration_s=float(next_task.params.get("duration_s", 0.0)),
-                                     bid_window_s=1.0, renew_period_s=2.0,
-                                     contract_timeout_s=10.0, abandon_after_s=10.0,
-                                     timeout_s=float(next_task.params["duration_s"]) + 600.0)
-                task_id = node.announce(task_spec, patience_s=300.0)
-                rec.event(now, ev.TASK_INTRODUCED, task=task_id, task_kind=kind,
-                          params=next_task.params, source="user")
-                introduced_tasks.add(task_id)
-                main_task = main_task or task_id
-                next_task = next(planned)
-            if goal_watch is not None and goal_outcome is None:
-                if goal_watch.reached_at_s is not None:
-                    goal_outcome = "reached"
-                    rec.event(goal_watch.reached_at_s, ev.GOAL_REACHED, box=goal_watch.bg.box,
-                              distance_m=round(goal_watch.distance_m, 3),
-                              radius_m=goal_watch.radius_m)
-                    click.echo(f"goal reached at {goal_watch.reached_at_s:.1f} s simulated: "
-                               f"box {goal_watch.distance_m:.2f} m from the goal")
-                elif main_task is not None and main_task in unachievable_reasons:
-                    goal_outcome = "unachievable"
-                    why = unachievable_reasons[main_task]
-                    rec.event(now, ev.GOAL_UNACHIEVABLE, task=main_task, reason=why)
-                    click.echo(f"error: the box cannot be pushed to the goal: {why}", err=True)
-            if experiment == "boxpush" and (main_task in finished_tasks
-                                            or goal_outcome is not None):
-                # the box reached the goal (or could not): let the last reports arrive, then stop
-                end_after_s = end_after_s if end_after_s is not None else now + 3.0
-                if now >= end_after_s:
-                    break
-            while schedule and schedule[0][0] <= now:
-                _, action, name = schedule.pop(0)
-                if name == "busy":  # the first robot (by name) that holds a task now
-                    if action == "kill":
-                        working = [r for r, st in sorted(rec.robot_states().items())
-                                   if st == "working" and r in mobile]
-                        busy_killed.append(working[0] if working else "")
-                    name = busy_killed[-1] if busy_killed else ""
-                target = robots.get(name)
-                if target is None:
-                    log.warning("no robot %s to %s", name, action)
-                elif action == "switch-off":
-                    _stop_robot(target, kill=True)
-                    box_pose = goal_watch.box_pose if goal_watch is not None else None
-                    xy = sim_pose_of(name)
-                    side = bp.side_of(box_pose, xy[:2]) if box_pose is not None else 0.0
-                    switched_off[name] = side
-                    spot = bp.park_pose(spec, sorted(robots).index(name))
-                    actions.put(lambda s, n=name, p=spot: _place(s, n, p))  # type: ignore[union-attr]
-                    rec.event(now, ev.ROBOT_SWITCH_OFF, robot=name, side_m=round(side, 3))
-                elif action == "switch-on":
-                    side = switched_off.pop(name, 0.0)
-                    box_pose = goal_watch.box_pose if goal_watch is not None else None
-                    assert goal_watch is not None and actions is not None and box_pose is not None
-                    # the other end of the box from where it was
-                    other = -math.copysign(max(abs(side), 0.3), side or 1.0)
-                    other = max(-goal_watch.bg.box_half_length_m + 0.2,
-                                min(goal_watch.bg.box_half_length_m - 0.2, other))
-                    pose = bp.return_pose(box_pose, goal_watch.bg.goal_xy, other, goal_watch.bg)
-                    start = next(r.pose for r in spec.robots if r.name == name)
-                    odo = bp.odometry_at((start[0], start[1], start[2]), pose)
-                    # placed by hand and told where it is: odometry stays in the shared frame
-                    actions.put(lambda s, n=name, p=pose, o=odo: _place(s, n, p, o))
-                    if target.proc is None or target.proc.poll() is not None:
-                        _start_robot(target, robot_args(name),
-                                     rec.run.log_file(f"robot-{name}"), robot_nice)
-                    assert target.proc is not None
-                    rec.event(now, ev.ROBOT_SWITCH_ON, robot=name, x=round(pose[0], 3),
-                              y=round(pose[1], 3), yaw=round(pose[2], 3), pid=target.proc.pid)
-                elif action == "kill":
-                    pid = target.proc.pid if target.proc is not None else None
-                    _stop_robot(target, kill=True)
-                    rec.event(now, ev.ROBOT_FAILURE, robot=name, reason="killed", pid=pid)
-                else:
-                    _start_robot(target, robot_args(name), rec.run.log_file(f"robot-{name}"),
-                                 robot_nice)
-                    assert target.proc is not None
-                    rec.event(now, ev.ROBOT_RESTART, robot=name, pid=target.proc.pid)
-            node.step(0.02)
-            wall = time.monotonic()
-            if wall >= next_tail_wall:  # robots' own events, a few times a second
-                next_tail_wall = wall + 0.25
-                drain_tails()
-            if now >= next_memory_t:
-                next_memory_t = now + 300.0
-                pids = {"runner": os.getpid()}
-                pids.update({f"robot-{n}": rp.proc.pid for n, rp in robots.items()
-                             if rp.proc is not None and rp.proc.poll() is None})
-                rec.sample_processes(now, pids)
-            rec.advance(now)
+            supervisor.add(ep.name, ports[ep.name])
+            tails[ep.name] = (JsonlTail(rec.run.logs / f"{ep.name}.events.jsonl"),
+                              JsonlTail(rec.run.logs / f"{ep.name}.auction.jsonl"))
+        loop.tails = dict(sorted(tails.items()))
+        for ep in endpoints:
+            if lockstep:
+                server.core.expect(ep.name)
+            rec.note_process(0.0, "started", ep.name, supervisor.start(ep.name))
+        next_memory_wall = time.monotonic() + 2.0
+        last_progress = (sim_now(), time.monotonic())
+        while not server.finished.wait(0.25):
             rec.tick()
+            wall = time.monotonic()
+            if wall >= next_memory_wall:
+                next_memory_wall = wall + 30.0
+                rec.sample_processes(sim_now(), {"runner": os.getpid(), **supervisor.pids()})
+            if sim_now() != last_progress[0]:
+                last_progress = (sim_now(), wall)
+            elif lockstep and wall - last_progress[1] > STALL_LIMIT_S:
+                # nothing decides on wall time in a lockstep run, but a run whose robots
+                # stopped answering must end rather than hang
+                loop.state.error = RuntimeError(
+                    f"the simulation has not advanced for {STALL_LIMIT_S:.0f} s of wall time "
+                    f"at {sim_now():.1f} s simulated; waiting for "
+                    f"{sorted(server.core.expected) or 'robot processes'} (see "
+                    f"{rec.run.logs})")
+                server.request_stop()
+        rec.sample_processes(sim_now(), {"runner": os.getpid(), **supervisor.pids()})
         if stop_requested[0]:
             reason = "interrupted"
-        if server.error is not None:
+        elif loop.state.error is not None:
+            reason = "error"
+            click.echo(f"error: {loop.state.error}", err=True)
+        elif server.error is not None:
             reason = "server-error"
-        # tasks still open when the run ends fail with a reason: one terminal state each
-        end = sim_now()
-        end_why = "run ended: box at the goal" if goal_outcome == "reached" else "run ended"
-        for task_id in node.auctioneer.open_tasks():
-            node.auctioneer.cancel(task_id, end, end_why)
-        node.step(0.0)
-        pids = {"runner": os.getpid()}
-        pids.update({f"robot-{n}": rp.proc.pid for n, rp in robots.items()
-                     if rp.proc is not None and rp.proc.poll() is None})
-        rec.sample_processes(end, pids)
+        else:
+            reason = loop.state.end_reason or "completed"
+        # an end not decided at a tick boundary (interrupted, failed): close what is open
+        loop.close_open_tasks(loop.state.last_t)
         monitor.close()
     except Exception:
         log.exception("the run failed")
@@ -475,22 +455,9 @@ def run_experiment(
     finally:
         signal.signal(signal.SIGINT, old_int)
         signal.signal(signal.SIGTERM, old_term)
-        for rp in robots.values():
-            _stop_robot(rp)
-        if drain_tails is not None:
-            try:
-                drain_tails()  # what the robots wrote before they stopped
-            except Exception:
-                log.exception("reading the robots' last events")
-        # sub-tasks that robots were still auctioning when they stopped end here
-        end_t = float(sim.time_s)
-        for task_id in sorted(introduced_tasks - finished_tasks):
-            rec.event(end_t, ev.TASK_OUTCOME, task=task_id, outcome=ev.FAILED,
-                      reason="run ended")
-        if node is not None:
-            node.close()
-        if transport is not None:
-            transport.close()
+        supervisor.stop_all()
+        node.close()
+        transport.close()
         try:
             server.stop()
         except RuntimeError as exc:
@@ -499,20 +466,27 @@ def run_experiment(
         sim.close()
         if split is not None and own_cpus is not None:
             pin_current_thread(own_cpus)  # the report may use every CPU again
-    report = rec.finish(reason, replay=replay)
+    affinity = split.as_dict() if split is not None else None
+    report = rec.finish(reason, replay=replay, end_t=loop.state.last_t,
+                        extra={"cpu_affinity": affinity})
     problems = terminal_state_problems(ev.read_events(rec.run.events))
     s = report.summary
+    if loop.state.goal_outcome == "reached" and goal_watch is not None:
+        click.echo(f"goal reached at {goal_watch.reached_at_s:.1f} s simulated: "
+                   f"box {goal_watch.distance_m:.2f} m from the goal")
     click.echo(
         f"done: {s['sim_time_s']:.0f} s simulated in {s['wall_time_s']} s "
         f"(rtf {s['real_time_factor']}); tasks executed {s['tasks']['executed']}, "
         f"unachievable {s['tasks']['unachievable']}, failed {s['tasks']['failed']}, "
-        f"charging trips {s['charging_trips']}; {rec.run.root}"
+        f"charging trips {s['charging_trips']}; events sha256 {str(s['events_sha256'])[:16]}; "
+        f"{rec.run.root}"
     )
     if any(problems.values()):
         click.echo(f"invariant broken: {problems}", err=True)
         return 3
     goal = s.get("goal")
     if goal is not None and goal.get("unachievable"):
-        click.echo(f"unachievable: {goal.get('unachievable_reason')}", err=True)
+        click.echo(f"error: the box cannot be pushed to the goal: "
+                   f"{goal.get('unachievable_reason')}", err=True)
         return 4
     return 0 if reason == "completed" else 1

@@ -3,6 +3,7 @@
     config.json     the effective configuration, including the seed and the world file
     events.jsonl    every event of the run (see `experiments.events`)
     poses.jsonl     pose keyframes of every body (kind ``poses``), for the replay
+    processes.jsonl wall-clock measurements: process memory samples and the run's wall time
     summary.json    counts as in the paper (`experiments.summary`)
     plots/          tasks.png, battery.png, allocation.png (`experiments.plots`)
     replay.html     offline meshcat animation (`experiments.replay`)
@@ -21,6 +22,7 @@ from typing import Any
 CONFIG = "config.json"
 EVENTS = "events.jsonl"
 POSES = "poses.jsonl"
+PROCESSES = "processes.jsonl"
 SUMMARY = "summary.json"
 PLOTS = "plots"
 REPLAY = "replay.html"
@@ -44,6 +46,12 @@ class RunDir:
     @property
     def poses(self) -> Path:
         return self.root / POSES
+
+    @property
+    def processes(self) -> Path:
+        """Wall-clock measurements (memory samples, wall time): not part of the run's
+        simulated history, so kept out of events.jsonl."""
+        return self.root / PROCESSES
 
     @property
     def summary(self) -> Path:

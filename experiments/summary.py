@@ -48,8 +48,12 @@ def terminal_state_problems(events: Iterable[Mapping[str, Any]]) -> dict[str, li
     }
 
 
-def summarize(events: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
+def summarize(events: Iterable[Mapping[str, Any]],
+              processes: Iterable[Mapping[str, Any]] = ()) -> dict[str, Any]:
+    """The summary of a run from its events (simulated history) and its processes.jsonl
+    records (wall-clock facts: memory samples and the wall time)."""
     evs = list(events)
+    wall_records = list(processes)
     kinds = Counter(str(e["kind"]) for e in evs)
     outcomes = Counter(str(e["outcome"]) for e in evs if e["kind"] == ev.TASK_OUTCOME)
     task_kind_of: dict[str, str] = {}
@@ -101,7 +105,7 @@ def summarize(events: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
 
     # processes: peak and first/last resident memory
     processes: dict[str, dict[str, Any]] = {}
-    for e in evs:
+    for e in [*evs, *wall_records]:
         if e["kind"] == ev.PROCESS:
             name = str(e["name"])
             rss = int(e["rss_bytes"])
@@ -116,7 +120,12 @@ def summarize(events: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
     sim_s = max((float(e["t"]) for e in evs), default=0.0)
     run_end = next((e for e in reversed(evs) if e["kind"] == ev.RUN_END), None)
     run_start = next((e for e in evs if e["kind"] == ev.RUN_START), None)
-    wall_s = float(run_end["wall_s"]) if run_end is not None else None
+    run_wall = next((e for e in reversed(wall_records) if e["kind"] == ev.RUN_WALL), None)
+    wall_s: float | None = None
+    if run_wall is not None:
+        wall_s = float(run_wall["wall_s"])
+    elif run_end is not None and "wall_s" in run_end:  # runs recorded before processes.jsonl
+        wall_s = float(run_end["wall_s"])
     battery_min: float | None = None
     for e in evs:
         if e["kind"] == ev.BATTERY and e["percent"]:

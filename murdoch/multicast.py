@@ -33,15 +33,17 @@ import ipaddress
 import logging
 import select
 import socket
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
 from murdoch.auth import TeamKey
+from murdoch.tick_order import LostDatagrams
 from murdoch.transport import (
     Clock,
     EndpointBacked,
     EndpointCore,
+    TickConfig,
 )
 from murdoch.wire import Codec
 
@@ -134,12 +136,13 @@ class MulticastTransport(EndpointBacked):
         codec: Codec | None = None,
         key: TeamKey | None = None,
         instance: str | None = None,
+        ticks: TickConfig | None = None,
     ) -> None:
         from murdoch.auction.messages import AUCTION_CODEC
 
         self.config = config or MulticastConfig()
         self._core = EndpointCore(
-            sender_id, codec or AUCTION_CODEC, clock, key, instance=instance
+            sender_id, codec or AUCTION_CODEC, clock, key, instance=instance, ticks=ticks
         )
         self._sock = open_multicast_socket(self.config)
         self._dest = (self.config.group, self.config.port)
@@ -215,6 +218,32 @@ class MulticastTransport(EndpointBacked):
                 budget -= 1
                 delivered += receive(datagram)
         return delivered
+
+    def settle_tick(
+        self, tick: int, table: Mapping[str, int], *, wait_clock: Clock,
+        give_up_after_s: float = 60.0,
+    ) -> int:
+        """Lockstep (an ordered `TickConfig`): the release point of `tick`.
+
+        `table` holds every sender's count of datagrams through tick-1. Reads the sockets
+        until all of them have arrived, then acts on those stamped tick-1 or earlier, in
+        tick order (`EndpointCore.release`). `wait_clock` (wall seconds) only bounds the
+        wait: a datagram still missing after `give_up_after_s` raises `LostDatagrams`."""
+        core = self._core
+        core.start_tick(tick, table)
+        self.poll(0.0)
+        missing = core.missing(table)
+        if missing:
+            deadline = wait_clock() + give_up_after_s
+            while missing:
+                left = deadline - wait_clock()
+                if left <= 0:
+                    core.counters.count_dropped("lost")
+                    raise LostDatagrams(tick, missing)
+                select.select(self._both, [], [], min(left, 0.05))
+                self.poll(0.0)
+                missing = core.missing(table)
+        return core.release(tick - 1, table)
 
     def close(self) -> None:
         if not self.closed:

@@ -42,13 +42,14 @@ import logging
 import os
 import threading
 from collections import deque
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from types import TracebackType
 from typing import Any, Protocol
 
 from murdoch.auth import ReplayWindow, TeamKey, is_signed
 from murdoch.subjects import SubjectIndex, SubjectSet, subject_set
+from murdoch.tick_order import TickInbox, sender_key
 from murdoch.wire import Codec, Envelope, Frame, WireError, check_token
 
 log = logging.getLogger(__name__)
@@ -206,6 +207,30 @@ class Transport(Protocol):
     def close(self) -> None: ...
 
 
+@dataclass(frozen=True)
+class TickConfig:
+    """How an endpoint stamps and judges simulation ticks (see `murdoch.tick_order`).
+
+    tick_clock: the owner's current simulation tick (stamped on every datagram it sends).
+    epoch: the run's epoch token, stamped on every datagram; a receiver with an epoch drops
+        datagrams of any other epoch (``wrong_epoch``).
+    ordered: lockstep: hold received datagrams and act on them only at `release`, in tick
+        order (a `TickInbox`); datagrams without a tick are dropped (``no_tick``).
+    late_joiner: (ordered) this endpoint may have missed what was sent before it opened.
+    stale_after_ticks: (not ordered) drop datagrams stamped more than this many ticks
+        before the receiver's own tick (``stale``): a recorded datagram sent again later
+        is refused even by a receiver that restarted since. 0: no limit.
+    require_tick: drop datagrams without a tick (``no_tick``), e.g. in a keyed run.
+    """
+
+    tick_clock: Callable[[], int]
+    epoch: str = ""
+    ordered: bool = False
+    late_joiner: bool = True
+    stale_after_ticks: int = 0
+    require_tick: bool = False
+
+
 class EndpointCore:
     """Encoding, counting and the receive pipeline shared by all transports."""
 
@@ -217,6 +242,7 @@ class EndpointCore:
         key: TeamKey | None = None,
         replay_window: int = 1024,
         instance: str | None = None,
+        ticks: TickConfig | None = None,
     ) -> None:
         self.sender_id = check_token(sender_id, "sender_id")
         if instance is None:
@@ -239,6 +265,21 @@ class EndpointCore:
         self._lock = threading.RLock()
         self.frame_tap: Callable[[Frame, int], None] | None = None
         """Called with every accepted frame and its size, known kind or not (for listeners)."""
+        self.ticks = ticks
+        if ticks is not None and ticks.epoch:
+            check_token(ticks.epoch, "epoch")
+        self.inbox: TickInbox | None = (
+            TickInbox(late_joiner=ticks.late_joiner)
+            if ticks is not None and ticks.ordered else None)
+
+    @property
+    def sent_count(self) -> int:
+        """Datagrams numbered so far (sequence numbers 0 .. sent_count - 1)."""
+        return self._seq
+
+    @property
+    def sender_key(self) -> str:
+        return sender_key(self.sender_id, self.instance)
 
     # -- subscriptions
     def subscribe(
@@ -308,8 +349,14 @@ class EndpointCore:
         subject_fs = self.checked_subjects(subjects)
         with self._lock:
             seq = self._seq
+            ticks = self.ticks
+            if ticks is None:
+                data = self.codec.encode_frame(self.sender_id, seq, subject_fs, message,
+                                               self.instance)
+            else:
+                data = self.codec.encode_frame(self.sender_id, seq, subject_fs, message,
+                                               self.instance, ticks.tick_clock(), ticks.epoch)
             self._seq += 1
-            data = self.codec.encode_frame(self.sender_id, seq, subject_fs, message, self.instance)
             if self.key is not None:
                 data = self.key.sign(data)
             self.counters.count_sent(message.KIND, len(data))
@@ -341,6 +388,11 @@ class EndpointCore:
                     raise WireError("auth_failed", "datagram carries no tag")
                 header = codec.parse_header(datagram)
                 kind = header.kind
+                ticks = self.ticks
+                if ticks is not None:
+                    self._check_tick(header, ticks)
+                    if self.inbox is not None:
+                        return self._hold(datagram, header, key)
                 keys = self._matches.get(header.subjects)
                 if keys is None:
                     keys = self.match(header.subjects)
@@ -376,7 +428,7 @@ class EndpointCore:
                 return 0
             self.counters.count_received(kind, size)
             envelope = Envelope(header.sender, header.seq, header.subjects, message, size,
-                                self.clock())
+                                self.clock(), header.instance, header.tick)
             subs = self._subs
             if len(keys) == 1:
                 only = subs[keys[0]]
@@ -388,6 +440,89 @@ class EndpointCore:
         if targets is None:
             only._deliver(envelope)
             return 1
+        for sub in targets:
+            if not sub.closed:
+                sub._deliver(envelope)
+        return len(targets)
+
+
+    def _check_tick(self, header: Any, ticks: TickConfig) -> None:
+        if ticks.epoch and header.epoch != ticks.epoch:
+            raise WireError("wrong_epoch", f"epoch {header.epoch!r}")
+        tick = header.tick
+        if tick < 0:
+            if ticks.require_tick or ticks.ordered:
+                raise WireError("no_tick", f"{header.sender} sent no tick")
+            return
+        limit = ticks.stale_after_ticks
+        if limit > 0 and not ticks.ordered and ticks.tick_clock() - tick > limit:
+            raise WireError("stale", f"{header.sender}#{header.seq} from tick {tick}")
+
+    def _hold(self, datagram: bytes, header: Any, key: TeamKey | None) -> int:
+        """Lockstep: authenticate and keep a datagram for its release point (lock held)."""
+        inbox = self.inbox
+        assert inbox is not None
+        if key is not None:
+            key.check(datagram)
+            if not self._replay.accept(f"{header.sender}/{header.instance}", header.seq):
+                raise WireError("replayed", f"{header.sender}#{header.seq}")
+        if not inbox.hold(header, datagram):
+            raise WireError("replayed", f"{header.sender}#{header.seq} held already")
+        return 0
+
+    # -- lockstep release
+    def missing(self, table: Mapping[str, int]) -> dict[str, int]:
+        """Declared datagrams (count `table`) that have not arrived yet (see TickInbox)."""
+        with self._lock:
+            return self.inbox.missing(table) if self.inbox is not None else {}
+
+    def start_tick(self, tick: int, table: Mapping[str, int]) -> None:
+        with self._lock:
+            if self.inbox is not None:
+                self.inbox.start(tick, table)
+
+    def release(self, through_tick: int, table: Mapping[str, int]) -> int:
+        """Act on every held datagram stamped `through_tick` or earlier, in tick, sender,
+        instance and sequence order: match, decode, count and deliver each (the time of
+        delivery is the clock's now). Returns the deliveries made."""
+        with self._lock:
+            if self.inbox is None:
+                return 0
+            items = self.inbox.release(through_tick, table)
+        delivered = 0
+        for item in items:
+            delivered += self._dispatch_held(item.header, item.data)
+        return delivered
+
+    def _dispatch_held(self, header: Any, datagram: bytes) -> int:
+        codec = self.codec
+        size = len(datagram)
+        kind = header.kind
+        with self._lock:
+            try:
+                keys = self.match(header.subjects)
+                tap = self.frame_tap
+                if not codec.knows(kind) and tap is None:
+                    raise WireError("unknown_kind", f"kind {kind!r}")
+                if tap is not None:
+                    body = codec.decode_body(datagram, header)
+                    tap(Frame(kind, header.sender, header.seq, header.subjects, body,
+                              header.instance, header.tick, header.epoch), size)
+                if not keys:
+                    if not codec.knows(kind):
+                        raise WireError("unknown_kind", f"kind {kind!r}")
+                    self.counters.count_received(kind, size)
+                    self.counters.count_dropped("unmatched")
+                    return 0
+                message = codec.decode_message(datagram, header)
+            except WireError as exc:
+                self.counters.count_dropped(exc.reason)
+                log.debug("dropped datagram (%s)", exc)
+                return 0
+            self.counters.count_received(kind, size)
+            envelope = Envelope(header.sender, header.seq, header.subjects, message, size,
+                                self.clock(), header.instance, header.tick)
+            targets = [self._subs[k] for k in keys]
         for sub in targets:
             if not sub.closed:
                 sub._deliver(envelope)

@@ -745,6 +745,25 @@ class SimulationProxy(Proxy):
         self.command(c.PLAYER_SIMULATION_CMD_SAVE)
 
 
+class OpaqueProxy(Proxy):
+    """Application-defined bytes (the team clock of a lockstep run, see
+    `player_server.protocol.team_clock`): ``data`` is the latest DATA's bytes."""
+
+    interf = int(Interface.OPAQUE)
+
+    def __init__(self, client: Any, index: int = 0) -> None:
+        super().__init__(client, index)
+        self.data: bytes = b""
+
+    def _update(self, subtype: int, body: Any) -> None:
+        if subtype == c.PLAYER_OPAQUE_DATA_STATE:
+            self.data = bytes(body.data)
+
+    def send(self, data: bytes) -> None:
+        """Send bytes as an opaque command (CMD 2, never answered)."""
+        self.command(c.PLAYER_OPAQUE_CMD_DATA, sm.OpaqueData(bytes(data)))
+
+
 PROXIES: dict[str, type[Proxy]] = {
     "position2d": Position2dProxy,
     "sonar": SonarProxy,
@@ -758,4 +777,5 @@ PROXIES: dict[str, type[Proxy]] = {
     "ptz": PtzProxy,
     "fiducial": FiducialProxy,
     "simulation": SimulationProxy,
+    "opaque": OpaqueProxy,
 }

@@ -53,6 +53,9 @@ class Driver:
     #: CMD subtypes that only set targets the simulation acts on at its next step: the
     #: device's DATA (and every other device's) stays what it was until then
     deferred_commands: ClassVar[frozenset[int]] = frozenset()
+    #: DATA read afresh for every round it goes out in (not cached with the round's other
+    #: data, which may be prepared ahead): a device whose data changes between steps
+    live: ClassVar[bool] = False
     #: REQ subtypes handled by ``handle_request``
     requests: ClassVar[frozenset[int]] = frozenset()
 

@@ -34,6 +34,10 @@ _TABLE: dict[Key, Any] = {
     (If.PLAYER, _REQ, c.PLAYER_REQ_ADD_REPLACE_RULE): pm.AddReplaceRuleReq,
     (If.PLAYER, _SYNCH, c.PLAYER_SYNCH_OK): None,
     (If.PLAYER, _SYNCH, c.PLAYER_SYNCH_OVERFLOW): pm.SynchOverflow,
+    # opaque
+    (If.OPAQUE, _DATA, c.PLAYER_OPAQUE_DATA_STATE): sm.OpaqueData,
+    (If.OPAQUE, _CMD, c.PLAYER_OPAQUE_CMD_DATA): sm.OpaqueData,
+    (If.OPAQUE, _REQ, c.PLAYER_OPAQUE_REQ_DATA): sm.OpaqueData,
     # power
     (If.POWER, _DATA, c.PLAYER_POWER_DATA_STATE): am.PowerData,
     (If.POWER, _REQ, c.PLAYER_POWER_REQ_SET_CHARGING_POLICY): am.PowerChargePolicyConfig,

@@ -264,6 +264,14 @@ class BumperGeom:
 
 @xdr_struct
 @dataclass(frozen=True, slots=True)
+class OpaqueData:
+    """opaque DATA 1 STATE, CMD 2 DATA and REQ 1 DATA: application-defined bytes."""
+
+    data: ByteArray = b""
+
+
+@xdr_struct
+@dataclass(frozen=True, slots=True)
 class CameraData:
     """camera DATA 1 STATE and REQ 3 GET_IMAGE reply."""
 

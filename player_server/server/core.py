@@ -120,6 +120,8 @@ class Session:
     lockstep_override: bool | None = None
     demoted: bool = False
     counted_as_participant: bool = False
+    #: subscribed to a live device (its DATA is read when each round goes out)
+    has_live: bool = False
     stalled_since: float | None = None
     closing: str | None = None
     counters: SessionCounters = field(default_factory=SessionCounters)
@@ -171,6 +173,8 @@ class ServerCore:
         #: bumped whenever a driver handles a request or command (state may have changed)
         self._mutations = 0
         self.participants_seen = 0
+        #: endpoints (by name) whose participant the lockstep waits for before it steps
+        self.expected: set[str] = set()
         self.counters = CoreCounters()
         #: called with a session as soon as one of its rounds is queued (the front end
         #: writes it at once, so a client can start on its round while later ones are built)
@@ -193,6 +197,7 @@ class ServerCore:
     def close_session(self, session: Session) -> None:
         """Forget a connection and everything it subscribed to."""
         session.subs.clear()
+        session.has_live = False
         session.forget_plan()
         session.round_pending = False
         self.sessions.pop(session.id, None)
@@ -390,6 +395,7 @@ class ServerCore:
             s.subs[key] = drv
         else:
             s.subs.pop(key, None)
+        s.has_live = any(d.live for d in s.subs.values())
         s.forget_plan()
         self._reply(s, _PLAYER, index, st, pm.DeviceReq(addr, body.access, drv.driver_name),
                     ack=True)
@@ -482,7 +488,24 @@ class ServerCore:
         for key, driver in s.subs.items():
             if rules and self._device_ignored(s, key):
                 continue  # declined by the client: not even computed
+            if driver.live:
+                continue  # read when the round goes out (_live_bytes)
             yield from self._device_data(ep, key, driver, version)
+
+    def _live_bytes(self, s: Session) -> bytes:
+        """The DATA of the session's live devices, read now (they lead the round)."""
+        out = []
+        t = self._sim_time_s()
+        for key, driver in s.subs.items():
+            if not driver.live:
+                continue
+            try:
+                for subtype, body in driver.data():
+                    out.append(encode_message(key[0], key[1], _DATA, subtype, body,
+                                              timestamp=t, robot=s.endpoint.port))
+            except Exception:
+                log.exception("driver %s failed to produce data", driver.driver_name)
+        return b"".join(out)
 
     @staticmethod
     def _device_ignored(s: Session, key: tuple[int, int]) -> bool:
@@ -526,6 +549,8 @@ class ServerCore:
         data = self._round_bytes(s)
         if data is None:
             return False
+        if s.has_live:
+            data = self._live_bytes(s) + data
         s.queue.push_reply(data)
         s.round_pending = False
         s.last_round = self.round_seq
@@ -575,6 +600,11 @@ class ServerCore:
         return s.mode == c.PLAYER_DATAMODE_PULL and any(
             k[0] == _POSITION2D for k in s.subs)
 
+    def expect(self, endpoint_name: str) -> None:
+        """Step no further until a participant has joined on this endpoint (a robot process
+        started by the owner) and asked for a round, like every other participant."""
+        self.expected.add(endpoint_name)
+
     def participants(self) -> list[Session]:
         return [s for s in self.sessions.values() if self.is_participant(s)]
 
@@ -589,6 +619,10 @@ class ServerCore:
                 self.participants_seen += 1
         if not parts or self.participants_seen < self.config.lockstep_clients:
             return False
+        if self.expected:
+            self.expected -= {s.endpoint.name for s in parts}
+            if self.expected:
+                return False
         laggards = [s for s in parts
                     if not (s.round_pending and s.last_round >= self.round_seq)]
         if not laggards:

@@ -54,6 +54,7 @@ class PlayerServer:
         config: CoreConfig | None = None,
         quit_time_s: float = 0.0,
         cpus: frozenset[int] | None = None,
+        on_round: Callable[[], None] | None = None,
     ) -> None:
         if interval_s <= 0:
             raise ValueError(f"interval_s must be positive, got {interval_s}")
@@ -65,6 +66,11 @@ class PlayerServer:
         self.speedup = speedup
         self.quit_time_s = quit_time_s
         self.cpus = cpus
+        self.on_round = on_round
+        """Called on the serving thread at every tick boundary, when the simulation holds
+        the state of the round about to go out and before it goes out (in lockstep: once
+        every participant has asked for it). An owner's participant that is not a Player
+        client (the experiment runner's own MURDOCH node) takes its tick here."""
         self._clock = clock
         self.core = ServerCore(self.endpoints, lambda: float(sim.time_s), config)
         self.tcp = TcpFrontEnd(self.core, host)
@@ -140,17 +146,26 @@ class PlayerServer:
 
     def _step_and_publish(self) -> None:
         core = self.core
+        hook = self.on_round
         if core.config.pipelined and core.config.lockstep:
             if not self._ahead:
                 self._step()  # the state after round 0 (which went out on first request)
+            if hook is not None:
+                hook()
             core.publish()  # the state stepped last time; its data was prepared since
             self._step()
             core.prepare()
             self._ahead = True
         else:
             self._step()
+            if hook is not None:
+                hook()
             core.publish()
         self.ticks += 1
+
+    def request_stop(self) -> None:
+        """End the serving loop after the current turn (any thread, the hook included)."""
+        self._stop.set()
 
     def _step(self) -> None:
         if not self.sim.paused:

@@ -1,0 +1,363 @@
+"""The runner's own part in a run: one participant of the tick protocol, on the serving thread.
+
+`RunLoop.on_round` is `PlayerServer`'s round hook: it runs on the serving thread at every tick
+boundary, with the simulation holding the state of the round about to go out (in lockstep:
+once every robot has finished the previous tick and asked for this one). There it is the
+"user" of the MURDOCH paper and the referee, all on simulation time:
+
+1. declares how many datagrams its node has sent (through the previous tick) into the team
+   clock, and acts on the robots' datagrams of the previous tick in tick order
+   (`settle_tick`; in real time it reads whatever has arrived);
+2. reads what the robots wrote (events, auction events) for the previous tick, robots in
+   name order;
+3. applies the fault schedule entries due at this tick (kill, restart, switch off, switch
+   on); a robot started here is expected by the lockstep before the next tick;
+4. introduces due tasks, watches the goal (boxpush), ends the run when its end is decided;
+5. steps its MURDOCH node (auctions, awards, renewals, reintroduction with backoff).
+
+Nothing here looks at the wall clock except the bound on waiting for declared datagrams,
+which can only end the run with an error. The main thread does the wall-clock work
+(progress display, memory samples into processes.jsonl, signals).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+from experiments import boxpush as bp
+from experiments import events as ev
+from experiments.observe import JsonlTail, robot_event_to_run_events
+from experiments.task_source import PlannedTask
+
+log = logging.getLogger("murdoch.run")
+
+BID_WINDOW_S = 1.0
+RENEW_PERIOD_S = 2.0
+CONTRACT_TIMEOUT_S = 10.0
+ABANDON_AFTER_S = 10.0
+PATIENCE_S = 300.0
+BOXPUSH_LINGER_S = 3.0
+"""After the box's fate is decided, the run goes on this long for the last reports."""
+
+
+@dataclass(frozen=True)
+class Fault:
+    """One entry of the fault schedule: `action` on `robot` at simulation time `t_s`."""
+
+    t_s: float
+    action: str  # kill, restart, switch-off, switch-on
+    robot: str
+
+    def label(self) -> str:
+        return f"{self.robot}@{self.t_s:g}s"
+
+
+class RobotProcesses(Protocol):
+    """What the loop needs from the runner's process supervision."""
+
+    def names(self) -> list[str]: ...
+
+    def start(self, name: str) -> int:
+        """Start the robot's process (again); returns its pid."""
+        ...
+
+    def kill(self, name: str) -> int | None:
+        """Kill the robot's process at once; returns the pid it had (None: not running)."""
+        ...
+
+    def exited(self) -> list[tuple[str, int, int]]:
+        """(name, pid, exit code) of processes that ended by themselves since last asked."""
+        ...
+
+
+@dataclass
+class RunState:
+    """What the loop decided, for the main thread (read after the serving thread ended)."""
+
+    introduced: set[str] = field(default_factory=set)
+    finished: set[str] = field(default_factory=set)
+    unachievable: dict[str, str] = field(default_factory=dict)
+    goal_outcome: str | None = None
+    end_reason: str | None = None
+    error: BaseException | None = None
+    last_t: float = 0.0
+    closed: bool = False
+
+
+class RunLoop:
+    def __init__(
+        self,
+        *,
+        rec: Any,
+        sim: Any,
+        node: Any,
+        transport: Any,
+        processes: RobotProcesses,
+        tails: dict[str, tuple[JsonlTail, JsonlTail]],
+        planned: Iterator[PlannedTask | None],
+        task_subjects: Callable[[str], tuple[str, ...]],
+        task_spec: Callable[..., Any],
+        duration_s: float,
+        faults: list[Fault],
+        expect: Callable[[str], None] | None,
+        team_clock: Any | None,
+        wait_clock: Callable[[], float],
+        request_stop: Callable[[], None],
+        boxpush: tuple[Any, Any] | None = None,
+        mobile: frozenset[str] = frozenset(),
+        spec: Any = None,
+        place: Callable[..., None] | None = None,
+    ) -> None:
+        self.rec = rec
+        self.sim = sim
+        self.node = node
+        self.transport = transport
+        self.processes = processes
+        self.tails = dict(sorted(tails.items()))
+        self.planned = planned
+        self.next_task = next(planned)
+        self.task_subjects = task_subjects
+        self.task_spec = task_spec
+        self.duration_s = duration_s
+        self.faults = sorted(faults, key=lambda f: (f.t_s, f.robot, f.action))
+        self.expect = expect
+        self.team_clock = team_clock
+        self.wait_clock = wait_clock
+        self.request_stop = request_stop
+        self.goal_watch, self.actions = boxpush if boxpush is not None else (None, None)
+        self.mobile = mobile
+        self.spec = spec
+        self.place = place
+        self.interval_s = float(sim.interval_s)
+        self.state = RunState()
+        self.announced_at: dict[str, float] = {}
+        self.main_task: str | None = None
+        self.end_after_s: float | None = None
+        self.switched_off: dict[str, float] = {}
+        self.busy_killed: list[str] = []
+        self.scheduled_down: set[str] = set()
+
+    # -- the hook -------------------------------------------------------------------------------
+    def on_round(self) -> None:
+        if self.state.closed:
+            return
+        try:
+            self._round()
+        except Exception as exc:  # the run cannot go on exactly: end it, say why
+            log.exception("the run's own participant failed")
+            self.state.error = exc
+            self.state.end_reason = "error"
+            self.request_stop()
+
+    def _round(self) -> None:
+        now = float(self.sim.time_s)
+        tick = round(now / self.interval_s)
+        self.state.last_t = now
+        core = self.transport.core
+        if self.team_clock is not None:
+            self.team_clock.declare(core.sender_key, core.sent_count)
+            self.transport.settle_tick(tick, self.team_clock.table(),
+                                       wait_clock=self.wait_clock)
+        else:
+            self.transport.poll(0.0)
+        self._drain_robots()
+        self._deaths(now)
+        self._faults(now)
+        self._introduce(now)
+        self._referee(now)
+        self.node.step(0.0)
+        self.rec.advance(now)
+        if now >= self.duration_s - 1e-9 and self.state.end_reason is None:
+            self.state.end_reason = "completed"
+        if self.state.end_reason is not None:
+            # the end is decided at a tick boundary: what the robots did before it is all
+            # read, what they do after it is not part of the run
+            self.close_open_tasks(now)
+            self.request_stop()
+
+    # -- what the robots wrote --------------------------------------------------------------
+    def _drain_robots(self) -> None:
+        for events, auctions in self.tails.values():
+            for d in events.read_new():
+                for e in robot_event_to_run_events(d):
+                    self.rec.event(e.pop("t"), e.pop("kind"), **e)
+            for d in auctions.read_new():
+                if "time_s" in d and "kind" in d:
+                    self.on_auction_event(d)
+
+    def on_auction_event(self, d: dict[str, Any]) -> None:
+        """An auctioneer's event (the runner's own or a robot's) as run events."""
+        kind, task_id, t = d.get("kind"), str(d.get("task_id")), float(d["time_s"])
+        st = self.state
+        if kind == "announce":
+            if task_id not in self.announced_at and d.get("agent") != "user":
+                self.rec.event(t, ev.TASK_INTRODUCED, task=task_id, task_kind=d.get("name", ""),
+                               source=d.get("agent"))
+                st.introduced.add(task_id)
+            self.announced_at[task_id] = t
+        elif kind == "award":
+            latency = t - self.announced_at.get(task_id, t)
+            self.rec.event(t, ev.AWARD, task=task_id, robot=d.get("winner"),
+                           bid=d.get("score"), latency_s=round(latency, 4))
+        elif kind == "reallocation":
+            self.rec.event(t, ev.REALLOCATION, task=task_id, from_robot=d.get("winner"),
+                           reason=d.get("reason", ""))
+        elif kind == "outcome" and task_id not in st.finished:
+            why = str(d.get("reason", ""))
+            if d.get("status") == "unachievable" or why.startswith("unachievable"):
+                st.unachievable[task_id] = why or "unachievable"
+            self.rec.event(t, ev.TASK_OUTCOME, task=task_id, outcome=d.get("status"),
+                           robot=d.get("winner"), reason=d.get("reason", ""))
+            st.finished.add(task_id)
+
+    def on_message(self, envelope: Any) -> None:
+        """Every MURDOCH message the runner hears, at the time of its sender's tick."""
+        msg = envelope.message
+        t = (envelope.tick * self.interval_s if envelope.tick >= 0
+             else float(self.sim.time_s))
+        fields = {"task": getattr(msg, "task_id", None)} if hasattr(msg, "task_id") else {}
+        self.rec.event(round(t, 6), ev.MESSAGE, msg_kind=envelope.kind,
+                       sender=envelope.sender, bytes=envelope.size_bytes, **fields)
+
+    # -- processes ----------------------------------------------------------------------------
+    def _deaths(self, now: float) -> None:
+        for name, pid, code in self.processes.exited():
+            if name in self.scheduled_down:
+                continue
+            self.scheduled_down.add(name)
+            self.rec.event(now, ev.ROBOT_FAILURE, robot=name, reason="exited", exit_code=code)
+            self.rec.note_process(now, "exited", name, pid, exit_code=code)
+
+    def _faults(self, now: float) -> None:
+        while self.faults and self.faults[0].t_s <= now + 1e-9:
+            fault = self.faults.pop(0)
+            name = fault.robot
+            if name == "busy":
+                if fault.action == "kill":
+                    working = [r for r, st in sorted(self.rec.robot_states().items())
+                               if st == "working" and r in self.mobile
+                               and r not in self.scheduled_down]
+                    if not working:
+                        self.rec.event(now, ev.FAULT_SKIPPED, action=fault.action,
+                                       robot="busy", reason="no robot holds a task")
+                        continue
+                    self.busy_killed.append(working[0])
+                    name = working[0]
+                elif self.busy_killed:
+                    name = self.busy_killed[-1]
+                else:
+                    self.rec.event(now, ev.FAULT_SKIPPED, action=fault.action, robot="busy",
+                                   reason="no robot was killed as busy")
+                    continue
+            getattr(self, "_" + fault.action.replace("-", "_"))(name, now)
+
+    def _kill(self, name: str, now: float) -> None:
+        self.scheduled_down.add(name)
+        pid = self.processes.kill(name)
+        self.rec.event(now, ev.ROBOT_FAILURE, robot=name, reason="killed")
+        self.rec.note_process(now, "killed", name, pid)
+
+    def _restart(self, name: str, now: float) -> None:
+        self._start(name, now)
+        self.rec.event(now, ev.ROBOT_RESTART, robot=name)
+
+    def _start(self, name: str, now: float) -> int:
+        self.processes.kill(name)  # a process still running is replaced
+        pid = self.processes.start(name)
+        self.rec.note_process(now, "started", name, pid)
+        self.scheduled_down.discard(name)
+        if self.expect is not None:
+            self.expect(name)
+        return pid
+
+    def _switch_off(self, name: str, now: float) -> None:
+        gw, actions = self.goal_watch, self.actions
+        assert gw is not None and actions is not None and self.place is not None
+        self.scheduled_down.add(name)
+        pid = self.processes.kill(name)
+        self.rec.note_process(now, "switched-off", name, pid)
+        box_pose = gw.box_pose
+        xy = gw.robot_poses.get(name, (0.0, 0.0, 0.0))
+        side = bp.side_of(box_pose, xy[:2]) if box_pose is not None else 0.0
+        self.switched_off[name] = side
+        spot = bp.park_pose(self.spec, sorted(self.processes.names()).index(name))
+        place = self.place
+        actions.put(lambda s, n=name, p=spot: place(s, n, p))
+        self.rec.event(now, ev.ROBOT_SWITCH_OFF, robot=name, side_m=round(side, 3))
+
+    def _switch_on(self, name: str, now: float) -> None:
+        gw, actions = self.goal_watch, self.actions
+        assert gw is not None and actions is not None and self.place is not None
+        side = self.switched_off.pop(name, 0.0)
+        box_pose = gw.box_pose
+        assert box_pose is not None
+        # the other end of the box from where it was
+        other = -math.copysign(max(abs(side), 0.3), side or 1.0)
+        other = max(-gw.bg.box_half_length_m + 0.2, min(gw.bg.box_half_length_m - 0.2, other))
+        pose = bp.return_pose(box_pose, gw.bg.goal_xy, other, gw.bg)
+        start = next(r.pose for r in self.spec.robots if r.name == name)
+        odo = bp.odometry_at((start[0], start[1], start[2]), pose)
+        place = self.place
+        # placed by hand and told where it is: odometry stays in the shared frame
+        actions.put(lambda s, n=name, p=pose, o=odo: place(s, n, p, o))
+        self._start(name, now)
+        self.rec.event(now, ev.ROBOT_SWITCH_ON, robot=name, x=round(pose[0], 3),
+                       y=round(pose[1], 3), yaw=round(pose[2], 3))
+
+    # -- tasks and the referee ---------------------------------------------------------------
+    def _introduce(self, now: float) -> None:
+        st = self.state
+        while (self.next_task is not None and self.next_task.t_s <= now
+               and self.next_task.t_s < self.duration_s):
+            planned = self.next_task
+            spec = self.task_spec(planned)
+            task_id = self.node.announce(spec, patience_s=PATIENCE_S)
+            self.rec.event(now, ev.TASK_INTRODUCED, task=task_id, task_kind=planned.kind,
+                           params=planned.params, source="user")
+            st.introduced.add(task_id)
+            self.main_task = self.main_task or task_id
+            self.next_task = next(self.planned)
+
+    def _referee(self, now: float) -> None:
+        gw = self.goal_watch
+        if gw is None:
+            return
+        st = self.state
+        if st.goal_outcome is None:
+            if gw.reached_at_s is not None:
+                st.goal_outcome = "reached"
+                self.rec.event(gw.reached_at_s, ev.GOAL_REACHED, box=gw.bg.box,
+                               distance_m=round(gw.distance_m, 3), radius_m=gw.radius_m)
+                log.info("goal reached at %.1f s simulated: box %.2f m from the goal",
+                         gw.reached_at_s, gw.distance_m)
+            elif self.main_task is not None and self.main_task in st.unachievable:
+                st.goal_outcome = "unachievable"
+                why = st.unachievable[self.main_task]
+                self.rec.event(now, ev.GOAL_UNACHIEVABLE, task=self.main_task, reason=why)
+        if self.main_task in st.finished or st.goal_outcome is not None:
+            # the box reached the goal (or could not): let the last reports arrive, then stop
+            if self.end_after_s is None:
+                self.end_after_s = now + BOXPUSH_LINGER_S
+            if now >= self.end_after_s - 1e-9:
+                st.end_reason = "completed"
+
+    # -- the end --------------------------------------------------------------------------------
+    def close_open_tasks(self, end_t: float) -> None:
+        """Tasks still open when the run ends fail with a reason (one terminal state each).
+        On the serving thread at the last tick boundary, or by the owner after that thread
+        ended early (interrupted, failed)."""
+        st = self.state
+        if st.closed:
+            return
+        st.closed = True
+        why = "run ended: box at the goal" if st.goal_outcome == "reached" else "run ended"
+        for task_id in self.node.auctioneer.open_tasks():
+            self.node.cancel(task_id, why)
+        for task_id in sorted(st.introduced - st.finished):
+            self.rec.event(end_t, ev.TASK_OUTCOME, task=task_id, outcome=ev.FAILED,
+                           reason="run ended")
+            st.finished.add(task_id)
