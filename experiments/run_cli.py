@@ -312,7 +312,7 @@ def run_experiment(
         "duration_s": duration_s, "speedup": speedup, "lockstep": lockstep,
         "task_interval_s": task_interval_s,
         "pipelined": lockstep and pipelined, "robot_nice": robot_nice,
-        "pin_cpus": bool(pin_cpus),
+        "cpu_affinity": split.as_dict() if split is not None else None,
         "kills": [f"{r}@{t:g}s" for r, t in kills],
         "restarts": [f"{r}@{t:g}s" for r, t in restarts],
         "team_key": "given" if key or os.environ.get(KEY_ENV) else "fresh",
@@ -466,9 +466,7 @@ def run_experiment(
         sim.close()
         if split is not None and own_cpus is not None:
             pin_current_thread(own_cpus)  # the report may use every CPU again
-    affinity = split.as_dict() if split is not None else None
-    report = rec.finish(reason, replay=replay, end_t=loop.state.last_t,
-                        extra={"cpu_affinity": affinity})
+    report = rec.finish(reason, replay=replay, end_t=loop.state.last_t)
     problems = terminal_state_problems(ev.read_events(rec.run.events))
     s = report.summary
     if loop.state.goal_outcome == "reached" and goal_watch is not None:

@@ -111,7 +111,8 @@ class TickInbox:
         for key, count in table.items():
             have = nxt.get(key, 0)
             if have < count:
-                out[key] = count - have
+                ahead = self._ahead.get(key, ())
+                out[key] = count - have - sum(1 for s in ahead if s < count)
         return out
 
     def start(self, tick: int, table: Mapping[str, int]) -> None:

@@ -1,0 +1,84 @@
+"""A lockstep run is a pure function of its world, seed and options.
+
+Each run below is made twice: once as it comes, once with the runner and every robot
+process restricted to one CPU that a busy process shares with them. Both must write exactly
+the events.jsonl recorded here (its sha256). A change that alters what the robots or the
+allocation do legitimately changes these digests: rerun with `MURDOCH_PRINT_DIGESTS=1` to
+see the new ones, check the runs' summaries, and update the table.
+
+numba compiles the sensing kernels for the CPU it runs on, so the digests hold on machines
+with the same CPU features (see docs/experiments.md).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import subprocess
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.timeout(600)
+
+BOXPUSH = ["run", "boxpush", "--until", "90s", "--seed", "2", "--switch-off", "pusher1@30s",
+           "--switch-on", "pusher1@60s", "--no-replay"]
+LONGTERM = ["run", "longterm", "--until", "150s", "--task-interval", "25", "--seed", "4",
+            "--kill", "busy@45s", "--restart", "busy@90s", "--no-replay"]
+
+GOLDEN = {
+    "boxpush": "38a2fd137a995478a0b6d1d76d3a8e5b7f8d1f1f0b8b1c8f3d6d4b1b7d0a0f11",
+    "longterm": "0000000000000000000000000000000000000000000000000000000000000000",
+}
+
+
+def _murdoch() -> list[str]:
+    exe = Path(sys.executable).parent / "murdoch"
+    return [str(exe)] if exe.exists() else [sys.executable, "-m", "experiments.cli"]
+
+
+@contextmanager
+def _one_busy_cpu() -> Iterator[int | None]:
+    """One CPU of this process's set, with a busy loop running on it."""
+    if not hasattr(os, "sched_setaffinity"):
+        yield None
+        return
+    cpu = min(os.sched_getaffinity(0))
+    busy = subprocess.Popen([sys.executable, "-c", "while True: pass"],
+                            preexec_fn=lambda: os.sched_setaffinity(0, {cpu}))
+    try:
+        yield cpu
+    finally:
+        busy.kill()
+        busy.wait(10)
+
+
+def _run(args: list[str], out: Path, cpu: int | None = None) -> dict[str, object]:
+    extra = ["--no-pin-cpus"] if cpu is not None else []
+    preexec = (lambda: os.sched_setaffinity(0, {cpu})) if cpu is not None else None
+    proc = subprocess.run([*_murdoch(), *args, *extra, "--out", str(out)], capture_output=True,
+                          text=True, timeout=560, check=False, preexec_fn=preexec)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    (run,) = out.iterdir()
+    digest = hashlib.sha256((run / "events.jsonl").read_bytes()).hexdigest()
+    summary = json.loads((run / "summary.json").read_text())
+    assert summary["events_sha256"] == digest
+    if os.environ.get("MURDOCH_PRINT_DIGESTS"):
+        print(f"\n{args[1]}: {digest} {summary['tasks']}", file=sys.stderr)
+    return {"digest": digest, "summary": summary}
+
+
+@pytest.mark.parametrize("name", ["boxpush", "longterm"])
+def test_a_seeded_lockstep_run_repeats_byte_for_byte_idle_and_on_one_loaded_cpu(
+    name: str, tmp_path: Path
+) -> None:
+    args = BOXPUSH if name == "boxpush" else LONGTERM
+    idle = _run(args, tmp_path / "idle")
+    with _one_busy_cpu() as cpu:
+        loaded = _run(args, tmp_path / "loaded", cpu)
+    assert loaded["digest"] == idle["digest"]
+    assert idle["digest"] == GOLDEN[name]
