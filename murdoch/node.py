@@ -168,6 +168,13 @@ class Node:
     def busy(self) -> bool:
         return self.bidder is not None and self.bidder.busy
 
+    @property
+    def bid_counters(self) -> dict[str, int]:
+        """A copy of the bidder's counts of traffic about its own bids that left the usual
+        course (late awards, refusals, expired bids: `murdoch.auction.BIDDER_COUNTERS`);
+        empty for a node without a bidder."""
+        return dict(self.bidder.counters) if self.bidder is not None else {}
+
     # -- the loop
     def step(self, timeout_s: float = 0.0) -> int:
         """Receive, handle, tick and publish once; return the number of messages handled.

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import random
 import sys
@@ -17,7 +18,7 @@ from murdoch.multicast import DEFAULT_GROUP, DEFAULT_PORT, MulticastConfig, Mult
 from murdoch.node import Node
 from murdoch.subjects import SubjectError, matches, subject_set
 from murdoch.user_agent import RandomizedBackoff
-from murdoch.wire import Frame
+from murdoch.wire import Codec, Frame, WireError
 
 KEY_ENV = "MURDOCH_TEAM_KEY"
 
@@ -46,10 +47,37 @@ def _subjects(value: str | None) -> frozenset[str] | None:
         raise click.BadParameter(str(exc)) from None
 
 
-def _format_frame(now: float, frame: Frame, size: int) -> str:
-    fields = " ".join(f"{k}={json.dumps(v, separators=(',', ':'))}" for k, v in frame.body.items())
+def frame_problem(codec: Codec, frame: Frame) -> WireError | None:
+    """Why the body of `frame` is not a valid message of its kind (the same check every
+    receiver makes before delivering it); None when it is valid or of a kind `codec` does
+    not know (a listener shows those undecoded)."""
+    if not codec.knows(frame.kind):
+        return None
+    try:
+        codec.message_from(frame.kind, frame.body)
+    except WireError as exc:
+        return exc
+    return None
+
+
+def _plain(value: Any) -> Any:
+    """`value` with non-finite numbers (a JSON decoder reads 1e999 as infinity) written as
+    strings, so that every output line is strict JSON."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return repr(value)
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    return value
+
+
+def _format_frame(now: float, frame: Frame, size: int, problem: WireError | None) -> str:
+    fields = " ".join(
+        f"{k}={json.dumps(_plain(v), separators=(',', ':'))}" for k, v in frame.body.items())
     subjects = ",".join(sorted(frame.subjects)) or "-"
-    return f"{now:10.3f} {frame.sender}#{frame.seq} {frame.kind:<9} [{subjects}] {size}B {fields}"
+    line = f"{now:10.3f} {frame.sender}#{frame.seq} {frame.kind:<9} [{subjects}] {size}B {fields}"
+    return line if problem is None else f"{line} INVALID {problem}"
 
 
 def _network_options(func: Any) -> Any:
@@ -89,10 +117,15 @@ def listen(
     start = clock()
     sender = f"listen-{os.getpid()}"
     transport = MulticastTransport(sender, clock, _config(group, port, reply_lane), key=_key(key))
+    codec = transport.codec
     shown = 0
+    invalid: dict[str, int] = {}
 
     def show(frame: Frame, size: int) -> None:
         nonlocal shown
+        problem = frame_problem(codec, frame)
+        if problem is not None:
+            invalid[problem.reason] = invalid.get(problem.reason, 0) + 1
         if wanted is not None and not matches(frame.subjects, wanted):
             return
         shown += 1
@@ -104,11 +137,13 @@ def listen(
                 "kind": frame.kind,
                 "subjects": sorted(frame.subjects),
                 "bytes": size,
-                "fields": dict(frame.body),
+                "fields": _plain(dict(frame.body)),
             }
-            click.echo(json.dumps(record))
+            if problem is not None:
+                record["invalid"] = str(problem)
+            click.echo(json.dumps(record, allow_nan=False))
         else:
-            click.echo(_format_frame(clock() - start, frame, size))
+            click.echo(_format_frame(clock() - start, frame, size, problem))
         sys.stdout.flush()
 
     transport.core.frame_tap = show
@@ -125,6 +160,9 @@ def listen(
         transport.close()
     dropped = transport.counters.dropped
     bad = {k: v for k, v in dropped.items() if k != "unmatched"}
+    if invalid:
+        click.echo(f"invalid (shown flagged, rejected by receivers): {json.dumps(invalid)}",
+                   err=True)
     if bad:
         click.echo(f"dropped: {json.dumps(bad)}", err=True)
 

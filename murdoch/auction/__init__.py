@@ -1,7 +1,14 @@
 """MURDOCH auctions: messages and the sans-IO auctioneer and bidder state machines."""
 
 from murdoch.auction.auctioneer import Auctioneer, Phase, RetryPlan, best_bid
-from murdoch.auction.bidder import Bidder, Contract, beats
+from murdoch.auction.bidder import (
+    BIDDER_COUNTERS,
+    Bidder,
+    Contract,
+    award_due,
+    beats,
+    listen_until,
+)
 from murdoch.auction.messages import (
     AUCTION_CODEC,
     AUCTION_MESSAGES,
@@ -22,6 +29,7 @@ from murdoch.auction.messages import (
 __all__ = [
     "AUCTION_CODEC",
     "AUCTION_MESSAGES",
+    "BIDDER_COUNTERS",
     "Announce",
     "AuctionEvent",
     "Auctioneer",
@@ -38,7 +46,9 @@ __all__ = [
     "RetryPlan",
     "Revoke",
     "TaskSpec",
+    "award_due",
     "beats",
     "best_bid",
+    "listen_until",
     "negotiation_subject",
 ]

@@ -15,6 +15,20 @@ A winner that hears no renewal for the
 announcement's `abandon_after_s` abandons the task. A renewal for a bid whose award got lost
 counts as the award. Replies to renewals of finished tasks repeat the final report, so a lost
 report is sent again.
+
+Late awards. A bidder listens to the negotiation of each of its bids until it hears how the
+round ended: the award (to it, to another bidder or to nobody), a renewal or revocation
+naming another winner, a revocation naming it, or the announcement of a later attempt of the
+task. It stops waiting at `listen_until(announce, bid_at)`: when the award (or the first
+renewal repairing its loss) was due, plus the time a winner waits for a renewal before it
+abandons; a winner that had heard nothing by then would have given the task up anyway. Until
+then an award (or a renewal standing for it) is taken however late it is if the bidder is
+free, and refused with a `declined` report (reason "busy") if it runs another task; after it
+(heard only while the subscription is held for another reason) it is refused with reason
+"bid expired". A declined award makes the auctioneer reallocate at once, so every task still
+ends with exactly one outcome. Awards heard after they were due, refusals, bids that expire
+unanswered and revocations of awards never heard are counted (`counters`), logged
+(rate-limited on the bidder's clock) and, for expiries, reported as an `expired` event.
 """
 
 from __future__ import annotations
@@ -37,9 +51,34 @@ from murdoch.auction.messages import (
     Revoke,
     negotiation_subject,
 )
+from murdoch.ratelog import RateLimitedLog
 from murdoch.subjects import check_subject
 
 log = logging.getLogger(__name__)
+
+BIDDER_COUNTERS = (
+    "late_awards", "declined_busy", "declined_closed", "expired_bids", "revoked_unheard"
+)
+"""What a bidder counts of the traffic about its own bids that is not the usual course:
+- late_awards: awards (or renewals standing for them) for an open bid heard after
+  `award_due`, then taken or declined;
+- declined_busy: awards for an open bid refused because another task is running;
+- declined_closed: awards naming this bidder for a round it no longer (or never) listened to;
+- expired_bids: bids given up at `listen_until` with neither award nor close heard;
+- revoked_unheard: revocations naming this bidder of an award it never heard."""
+
+
+def award_due(announce: Announce, bid_at: float) -> float:
+    """When the award for a bid made at `bid_at`, or the first renewal that repairs its loss,
+    is due at the latest: the close one window after the announcement, one window of delay,
+    one renew period."""
+    return bid_at + 2.0 * announce.bid_window_s + announce.renew_period_s
+
+
+def listen_until(announce: Announce, bid_at: float) -> float:
+    """When a bidder that bid at `bid_at` stops waiting for the round's award or close:
+    `award_due` plus the time a winner waits for a renewal before abandoning its task."""
+    return award_due(announce, bid_at) + announce.abandon_after_s
 
 Metric = Callable[[Announce], float | None]
 Observer = Callable[[AuctionEvent], None]
@@ -73,7 +112,7 @@ StopCallback = Callable[[Contract, str], None]
 class _Pending:
     announce: Announce
     score: float
-    expires_at: float
+    bid_at: float
     look_at: float | None = None
     lost: bool = False
 
@@ -92,6 +131,7 @@ class Bidder:
         on_stop: StopCallback | None = None,
         observer: Observer | None = None,
         finished_memory: int = 64,
+        log_interval_s: float = 10.0,
     ) -> None:
         self.agent_id = check_subject(agent_id)
         self._metric = metric
@@ -105,6 +145,11 @@ class Bidder:
         self._note = ""
         self._finished: OrderedDict[tuple[str, int], Report] = OrderedDict()
         self._finished_memory = finished_memory
+        self._closed: OrderedDict[tuple[str, int], str] = OrderedDict()
+        """Rounds of our bids that ended without a contract, with how (last `finished_memory`)."""
+        self.counters: dict[str, int] = dict.fromkeys(BIDDER_COUNTERS, 0)
+        """See `BIDDER_COUNTERS`."""
+        self._ratelog = RateLimitedLog(log, log_interval_s)
         self.enabled = True
 
     # -- queries
@@ -168,8 +213,13 @@ class Bidder:
             self._stop(contract, now, reason)
             out.append(self._report(contract.announce, "abandoned", reason))
         for key, pending in list(self._pending.items()):
-            if now >= pending.expires_at:
-                del self._pending[key]
+            if now >= listen_until(pending.announce, pending.bid_at):
+                self._close(key, "expired")
+                waited = now - pending.bid_at
+                self._count("expired_bids", now,
+                            "no award for our bid on %s#%d heard in %.3g s; stopped listening",
+                            key[0], key[1], waited)
+                self._emit(now, "expired", key[0], key[1], waited_s=waited)
             elif pending.look_at is not None and now >= pending.look_at:
                 pending.look_at = None
         return out
@@ -198,6 +248,9 @@ class Bidder:
     # -- steps
     def _on_announce(self, announce: Announce, now: float) -> list[Outgoing]:
         key = (announce.task_id, announce.attempt)
+        if self._pending:
+            for old in [k for k in self._pending if k[0] == key[0] and k[1] < key[1]]:
+                self._close(old, "reannounced")  # that round is over: its award never came
         if not self.enabled or self._contract is not None or key in self._pending:
             return []
         if key in self._finished:
@@ -206,8 +259,7 @@ class Bidder:
         if score is None:
             return []
         score = float(score)
-        expires = now + 2.0 * announce.bid_window_s + announce.renew_period_s
-        self._pending[key] = _Pending(announce, score, expires, now + 0.5 * announce.bid_window_s)
+        self._pending[key] = _Pending(announce, score, now, now + 0.5 * announce.bid_window_s)
         if self._observer is not None:
             self._emit(now, "bid", announce.task_id, announce.attempt, score=score)
         bid = Bid(announce.task_id, announce.attempt, self.agent_id, score)
@@ -225,24 +277,47 @@ class Bidder:
 
     def _on_award(self, award: Award, now: float) -> list[Outgoing]:
         key = (award.task_id, award.attempt)
-        pending = self._pending.get(key)
         if award.winner != self.agent_id:
-            self._pending.pop(key, None)
+            if key in self._pending:
+                self._close(key, "lost" if award.winner is not None else "no winner")
             return []
         contract = self._contract
         if contract is not None and (contract.task_id, contract.attempt) == key:
             return []  # a duplicate
         if key in self._finished:
             return []
+        return self._awarded(key, now, "award")
+
+    def _awarded(self, key: tuple[str, int], now: float, how: str) -> list[Outgoing]:
+        """An award naming us (or a renewal standing for a lost one) for a round in which
+        we hold no contract: take it, or refuse it explicitly (see the module doc)."""
+        pending = self._pending.get(key)
+        task_id, attempt = key
         if pending is None:
-            return [self._decline(award.task_id, award.attempt, now, "no open bid")]
+            closed = self._closed.get(key)
+            reason = "bid expired" if closed == "expired" else "no open bid"
+            self._count("declined_closed", now, "%s for %s#%d names us but %s; declined",
+                        how, task_id, attempt, f"our bid ended ({closed})" if closed
+                        else "we never bid in that round")
+            return [self._decline(task_id, attempt, now, reason)]
+        contract = self._contract
+        due = award_due(pending.announce, pending.bid_at)
+        if now > due:
+            self._count("late_awards", now, "%s for %s#%d heard %.3g s after it was due; %s",
+                        how, task_id, attempt, now - due,
+                        "declined (busy)" if contract is not None else "taken")
         if contract is not None:
-            return [self._decline(award.task_id, award.attempt, now, "busy")]
+            self._count("declined_busy", now, "%s for %s#%d declined: running %s#%d",
+                        how, task_id, attempt, contract.task_id, contract.attempt)
+            return [self._decline(task_id, attempt, now, "busy")]
         self._start(pending.announce, now)
         return []
 
     def _on_renew(self, renew: Renew, now: float) -> list[Outgoing]:
         if renew.winner != self.agent_id:
+            key = (renew.task_id, renew.attempt)
+            if key in self._pending:
+                self._close(key, "lost")  # the award to another bidder did not reach us
             return []
         key = (renew.task_id, renew.attempt)
         contract = self._contract
@@ -256,21 +331,28 @@ class Bidder:
         if finished is not None:
             return [Outgoing(frozenset({negotiation_subject(renew.task_id)}), finished)]
         pending = self._pending.get(key)
-        if pending is not None and contract is None:
-            self._start(pending.announce, now)  # the award was lost; the renewal stands for it
-            progress = Progress(renew.task_id, renew.attempt, self.agent_id, 0.0, "")
-            return [Outgoing(frozenset({pending.announce.negotiation}), progress)]
-        reason = "busy" if contract is not None else "no open bid"
-        return [self._decline(renew.task_id, renew.attempt, now, reason)]
+        out = self._awarded(key, now, "renewal")  # the award was lost; the renewal stands for it
+        if out or pending is None:
+            return out
+        progress = Progress(renew.task_id, renew.attempt, self.agent_id, 0.0, "")
+        return [Outgoing(frozenset({pending.announce.negotiation}), progress)]
 
     def _on_revoke(self, revoke: Revoke, now: float) -> None:
+        key = (revoke.task_id, revoke.attempt)
         contract = self._contract
-        if (
-            contract is not None
-            and revoke.winner == self.agent_id
-            and (contract.task_id, contract.attempt) == (revoke.task_id, revoke.attempt)
-        ):
-            self._stop(contract, now, f"revoked: {revoke.reason}")
+        if contract is not None and (contract.task_id, contract.attempt) == key:
+            if revoke.winner == self.agent_id:
+                self._stop(contract, now, f"revoked: {revoke.reason}")
+            return
+        if key not in self._pending:
+            return
+        if revoke.winner == self.agent_id:
+            self._count("revoked_unheard", now,
+                        "%s#%d revoked from us (%s) but its award never reached us",
+                        revoke.task_id, revoke.attempt, revoke.reason)
+            self._close(key, "revoked")
+        else:
+            self._close(key, "lost")
 
     def _start(self, announce: Announce, now: float) -> None:
         self._pending.pop((announce.task_id, announce.attempt), None)
@@ -301,7 +383,8 @@ class Bidder:
         return [out]
 
     def _decline(self, task_id: str, attempt: int, now: float, reason: str) -> Outgoing:
-        self._pending.pop((task_id, attempt), None)
+        if (task_id, attempt) in self._pending:
+            self._close((task_id, attempt), "declined")
         self._emit(now, "decline", task_id, attempt, reason=reason)
         report = Report(task_id, attempt, self.agent_id, "declined", reason)
         return Outgoing(frozenset({negotiation_subject(task_id)}), report)
@@ -309,6 +392,18 @@ class Bidder:
     def _report(self, announce: Announce, status: str, reason: str) -> Outgoing:
         report = Report(announce.task_id, announce.attempt, self.agent_id, status, reason)
         return Outgoing(frozenset({announce.negotiation}), report)
+
+    def _close(self, key: tuple[str, int], how: str) -> None:
+        """Stop listening to the round of one of our bids; remember how it ended."""
+        del self._pending[key]
+        self._closed[key] = how
+        self._closed.move_to_end(key)
+        while len(self._closed) > self._finished_memory:
+            self._closed.popitem(last=False)
+
+    def _count(self, counter: str, now: float, message: str, *args: Any) -> None:
+        self.counters[counter] += 1
+        self._ratelog.warning(counter, now, f"%s: {counter}: {message}", self.agent_id, *args)
 
     def _remember(self, report: Report) -> None:
         self._finished[(report.task_id, report.attempt)] = report

@@ -281,10 +281,10 @@ def test_award_to_someone_else_frees_the_bidder() -> None:
     assert robot.bidder.interest() == {ann.negotiation}
     robot.bidder.handle(Award(ann.task_id, 1, "r1", 3.0, 2, ""), 0.5)
     assert robot.bidder.interest() == frozenset() and not robot.started
-    # pending bids also expire on their own
+    # pending bids also expire on their own (see the late-award tests for the bound)
     _, ann2 = announce_of(auctioneer)
     robot.bidder.handle(ann2, 1.0)
-    robot.bidder.tick(1.0 + 2 * 0.5 + 1.0)
+    robot.bidder.tick(1.0 + 2 * 0.5 + 1.0 + 3.0)
     assert robot.bidder.interest() == frozenset()
 
 
