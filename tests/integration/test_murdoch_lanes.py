@@ -158,7 +158,7 @@ def test_a_lazy_subscriber_is_not_woken_by_replies_but_reads_them_before_what_fo
         assert [e.kind for e in got] == ["report"]
 
 
-JUNK = (b'{"h":[3,"bid","tx","","x","task.mine",-1,""],"b":{}}', b'{"h":[2,"bid","tx"],"b":{}}',
+JUNK = (b'{"h":[3,"bid","tx","","x","task.mine",-1,""],"b":{}}', b'{"h":[3,"bid","tx"],"b":{}}',
         b'{"h":[1,"bid","tx","",1,"a"],"b":{}}', b'{"h":[3,"bid","t\xffx","",1,"task.mine",-1,""]}',
         b'{"h":[3,"bid","tx","",3,"task.mine",-1,""],"b":[]}')
 """Five broken datagrams: four malformed, one of another version."""
