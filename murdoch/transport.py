@@ -48,6 +48,7 @@ from types import TracebackType
 from typing import Any, Protocol
 
 from murdoch.auth import ReplayWindow, TeamKey, is_signed
+from murdoch.ratelog import RateLimitedLog
 from murdoch.subjects import SubjectIndex, SubjectSet, subject_set
 from murdoch.tick_order import TickInbox, sender_key
 from murdoch.wire import Codec, Envelope, Frame, WireError, check_token
@@ -265,6 +266,7 @@ class EndpointCore:
         self._lock = threading.RLock()
         self.frame_tap: Callable[[Frame, int], None] | None = None
         """Called with every accepted frame and its size, known kind or not (for listeners)."""
+        self._ratelog = RateLimitedLog(log, 10.0)
         self.ticks = ticks
         if ticks is not None and ticks.epoch:
             check_token(ticks.epoch, "epoch")
@@ -423,8 +425,7 @@ class EndpointCore:
                         return 0
                     message = codec.message_from(kind, body)
             except WireError as exc:
-                self.counters.count_dropped(exc.reason)
-                log.debug("dropped datagram (%s)", exc)
+                self._dropped(exc)
                 return 0
             self.counters.count_received(kind, size)
             envelope = Envelope(header.sender, header.seq, header.subjects, message, size,
@@ -445,6 +446,16 @@ class EndpointCore:
                 sub._deliver(envelope)
         return len(targets)
 
+
+    def _dropped(self, exc: WireError) -> None:
+        """Count a refused datagram and say so in the log, once per reason per 10 s of the
+        endpoint's clock (a flood of bad traffic cannot flood the log)."""
+        self.counters.count_dropped(exc.reason)
+        try:
+            now = float(self.clock())
+        except Exception:  # a clock that cannot answer (closing down): count only
+            return
+        self._ratelog.warning(exc.reason, now, "dropped a datagram: %s", exc)
 
     def _check_tick(self, header: Any, ticks: TickConfig) -> None:
         if ticks.epoch and header.epoch != ticks.epoch:
@@ -516,8 +527,7 @@ class EndpointCore:
                     return 0
                 message = codec.decode_message(datagram, header)
             except WireError as exc:
-                self.counters.count_dropped(exc.reason)
-                log.debug("dropped datagram (%s)", exc)
+                self._dropped(exc)
                 return 0
             self.counters.count_received(kind, size)
             envelope = Envelope(header.sender, header.seq, header.subjects, message, size,
