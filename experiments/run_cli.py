@@ -235,6 +235,14 @@ class RobotSupervisor:
                 _stop_robot(rp)
 
 
+def _robots_ready(server: Any, ports: dict[str, int]) -> bool:
+    """Has every robot connected and asked for data? (A real-time run starts its clock then,
+    so that slow-starting robot processes do not miss its beginning.)"""
+    asked = {s.endpoint.name for s in list(server.core.sessions.values())
+             if s.round_pending or s.last_round >= 0}
+    return asked >= set(ports)
+
+
 def _task_spec(planned: Any) -> Any:
     """The MURDOCH announcement of one planned task of the task source."""
     from behaviors.library import TASKS
@@ -406,6 +414,8 @@ def run_experiment(
     reason = "completed"
     try:
         rec.start()
+        if not lockstep:
+            sim.set_paused(True)  # the clock starts once every robot is ready (below)
         server.start()
         ports.update(server.ports)
         for ep in endpoints:
@@ -419,9 +429,13 @@ def run_experiment(
             rec.note_process(0.0, "started", ep.name, supervisor.start(ep.name))
         next_memory_wall = time.monotonic() + 2.0
         last_progress = (sim_now(), time.monotonic())
+        waiting_for_robots = not lockstep
         while not server.finished.wait(0.25):
             rec.tick()
             wall = time.monotonic()
+            if waiting_for_robots and _robots_ready(server, ports):
+                waiting_for_robots = False
+                sim.set_paused(False)
             if wall >= next_memory_wall:
                 next_memory_wall = wall + 30.0
                 rec.sample_processes(sim_now(), {"runner": os.getpid(), **supervisor.pids()})
