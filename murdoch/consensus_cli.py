@@ -12,6 +12,7 @@ import click
 
 from murdoch.consensus.cbga import CbgaOptions
 from murdoch.consensus.experiments import DEFAULT_AGENTS, EXPERIMENTS
+from murdoch.consensus.refine import RefineOptions
 from murdoch.consensus.scenario import ScenarioError, load_scenario
 from murdoch.consensus.sync_runner import allocate as run_allocation
 
@@ -30,8 +31,13 @@ from murdoch.consensus.sync_runner import allocate as run_allocation
               help="CBBA and CBGA: the compiled run (same results; about 1.5 s to load "
                    "numba) or the agent-based reference (no start-up cost; slower on big "
                    "problems).")
+@click.option("--refine", is_flag=True, default=False,
+              help="After convergence, improve the plan by exchanges agreed through "
+                   "consensus (closer to the optimum, more messages; see docs/consensus.md).")
+@click.option("--refine-seed", type=int, default=0, show_default=True,
+              help="With --refine: the seed that orders equal proposals.")
 def allocate(scenario: Path, algorithm: str, task_quitting: bool, team_reward: bool,
-             max_rounds: int, engine: str) -> None:
+             max_rounds: int, engine: str, refine: bool, refine_seed: int) -> None:
     """Run CBBA or CBGA on SCENARIO (JSON) in synchronous rounds; print the result as JSON."""
     try:
         sc = load_scenario(scenario)
@@ -40,7 +46,8 @@ def allocate(scenario: Path, algorithm: str, task_quitting: bool, team_reward: b
     try:
         result = run_allocation(sc, algorithm,  # type: ignore[arg-type]
                                 CbgaOptions(task_quitting, team_reward), max_rounds,
-                                compiled=engine == "compiled")
+                                compiled=engine == "compiled",
+                                refine=RefineOptions(seed=refine_seed) if refine else False)
     except ValueError as exc:
         raise click.ClickException(f"{scenario}: {exc}") from exc
     click.echo(json.dumps(result.to_json(), indent=2))
@@ -58,8 +65,11 @@ def allocate(scenario: Path, algorithm: str, task_quitting: bool, team_reward: b
               show_default="CPU count")
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Output directory (default runs/sweep-<experiment>-<UTC time>).")
+@click.option("--refine", is_flag=True, default=False,
+              help="Run every allocation with the improvement phase (variants are named "
+                   "'... +refine').")
 def sweep(experiment: str, agents: str | None, runs: int, seed: int, jobs: int,
-          out: Path | None) -> None:
+          out: Path | None, refine: bool) -> None:
     """Reproduce the CBGA paper's experiments: table (mean ± std) and figures."""
     from murdoch.consensus import plots
     from murdoch.consensus.sweep import (
@@ -79,7 +89,7 @@ def sweep(experiment: str, agents: str | None, runs: int, seed: int, jobs: int,
         counts = {n: parse_agents(agents) if agents else DEFAULT_AGENTS[n] for n in names}
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="--agents") from exc
-    all_jobs = [j for n in names for j in jobs_for(n, counts[n], runs, seed)]
+    all_jobs = [j for n in names for j in jobs_for(n, counts[n], runs, seed, refine)]
     click.echo(f"{len(all_jobs)} allocations in {jobs} process(es) -> {out}", err=True)
     t0 = time.monotonic()
     last = [0.0]
@@ -93,7 +103,8 @@ def sweep(experiment: str, agents: str | None, runs: int, seed: int, jobs: int,
     records = run_jobs(all_jobs, jobs, progress)
     rows = summarise(records)
     meta = {"experiments": names, "agents": {n: list(c) for n, c in counts.items()},
-            "runs": runs, "seed": seed, "jobs": jobs, "wall_s": round(time.monotonic() - t0, 1)}
+            "runs": runs, "seed": seed, "jobs": jobs, "refine": refine,
+            "wall_s": round(time.monotonic() - t0, 1)}
     files = write_outputs(out, records, rows, meta)
     for n in names:
         files += plots.plot_experiment(rows, n, out)

@@ -184,13 +184,17 @@ class RunRecord:
 
 
 def run_one(experiment: str, variant_index: int, n_agents: int, run: int, seed: int,
-            clock: Callable[[], float] = time.perf_counter) -> RunRecord:
-    """Generate one scenario and allocate it (the unit of work of a sweep)."""
+            clock: Callable[[], float] = time.perf_counter, refine: bool = False
+            ) -> RunRecord:
+    """Generate one scenario and allocate it (the unit of work of a sweep); with `refine`
+    the improvement phase follows and the variant is named '<name> +refine'."""
     variant = EXPERIMENTS[experiment][variant_index]
     scenario = variant.make(n_agents, run_seed(seed, n_agents, run))
     t0 = clock()
-    result = allocate(scenario, variant.algorithm, variant.options)  # type: ignore[arg-type]
+    result = allocate(scenario, variant.algorithm, variant.options,  # type: ignore[arg-type]
+                      refine=refine)
     elapsed = clock() - t0
-    return RunRecord(experiment, variant.name, n_agents, run, result.total_score,
+    name = f"{variant.name} +refine" if refine else variant.name
+    return RunRecord(experiment, name, n_agents, run, result.total_score,
                      result.comm_steps, result.messages, result.bytes, result.converged,
                      result.conflict_free, elapsed)

@@ -25,6 +25,7 @@ class Job:
     n_agents: int
     run: int
     seed: int
+    refine: bool = False
 
 
 @dataclass(frozen=True)
@@ -66,9 +67,10 @@ def parse_agents(text: str) -> tuple[int, ...]:
     return tuple(sorted(set(out)))
 
 
-def jobs_for(experiment: str, agents: Sequence[int], runs: int, seed: int) -> list[Job]:
+def jobs_for(experiment: str, agents: Sequence[int], runs: int, seed: int,
+             refine: bool = False) -> list[Job]:
     variants = EXPERIMENTS[experiment]
-    return [Job(experiment, v, n, r, seed)
+    return [Job(experiment, v, n, r, seed, refine)
             for n in agents for v in range(len(variants)) for r in range(runs)]
 
 
@@ -81,7 +83,8 @@ def load_kernels(cbba: bool, cbga: bool) -> None:
 
 
 def _run_chunk(chunk: list[Job]) -> list[RunRecord]:
-    return [run_one(j.experiment, j.variant_index, j.n_agents, j.run, j.seed) for j in chunk]
+    return [run_one(j.experiment, j.variant_index, j.n_agents, j.run, j.seed, refine=j.refine)
+            for j in chunk]
 
 
 def run_jobs(jobs: Sequence[Job], n_procs: int,

@@ -318,14 +318,25 @@ class SyncRunner:
 
 def allocate(scenario: Scenario, algorithm: Algorithm = "cbba",
              options: CbgaOptions | None = None, max_rounds: int = 1000,
-             compiled: bool = True) -> AllocationResult:
+             compiled: bool = True, refine: bool | Any = False) -> AllocationResult:
     """Run an allocator to convergence in synchronous rounds.
+
+    With `refine` (True or a `refine.RefineOptions`) the converged run is followed by the
+    improvement phase of `refine.py` (pairwise exchanges agreed through consensus);
+    ``extra["refine"]`` reports its share of the communication. The default runs the
+    papers' algorithms unchanged.
 
     CBBA and CBGA each run as one compiled function (`cbba_fast`, `cbga_fast`) when
     `compiled` is true and the scenario allows it, with the same results as the agents;
     otherwise the agents of `SyncRunner` run. ``result.extra["engine"]`` says which ran
     ("compiled" or "agents") and, when the compiled run was requested but could not take
     the scenario, ``extra["engine_note"]`` says why."""
+    if refine:
+        from murdoch.consensus.refine import RefineOptions, refine_allocation
+
+        plain = allocate(scenario, algorithm, options, max_rounds, compiled)
+        opts = refine if isinstance(refine, RefineOptions) else RefineOptions()
+        return refine_allocation(scenario, plain, opts)
     note = "not requested"
     if compiled and algorithm == "cbba":
         from murdoch.consensus.cbba_fast import allocate_compiled, compiled_cbba_unsupported

@@ -60,3 +60,15 @@ def test_sweep_writes_table_and_figures(tmp_path: Path) -> None:
     assert len(summary["rows"]) == 6  # 3 variants x 2 agent counts
     assert (out / "fig5.png").stat().st_size > 1000
     assert len((out / "runs.csv").read_text().splitlines()) == 1 + 12
+
+
+def test_allocate_refine_prints_a_result_at_least_as_good(worlds_dir: Path) -> None:
+    f = worlds_dir / "scenarios" / "consensus-small.json"
+    outs = []
+    for extra in ([], ["--refine", "--refine-seed", "3"]):
+        r = CliRunner().invoke(main, ["allocate", str(f), *extra])
+        assert r.exit_code == 0, r.output
+        outs.append(json.loads(r.output))
+    assert outs[1]["total_score"] >= outs[0]["total_score"] - 1e-9
+    assert outs[1]["conflict_free"] is True
+    assert outs[1]["messages"] >= outs[0]["messages"]

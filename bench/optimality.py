@@ -1,0 +1,122 @@
+"""Distance to the optimum: CBBA, CBGA, their --refine variants and sequential greedy.
+
+Part 1: seeded small problems (`small_problems.py`: uniform and clustered tasks, tight and
+loose windows, mixed speeds, capabilities; group tasks with equipment for CBGA), solved
+exactly (`exact.py`). Prints, per size and algorithm, the mean and worst ratio to the
+optimum, how many runs reached it, and whether every plan was conflict-free with every
+assigned task completing.
+
+Part 2: the CBGA paper's set-ups at 10 agents (fig5: 20 single-agent tasks, 20 two-agent
+tasks, 10 + 10), plain vs refined vs centralised sequential greedy (single-agent tasks
+only): mean score, and the communication (rounds, messages, bytes; medians) with the ratio
+refined / plain.
+
+    .venv/bin/python bench/optimality.py            # 20 problems per size, 10 large runs
+    .venv/bin/python bench/optimality.py --runs 40 --large-runs 20
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import numpy as np
+
+from murdoch.consensus.exact import solve_exact
+from murdoch.consensus.experiments import EXPERIMENTS, run_seed
+from murdoch.consensus.sga import sequential_greedy
+from murdoch.consensus.small_problems import SHAPES, small_problem
+from murdoch.consensus.sync_runner import AllocationResult, allocate
+
+SIZES = ((2, 5), (3, 6), (3, 7), (4, 8))
+
+
+def valid(r: AllocationResult) -> bool:
+    return r.conflict_free and not r.incomplete
+
+
+def small(runs: int, seed: int) -> None:
+    print("## Ratio to the optimum on small problems "
+          f"({runs} seeded problems per size, shapes {', '.join(SHAPES)})\n")
+    print("| problems | agents x tasks | algorithm | mean | worst | optimal | valid |")
+    print("|---|---|---|---|---|---|---|")
+    totals: dict[tuple[str, str], list[float]] = {}
+    for groups in (False, True):
+        kind = "groups" if groups else "single"
+        for n, m in SIZES:
+            ratios: dict[str, list[float]] = {}
+            ok: dict[str, int] = {}
+            for k in range(runs):
+                rng = np.random.default_rng([seed, n, m, k, int(groups)])
+                s = small_problem(rng, n, m, SHAPES[k % len(SHAPES)], groups=groups)
+                opt = solve_exact(s).total_score
+                algos = {"cbga": allocate(s, "cbga"),
+                         "cbga --refine": allocate(s, "cbga", refine=True)}
+                if not groups:
+                    algos = {"cbba": allocate(s, "cbba"),
+                             "cbba --refine": allocate(s, "cbba", refine=True),
+                             "sequential greedy": sequential_greedy(s), **algos}
+                for name, r in algos.items():
+                    ratio = r.total_score / opt if opt > 0 else 1.0
+                    ratios.setdefault(name, []).append(ratio)
+                    totals.setdefault((kind, name), []).append(ratio)
+                    ok[name] = ok.get(name, 0) + valid(r)
+            for name, rs in ratios.items():
+                print(f"| {kind} | {n} x {m} | {name} | {100 * statistics.mean(rs):.1f}% | "
+                      f"{100 * min(rs):.1f}% | {sum(x > 1 - 1e-9 for x in rs)}/{len(rs)} | "
+                      f"{ok[name]}/{len(rs)} |")
+    print("\n| problems | algorithm | mean | worst | optimal |")
+    print("|---|---|---|---|---|")
+    for (kind, name), rs in totals.items():
+        print(f"| {kind} (5-8 tasks, 2-4 agents) | {name} | {100 * statistics.mean(rs):.1f}% | "
+              f"{100 * min(rs):.1f}% | {sum(x > 1 - 1e-9 for x in rs)}/{len(rs)} |")
+
+
+def large(runs: int, seed: int, n_agents: int) -> None:
+    print(f"\n## The paper's fig5 set-ups at {n_agents} agents ({runs} runs each)\n")
+    print("| set-up | algorithm | score | rounds | messages | bytes | msgs ratio | "
+          "bytes ratio | valid | solve ms |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for _vi, variant in enumerate(EXPERIMENTS["fig5"]):
+        rows: dict[str, list[tuple[float, int, int, int, bool, float]]] = {}
+        for run in range(runs):
+            s = variant.make(n_agents, run_seed(seed, n_agents, run))
+            # plain and refined alternate on the same scenario
+            for name, refine in (("plain", False), ("--refine", True)):
+                t0 = time.perf_counter()
+                r = allocate(s, variant.algorithm, variant.options,  # type: ignore[arg-type]
+                             refine=refine)
+                dt = time.perf_counter() - t0
+                rows.setdefault(name, []).append(
+                    (r.total_score, r.comm_steps, r.messages, r.bytes, valid(r), dt))
+            if variant.algorithm == "cbba":
+                r = sequential_greedy(s)
+                rows.setdefault("sequential greedy", []).append(
+                    (r.total_score, 0, 0, 0, valid(r), 0.0))
+        base = rows["plain"]
+        for name, rs in rows.items():
+            med = [statistics.median(x[c] for x in rs) for c in range(1, 4)]
+            ratio_m = statistics.median(x[2] / max(1, b[2]) for x, b in zip(rs, base,
+                                                                           strict=True))
+            ratio_b = statistics.median(x[3] / max(1, b[3]) for x, b in zip(rs, base,
+                                                                           strict=True))
+            print(f"| {variant.name} | {name} | {statistics.mean(x[0] for x in rs):.1f} | "
+                  f"{med[0]:.0f} | {med[1]:.0f} | {med[2]:.0f} | {ratio_m:.2f} | "
+                  f"{ratio_b:.2f} | {sum(x[4] for x in rs)}/{len(rs)} | "
+                  f"{1000 * statistics.median(x[5] for x in rs):.0f} |")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=20, help="small problems per size")
+    ap.add_argument("--large-runs", type=int, default=10, help="runs per fig5 set-up")
+    ap.add_argument("--agents", type=int, default=10, help="agents in the fig5 set-ups")
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+    small(args.runs, args.seed)
+    large(args.large_runs, args.seed, args.agents)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,505 @@
+"""The improvement phase of `--refine`: pairwise exchanges agreed through consensus.
+
+After CBBA or CBGA has converged, every agent knows the winners of every task but only its
+own path. The phase runs in numbered steps; each agent floods one entry per step to its
+neighbours and acts when it holds the entries of all agents for that step:
+
+- **step 0**: the entry is the agent's own path. Holding every path, each agent knows the
+  agreed plan (identical on every agent).
+- **step t >= 1**: the entry is the agent's proposal: the best change of the plan that it
+  can make from its own side, or nothing. Moves are computed by the agent alone, on its
+  copy of the plan: take a task from another agent or from the unassigned ones (a group
+  task: replace one member, or join a group that is short), swap one of its tasks for
+  another agent's, move one of its own tasks to a better place in its path, or fill a
+  group task that has no complete group (itself and the partners that gain most).
+  A proposal carries the new paths of the agents it changes and the gain in the total
+  score (`evaluate_plan`) it brings.
+- Holding all proposals of step t, every agent applies the same selection: proposals by
+  gain (equal gains ordered by a seeded ranking of the agents, not by their index),
+  each accepted when it touches none of the agents already changed in this step, keeps
+  the plan conflict-free with every task completing, and raises the total score. The
+  agents therefore hold the same new plan, and the next step begins. A step in which no
+  agent proposes anything ends the phase on every agent.
+
+The phase only raises the total score, never leaves a task with more agents than it needs
+and never keeps a task that does not complete. An agent that has all entries of a step
+and moves on sends, once, the complete entries of the step it left, so that a neighbour
+still missing some completes it with that message (neighbours are at most one step apart).
+
+Communication: one message per link per round; the encoding counted in bytes is the
+consensus header (15 bytes), then per path entry 4 bytes (agent, length) plus 2 per task,
+per proposal 12 bytes (agent, gain, number of paths) plus its paths. Rounds per step are at
+most the graph diameter; a full graph needs one round per step.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from murdoch.consensus.scenario import Scenario
+from murdoch.consensus.scoring import Problem, build_problem, evaluate_plan, path_starts
+from murdoch.consensus.sync_runner import AllocationResult, build_result
+
+Plan = tuple[tuple[int, ...], ...]
+_HEADER_BYTES = 15
+_GAIN_TOL = 1e-7
+
+
+@dataclass(frozen=True)
+class RefineOptions:
+    """`seed` orders equal proposals; `max_steps` bounds the proposal steps."""
+
+    seed: int = 0
+    max_steps: int = 50
+
+
+@dataclass(frozen=True)
+class Proposal:
+    agent: int
+    gain: float
+    paths: tuple[tuple[int, tuple[int, ...]], ...]  # (agent, its new path)
+
+    def size(self) -> int:
+        return 12 + sum(4 + 2 * len(q) for _, q in self.paths)
+
+
+# ----------------------------------------------------------------------------- plan scoring
+
+
+class PlanScorer:
+    """Scores plans: a path sum when every task needs one agent (paths are then
+    independent), the joint execution of `evaluate_plan` otherwise. A plan is valid when
+    no task has more agents than it needs and every task on a path completes."""
+
+    def __init__(self, p: Problem) -> None:
+        self.p = p
+        self.groups = bool((p.required > 1).any())
+        self._paths: dict[tuple[int, tuple[int, ...]], float] = {}
+
+    def path_value(self, i: int, path: tuple[int, ...]) -> float:
+        key = (i, path)
+        v = self._paths.get(key)
+        if v is None:
+            p = self.p
+            if len(path) > p.max_depth or not all(p.eligible[i, j] for j in path):
+                v = -math.inf
+            else:
+                starts, ok = path_starts(p, i, list(path))
+                if not ok:
+                    v = -math.inf
+                else:
+                    lst = p.lists
+                    v = 0.0
+                    for j, t in zip(path, starts, strict=True):
+                        v += lst.reward[j] * math.exp(-lst.discount[j] * (t - lst.score_ref[j]))
+            self._paths[key] = v
+        return v
+
+    def score(self, plan: Plan) -> float:
+        """Total score of a valid plan; -inf for an invalid one."""
+        p = self.p
+        if not self.groups:
+            held = [j for q in plan for j in q]
+            if len(held) != len(set(held)):
+                return -math.inf
+            return sum(self.path_value(i, q) for i, q in enumerate(plan))
+        count = [0] * p.n_tasks
+        for i, q in enumerate(plan):
+            if len(q) > p.max_depth:
+                return -math.inf
+            for j in q:
+                if not p.eligible[i, j]:
+                    return -math.inf
+                count[j] += 1
+        if any(c and c != p.required[j] for j, c in enumerate(count)):
+            return -math.inf
+        ev = evaluate_plan(p, [list(q) for q in plan])
+        if not all(ev.completed[j] for j, c in enumerate(count) if c):
+            return -math.inf
+        return ev.total_score
+
+
+def canonical_plan(p: Problem, paths: Sequence[Sequence[int]]) -> Plan:
+    """The plan without the tasks that do not complete (same score, every task done)."""
+    ev = evaluate_plan(p, [list(q) for q in paths])
+    return tuple(tuple(j for j in q if ev.completed[j]) for q in paths)
+
+
+def _with(plan: Plan, changes: dict[int, tuple[int, ...]]) -> Plan:
+    return tuple(changes.get(i, q) for i, q in enumerate(plan))
+
+
+def _insertions(path: tuple[int, ...], j: int) -> list[tuple[int, ...]]:
+    return [(*path[:k], j, *path[k:]) for k in range(len(path) + 1)]
+
+
+def _without(path: tuple[int, ...], j: int) -> tuple[int, ...]:
+    return tuple(x for x in path if x != j)
+
+
+class MoveSearch:
+    """One agent's search for its best proposal on the agreed plan."""
+
+    def __init__(self, scorer: PlanScorer, agent: int) -> None:
+        self.s = scorer
+        self.p = scorer.p
+        self.i = agent
+
+    def _best_insert(self, plan: Plan, changes: dict[int, tuple[int, ...]], k: int, j: int
+                     ) -> tuple[float, dict[int, tuple[int, ...]]]:
+        """Best position of task j in agent k's path (after `changes`): (score, changes)."""
+        base = changes.get(k, plan[k])
+        if len(base) >= self.p.max_depth or not self.p.eligible[k, j]:
+            return -math.inf, changes
+        best, best_changes = -math.inf, changes
+        for q in _insertions(base, j):
+            c = {**changes, k: q}
+            v = self._value(plan, c)
+            if v > best:
+                best, best_changes = v, c
+        return best, best_changes
+
+    def _value(self, plan: Plan, changes: dict[int, tuple[int, ...]]) -> float:
+        if not self.s.groups:
+            # paths are independent: the changed ones decide
+            total = 0.0
+            for k, q in changes.items():
+                total += self.s.path_value(k, q) - self.s.path_value(k, plan[k])
+            return self.base + total
+        return self.s.score(_with(plan, changes))
+
+    def best(self, plan: Plan) -> Proposal | None:
+        p, i = self.p, self.i
+        self.base = base = self.s.score(plan)
+        holders: list[list[int]] = [[] for _ in range(p.n_tasks)]
+        for k, q in enumerate(plan):
+            for j in q:
+                holders[j].append(k)
+        mine = plan[i]
+        best_v, best_c = base + _GAIN_TOL * max(1.0, abs(base)), None
+
+        def consider(v: float, c: dict[int, tuple[int, ...]]) -> None:
+            nonlocal best_v, best_c
+            if v > best_v:
+                best_v, best_c = v, c
+
+        for j in range(p.n_tasks):
+            if j in mine or not p.eligible[i, j]:
+                continue
+            need = int(p.required[j])
+            owners = holders[j]
+            # take j: from its holder, replacing a member, joining a short group
+            sources: list[int | None] = list(owners) if len(owners) >= need else [None]
+            for k in sources:
+                c = {} if k is None else {k: _without(plan[k], j)}
+                v, c1 = self._best_insert(plan, c, i, j)
+                consider(v, c1)
+                if k is not None and need == 1 and v > -math.inf:
+                    self._chain(plan, holders, c1, k, {i, k}, consider)
+                # swap: give one of my tasks to k (or drop it) and take j
+                for l in mine:
+                    c2 = {**c, i: _without(mine, l)}
+                    if k is not None and l not in plan[k]:
+                        v2, c3 = self._best_insert(plan, c2, k, l)
+                        if v2 > -math.inf:
+                            consider(*self._best_insert(plan, c3, i, j))
+                    consider(*self._best_insert(plan, c2, i, j))
+            if need > 1 and not owners:
+                self._fill(plan, j, consider)
+        # move one of my own tasks elsewhere in my path
+        for l in mine:
+            consider(*self._best_insert(plan, {i: _without(mine, l)}, i, l))
+        if best_c is None:
+            return None
+        changed = tuple(sorted((k, q) for k, q in best_c.items() if q != plan[k]))
+        if not changed:
+            return None
+        return Proposal(i, best_v - base, changed)
+
+    def _chain(self, plan: Plan, holders: list[list[int]], changes: dict[int, tuple[int, ...]],
+               k: int, touched: set[int], consider) -> None:
+        """Agent k, which has just lost a task, takes another single-agent task: an
+        unassigned one, or one of an agent not yet changed, which in turn takes the best
+        unassigned task it can (an ejection chain of up to three agents)."""
+        p = self.p
+        if not p.eligible[k].any():
+            return
+        for l in range(p.n_tasks):
+            if p.required[l] != 1 or not p.eligible[k, l] or l in changes.get(k, plan[k]):
+                continue
+            owners = holders[l]
+            m = owners[0] if owners else None
+            if m is not None and m in touched:
+                continue
+            c = dict(changes) if m is None else {**changes, m: _without(plan[m], l)}
+            v, c1 = self._best_insert(plan, c, k, l)
+            if v == -math.inf:
+                continue
+            consider(v, c1)
+            if m is None:
+                continue
+            best_v, best_c = v, None
+            for u in range(p.n_tasks):
+                if holders[u] or u == l or p.required[u] != 1 or not p.eligible[m, u]:
+                    continue
+                if any(u in q for q in c1.values()):
+                    continue
+                v2, c2 = self._best_insert(plan, c1, m, u)
+                if v2 > best_v:
+                    best_v, best_c = v2, c2
+            if best_c is not None:
+                consider(best_v, best_c)
+
+    def _fill(self, plan: Plan, j: int, consider) -> None:
+        """Join group task j (no members yet) and complete its group with the partners
+        that give the best plan, one at a time."""
+        p, i = self.p, self.i
+        base_i = plan[i]
+        if len(base_i) >= p.max_depth:
+            return
+        # my position is chosen with the full group in place: try each of my insertions
+        for mine_q in _insertions(base_i, j):
+            c: dict[int, tuple[int, ...]] = {i: mine_q}
+            members = [i]
+            ok = True
+            while len(members) < p.required[j]:
+                best_v, best_c, best_k = -math.inf, None, -1
+                for k in range(p.n_agents):
+                    if k in members or not p.eligible[k, j] or len(plan[k]) >= p.max_depth:
+                        continue
+                    for q in _insertions(plan[k], j):
+                        trial = {**c, k: q}
+                        if len(members) + 1 == p.required[j]:
+                            v = self._value(plan, trial)
+                        else:
+                            v = self._partial_value(plan, trial, j)
+                        if v > best_v:
+                            best_v, best_c, best_k = v, trial, k
+                if best_c is None:
+                    ok = False
+                    break
+                c = best_c
+                members.append(best_k)
+            if ok:
+                consider(self._value(plan, c), c)
+
+    def _partial_value(self, plan: Plan, changes: dict[int, tuple[int, ...]], j: int) -> float:
+        """A group not yet full: the members' paths scored alone (j at each one's own
+        arrival), which ranks the partners before the last one joins."""
+        total = 0.0
+        for k, q in changes.items():
+            total += self.s.path_value(k, q) - self.s.path_value(k, plan[k])
+        return total
+
+
+def select(scorer: PlanScorer, plan: Plan, proposals: Sequence[Proposal], rank: Sequence[int]
+           ) -> tuple[Plan, int]:
+    """The plan after the step's proposals (same on every agent): (new plan, moves)."""
+    order = sorted(proposals, key=lambda pr: (-pr.gain, rank[pr.agent]))
+    current = plan
+    value = scorer.score(plan)
+    touched: set[int] = set()
+    moves = 0
+    for pr in order:
+        agents = {k for k, _ in pr.paths}
+        if agents & touched:
+            continue
+        trial = _with(current, dict(pr.paths))
+        v = scorer.score(trial)
+        if v > value + _GAIN_TOL * max(1.0, abs(value)):
+            current, value = trial, v
+            touched |= agents
+            moves += 1
+    return current, moves
+
+
+# ----------------------------------------------------------------------------- one agent
+
+
+@dataclass
+class RefineAgent:
+    """One agent's part of the improvement phase (state and its message handling)."""
+
+    scorer: PlanScorer
+    index: int
+    rank: Sequence[int]
+    own_path: tuple[int, ...]
+    max_steps: int = 50
+    step: int = 0
+    plan: Plan | None = None
+    done: bool = False
+    moves: int = 0
+    entries: dict[int, object] = field(default_factory=dict)
+    previous: tuple[int, dict[int, object]] | None = None
+
+    def __post_init__(self) -> None:
+        self.entries = {self.index: self.own_path}
+
+    def message(self) -> tuple[int, dict[int, object], tuple[int, dict[int, object]] | None]:
+        prev, self.previous = self.previous, None
+        return self.step, dict(self.entries), prev
+
+    def message_size(self, msg: tuple[int, dict[int, object],
+                                      tuple[int, dict[int, object]] | None]) -> int:
+        step, entries, prev = msg
+        size = _HEADER_BYTES + _entries_size(step, entries)
+        if prev is not None:
+            size += _entries_size(*prev)
+        return size
+
+    def receive(self, msg: tuple[int, dict[int, object],
+                                 tuple[int, dict[int, object]] | None]) -> None:
+        step, entries, prev = msg
+        if prev is not None and prev[0] == self.step:
+            self._merge(prev[1])
+        if step == self.step:
+            self._merge(entries)
+
+    def _merge(self, entries: dict[int, object]) -> None:
+        for k, e in entries.items():
+            self.entries.setdefault(k, e)
+
+    def advance(self) -> bool:
+        """Act on a complete step; True when this agent moved to the next step."""
+        n = self.scorer.p.n_agents
+        if self.done or len(self.entries) < n:
+            return False
+        if self.step == 0:
+            self.plan = tuple(tuple(self.entries[k]) for k in range(n))  # type: ignore[arg-type]
+            proposals: list[Proposal] = []
+        else:
+            proposals = [e for e in self.entries.values() if isinstance(e, Proposal)]
+        assert self.plan is not None
+        if self.step > 0:
+            if not proposals:
+                self.done = True
+                self.previous = (self.step, dict(self.entries))
+                self.entries = {}
+                return True
+            else:
+                self.plan, moved = select(self.scorer, self.plan, proposals, self.rank)
+                self.moves += moved
+        self.previous = (self.step, dict(self.entries))
+        self.step += 1
+        if self.step > self.max_steps:
+            self.done = True
+            self.entries = {}
+            return True
+        self.entries = {self.index: MoveSearch(self.scorer, self.index).best(self.plan)}
+        return True
+
+
+def _entries_size(step: int, entries: dict[int, object]) -> int:
+    size = 4
+    for e in entries.values():
+        if isinstance(e, Proposal):
+            size += e.size()
+        elif isinstance(e, tuple):
+            size += 4 + 2 * len(e)
+        else:
+            size += 2  # "no proposal"
+    return size
+
+
+def seeded_rank(n: int, seed: int) -> list[int]:
+    """Position of each agent in the seeded order that settles equal proposals."""
+    perm = np.random.default_rng(seed).permutation(n)
+    rank = [0] * n
+    for pos, k in enumerate(perm.tolist()):
+        rank[k] = pos
+    return rank
+
+
+@dataclass(frozen=True)
+class RefineOutcome:
+    plan: Plan
+    rounds: int
+    messages: int
+    bytes: int
+    steps: int
+    moves: int
+    converged: bool
+
+
+def run_refinement(p: Problem, paths: Sequence[Sequence[int]],
+                   neighbours: Sequence[Sequence[int]], options: RefineOptions,
+                   max_rounds: int = 1000) -> RefineOutcome:
+    """Run the improvement phase in synchronous rounds over the communication graph (every
+    agent sends to its out-neighbours each round until it has finished)."""
+    n = p.n_agents
+    scorer = PlanScorer(p)
+    start = canonical_plan(p, paths)
+    rank = seeded_rank(n, options.seed)
+    agents = [RefineAgent(scorer, i, rank, start[i], options.max_steps) for i in range(n)]
+    rounds = messages = nbytes = 0
+    while not all(a.done and a.previous is None for a in agents) and rounds < max_rounds:
+        rounds += 1
+        sent = []
+        for a in agents:
+            if a.done and a.previous is None:
+                sent.append(None)
+                continue
+            sent.append(a.message())
+        for i, ks in enumerate(neighbours):
+            for k in ks:
+                msg = sent[k]
+                if msg is None:
+                    continue
+                messages += 1
+                nbytes += agents[k].message_size(msg)
+                agents[i].receive(msg)
+        for a in agents:
+            a.advance()
+    plans = {a.plan for a in agents}
+    converged = all(a.done for a in agents) and len(plans) == 1
+    final = agents[0].plan if agents[0].plan is not None else start
+    return RefineOutcome(final, rounds, messages, nbytes, max(a.step for a in agents),
+                         agents[0].moves, converged)
+
+
+def strongly_connected(neighbours: Sequence[Sequence[int]]) -> bool:
+    """Whether every agent hears, directly or through others, from every other."""
+    n = len(neighbours)
+    for src in range(n):
+        seen = {src}
+        stack = [src]
+        while stack:
+            a = stack.pop()
+            for b in range(n):
+                if b not in seen and a in neighbours[b]:
+                    seen.add(b)
+                    stack.append(b)
+        if len(seen) < n:
+            return False
+    return True
+
+
+def refine_allocation(scenario: Scenario, plain: AllocationResult,
+                      options: RefineOptions | None = None) -> AllocationResult:
+    """`plain` (a converged CBBA or CBGA run on `scenario`) followed by the improvement
+    phase; communication is the sum of both, `extra["refine"]` holds the phase's share."""
+    options = options or RefineOptions()
+    p = build_problem(scenario)
+    neighbours = scenario.neighbours()
+    extra = dict(plain.extra)
+    ids = {t.id: j for j, t in enumerate(scenario.tasks)}
+    paths = [[ids[t] for t in plain.assignment.get(a.id, [])] for a in scenario.agents]
+    if not strongly_connected(neighbours):
+        extra["refine"] = {"skipped": "the communication graph is not strongly connected: "
+                                      "agents cannot agree on one plan"}
+        return replace(plain, extra=extra)
+    out = run_refinement(p, paths, neighbours, options)
+    plan = [list(q) for q in out.plan]
+    views = [[frozenset(g) for g in evaluate_plan(p, plan).group]] * p.n_agents
+    res = build_result(plain.algorithm, p, plan, views, [True] * p.n_agents, neighbours,
+                       plain.converged and out.converged, plain.comm_steps + out.rounds,
+                       plain.messages + out.messages, plain.bytes + out.bytes,
+                       plain.rounds + out.rounds)
+    extra["refine"] = {"plain_score": plain.total_score, "rounds": out.rounds,
+                       "messages": out.messages, "bytes": out.bytes, "steps": out.steps,
+                       "moves": out.moves, "converged": out.converged}
+    return replace(res, extra=extra)
