@@ -31,9 +31,17 @@ LONGTERM = ["run", "longterm", "--until", "150s", "--task-interval", "25", "--se
             "--kill", "busy@45s", "--restart", "busy@90s", "--no-replay"]
 
 GOLDEN = {
-    "boxpush": "38a2fd137a995478a0b6d1d76d3a8e5b7f8d1f1f0b8b1c8f3d6d4b1b7d0a0f11",
-    "longterm": "0000000000000000000000000000000000000000000000000000000000000000",
+    "boxpush": "38a2fd137a99547853117854444ed2c9aa6600006b3c1c170a8623b65a4abd34",
+    "longterm": "3a3c2b6592fc7e065e8d69ce63282003e287117bf4c50f95f4a74d4fba792aaf",
 }
+"""sha256 of events.jsonl for each run."""
+OUTCOMES = {
+    "boxpush": {"introduced": 12, "allocated": 12, "executed": 10, "failed": 2,
+                "unachievable": 0, "reallocations": 1},
+    "longterm": {"introduced": 5, "allocated": 4, "executed": 1, "failed": 4,
+                 "unachievable": 0, "reallocations": 1},
+}
+"""What the same runs count in summary.json (the digest says the rest)."""
 
 
 def _murdoch() -> list[str]:
@@ -81,4 +89,6 @@ def test_a_seeded_lockstep_run_repeats_byte_for_byte_idle_and_on_one_loaded_cpu(
     with _one_busy_cpu() as cpu:
         loaded = _run(args, tmp_path / "loaded", cpu)
     assert loaded["digest"] == idle["digest"]
+    tasks = idle["summary"]["tasks"]  # type: ignore[index]
+    assert {k: tasks[k] for k in OUTCOMES[name]} == OUTCOMES[name]
     assert idle["digest"] == GOLDEN[name]
