@@ -224,6 +224,16 @@ class RobotSupervisor:
                     rp.proc = None
         return out
 
+    def alive_test(self, name: str) -> Callable[[], bool]:
+        """A test of whether the robot's current process is still running."""
+        rp = self.robots[name]
+
+        def alive() -> bool:
+            proc = rp.proc
+            return proc is not None and proc.poll() is None
+
+        return alive
+
     def pids(self) -> dict[str, int]:
         with self._lock:
             return {f"robot-{n}": rp.proc.pid for n, rp in self.robots.items()
@@ -395,7 +405,9 @@ def run_experiment(
         rec=rec, sim=sim, node=node, transport=transport, processes=supervisor, tails=tails,
         planned=planned, task_subjects=lambda k: (), task_spec=_task_spec,
         duration_s=duration_s, faults=faults,
-        expect=server.core.expect if lockstep else None, team_clock=team_clock,
+        expect=((lambda n: server.core.expect(n, supervisor.alive_test(n))) if lockstep
+                else None),
+        team_clock=team_clock,
         wait_clock=time.monotonic, request_stop=server.request_stop,
         boxpush=(goal_watch, actions) if goal_watch is not None else None,
         mobile=frozenset(r.name for r in spec.robots if r.mobile), spec=spec, place=_place,
@@ -424,9 +436,9 @@ def run_experiment(
                               JsonlTail(rec.run.logs / f"{ep.name}.auction.jsonl"))
         loop.tails = dict(sorted(tails.items()))
         for ep in endpoints:
-            if lockstep:
-                server.core.expect(ep.name)
             rec.note_process(0.0, "started", ep.name, supervisor.start(ep.name))
+            if lockstep:
+                server.core.expect(ep.name, supervisor.alive_test(ep.name))
         next_memory_wall = time.monotonic() + 2.0
         last_progress = (sim_now(), time.monotonic())
         waiting_for_robots = not lockstep

@@ -173,8 +173,9 @@ class ServerCore:
         #: bumped whenever a driver handles a request or command (state may have changed)
         self._mutations = 0
         self.participants_seen = 0
-        #: endpoints (by name) whose participant the lockstep waits for before it steps
-        self.expected: set[str] = set()
+        #: endpoints (by name) whose participant the lockstep waits for before it steps, each
+        #: with a test of whether it can still come (its process is alive)
+        self.expected: dict[str, Callable[[], bool]] = {}
         self.counters = CoreCounters()
         #: called with a session as soon as one of its rounds is queued (the front end
         #: writes it at once, so a client can start on its round while later ones are built)
@@ -600,10 +601,11 @@ class ServerCore:
         return s.mode == c.PLAYER_DATAMODE_PULL and any(
             k[0] == _POSITION2D for k in s.subs)
 
-    def expect(self, endpoint_name: str) -> None:
+    def expect(self, endpoint_name: str, alive: Callable[[], bool] = lambda: True) -> None:
         """Step no further until a participant has joined on this endpoint (a robot process
-        started by the owner) and asked for a round, like every other participant."""
-        self.expected.add(endpoint_name)
+        started by the owner) and asked for a round, like every other participant, or
+        until `alive()` says it never will."""
+        self.expected[endpoint_name] = alive
 
     def participants(self) -> list[Session]:
         return [s for s in self.sessions.values() if self.is_participant(s)]
@@ -620,7 +622,10 @@ class ServerCore:
         if not parts or self.participants_seen < self.config.lockstep_clients:
             return False
         if self.expected:
-            self.expected -= {s.endpoint.name for s in parts}
+            joined = {s.endpoint.name for s in parts}
+            for name, alive in list(self.expected.items()):
+                if name in joined or not alive():
+                    del self.expected[name]
             if self.expected:
                 return False
         laggards = [s for s in parts
