@@ -1,4 +1,4 @@
-"""Every death is recorded; faults that find nothing to act on say so; impossible runs stop at once."""
+"""Every death is recorded; a fault that finds nothing says so; impossible runs stop at once."""
 
 from __future__ import annotations
 
