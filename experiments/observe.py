@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any, Protocol
@@ -119,13 +120,19 @@ class JsonlTail:
         self._partial = b""
         self._max = max_bytes
         self.malformed = 0
+        self._fd: int | None = None
 
     def read_new(self) -> Iterator[dict[str, Any]]:
-        try:
-            with self.path.open("rb") as f:
-                f.seek(self._offset)
-                chunk = f.read(self._max)
-        except FileNotFoundError:
+        """The lines completed since the last call (one read while nothing is new: the file
+        stays open between calls, which can come every simulation tick)."""
+        fd = self._fd
+        if fd is None:
+            try:
+                fd = self._fd = os.open(self.path, os.O_RDONLY | getattr(os, "O_CLOEXEC", 0))
+            except FileNotFoundError:
+                return
+        chunk = os.pread(fd, self._max, self._offset)
+        if not chunk:
             return
         self._offset += len(chunk)
         data = self._partial + chunk
@@ -142,6 +149,11 @@ class JsonlTail:
                 yield obj
             else:
                 self.malformed += 1
+
+    def close(self) -> None:
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
 
 
 _ROBOT_KINDS = {

@@ -482,6 +482,9 @@ def run_experiment(
         signal.signal(signal.SIGINT, old_int)
         signal.signal(signal.SIGTERM, old_term)
         supervisor.stop_all()
+        for events_tail, auctions_tail in tails.values():
+            events_tail.close()
+            auctions_tail.close()
         node.close()
         transport.close()
         try:
