@@ -206,6 +206,12 @@ class RunLoop:
         elif kind == "reallocation":
             self.rec.event(t, ev.REALLOCATION, task=task_id, from_robot=d.get("winner"),
                            reason=d.get("reason", ""))
+        elif kind in ("decline", "expired"):
+            # a bidder refused an award (busy, bid expired) or gave up waiting for one: never
+            # silent (docs/murdoch.md, late awards)
+            self.rec.event(t, ev.BID_DECLINED if kind == "decline" else ev.BID_EXPIRED,
+                           task=task_id, robot=d.get("agent"),
+                           **({"reason": d["reason"]} if "reason" in d else {}))
         elif kind == "outcome" and task_id not in st.finished:
             why = str(d.get("reason", ""))
             if d.get("status") == "unachievable" or why.startswith("unachievable"):
