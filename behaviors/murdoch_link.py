@@ -25,7 +25,9 @@ from typing import IO, Any
 
 from behaviors.events import TASK_DONE, TASK_FAILED, TASK_STOPPED
 from behaviors.library import TASKS
+from behaviors.params import ParamError
 from murdoch.auction.messages import TaskSpec
+from murdoch.auction.timing import SUB_TASK
 from murdoch.node import Node
 from murdoch.user_agent import RandomizedBackoff
 from player_server.protocol.team_clock import Declaration, decode_table
@@ -81,6 +83,7 @@ class MurdochLink:
                  tick_sync: TickSync | None = None) -> None:
         self.agent = agent
         self.tick_sync = tick_sync
+        self.metric_errors = 0
         self._done_kinds = {TASK_DONE: "done", TASK_FAILED: "failed", TASK_STOPPED: "stopped"}
         self._finished: deque[tuple[str, str, str]] = deque(maxlen=64)
         self._needs: deque[tuple[str, tuple[str, ...]]] = deque(maxlen=64)
@@ -118,10 +121,21 @@ class MurdochLink:
         return float(self.agent.status().time_s)
 
     def _metric(self, announce: Any) -> float | None:
+        """The robot's score for an announced task; None: it cannot do it (no bid).
+
+        A task the robot does not know, or parameters it refuses, mean no bid; a metric that
+        raises on a task it knows is a bug: logged with its traceback and counted
+        (`metric_errors`), and the robot does not bid."""
+        if announce.name not in TASKS:
+            return None
         try:
             return self.agent.evaluate(announce.name, dict(announce.params))
-        except Exception as exc:  # an unknown task or bad parameters: do not bid
+        except ParamError as exc:  # parameters this robot cannot use: do not bid
             log.info("not bidding on %s %s: %s", announce.name, announce.task_id, exc)
+            return None
+        except Exception:
+            self.metric_errors += 1
+            log.exception("the metric of %s raised on %s", announce.name, announce.task_id)
             return None
 
     def _on_start(self, contract: Any) -> None:
@@ -170,9 +184,8 @@ class MurdochLink:
                     "colour": self._current_params.get("colour", "orange")}
                 if self._heading_rad is not None:
                     params["heading_rad"] = round(self._heading_rad, 3)
-                sub = TaskSpec(name, spec.subjects, params, duration_s=8.0, bid_window_s=0.5,
-                               renew_period_s=1.0, contract_timeout_s=5.0, abandon_after_s=5.0,
-                               timeout_s=60.0, parent=parent)
+                sub = TaskSpec(name, spec.subjects, params, duration_s=8.0, timeout_s=60.0,
+                               parent=parent, **SUB_TASK.fields())
                 self._subtasks[name] = self.node.announce(sub, patience_s=self._patience_s)
 
     def step(self) -> None:

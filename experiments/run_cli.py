@@ -256,16 +256,14 @@ def _robots_ready(server: Any, ports: dict[str, int]) -> bool:
 def _task_spec(planned: Any) -> Any:
     """The MURDOCH announcement of one planned task of the task source."""
     from behaviors.library import TASKS
-    from experiments import run_loop as rl
     from murdoch.auction.messages import TaskSpec
+    from murdoch.auction.timing import USER_TASK
 
     kind = planned.kind
     return TaskSpec(kind, TASKS[kind].subjects, planned.params,
                     duration_s=float(planned.params.get("duration_s", 0.0)),
-                    bid_window_s=rl.BID_WINDOW_S, renew_period_s=rl.RENEW_PERIOD_S,
-                    contract_timeout_s=rl.CONTRACT_TIMEOUT_S,
-                    abandon_after_s=rl.ABANDON_AFTER_S,
-                    timeout_s=float(planned.params["duration_s"]) + 600.0)
+                    timeout_s=float(planned.params["duration_s"]) + 600.0,
+                    **USER_TASK.fields())
 
 
 def run_experiment(

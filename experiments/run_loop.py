@@ -35,10 +35,6 @@ from experiments.task_source import PlannedTask
 
 log = logging.getLogger("murdoch.run")
 
-BID_WINDOW_S = 1.0
-RENEW_PERIOD_S = 2.0
-CONTRACT_TIMEOUT_S = 10.0
-ABANDON_AFTER_S = 10.0
 PATIENCE_S = 300.0
 BOXPUSH_LINGER_S = 3.0
 """After the box's fate is decided, the run goes on this long for the last reports."""
