@@ -146,9 +146,9 @@ class RunRecorder:
 
         def sample_recording(s: Any, t: float) -> None:
             if self.recording is not None:
-                self.recording.sample(s, t)
+                self.recording.on_step(s, t)
 
-        record = ((1.0 / self._record_rate_hz, sample_recording),) if self._record else ()
+        record = ((0.0, sample_recording),) if self._record else ()
         return ObservedSim(
             sim, wall_clock=self._clock,
             live_offer=self.live.offer if self.live is not None else None,

@@ -3,11 +3,12 @@
 
 Three inputs, one file:
 
-- `sample(sim, t)` runs on the serving thread every 1 / `rate_hz` simulated seconds (a sampler
-  of `ObservedSim`): it copies what the simulation holds now - every body's pose, each robot's
-  laser and sonar ranges, odometry, battery and blobs - and hands it to the writer thread,
-  which builds and encodes the messages. The sensing kernels have already computed this tick's
-  readings for the robots' own Player rounds, so sampling reads caches.
+- `on_step(sim, t)` runs on the serving thread after every step (a sampler of `ObservedSim`)
+  and calls `sample(sim, t)` at every tick on a multiple of 1 / `rate_hz` simulated seconds:
+  it copies what the simulation holds now - every body's pose, each robot's laser and sonar
+  ranges, odometry, battery and blobs - and hands it to the writer thread, which builds and
+  encodes the messages. The sensing kernels have already computed this tick's readings for
+  the robots' own Player rounds, so sampling reads caches.
 - `event(e)` records a run event (as the Log line it is in events.jsonl).
 - `robot_states(t, states)` records the robots' states when one changes.
 
@@ -178,6 +179,9 @@ class RunRecording:
         self.world = world
         self.layout = scene.layout_from_world(world)
         self._sensing = _sensing(world)
+        self._interval = float(world.sim.interval_sim_s)
+        self._every = max(1, round(self.period_s / self._interval))
+        self._last_tick = -1
         self._sink = McapSink(self.path, clock=clock)
         self.samples = 0
         self._sink.put(ch.WORLD_INFO, 0.0, world_info(world, self.rate_hz))
@@ -190,6 +194,15 @@ class RunRecording:
         return 1.0 / self.rate_hz
 
     # --- serving thread ---
+
+    def on_step(self, sim: Any, t: float) -> None:
+        """After every step: sample at every tick that is a whole multiple of the period (so
+        samples are evenly spaced on simulation time and fall on the same ticks in every
+        run of the same options)."""
+        tick = round(t / self._interval)
+        if tick % self._every == 0 and tick != self._last_tick:
+            self._last_tick = tick
+            self.sample(sim, t)
 
     def sample(self, sim: Any, t: float) -> None:
         put = self._sink.put
