@@ -32,8 +32,8 @@ LONGTERM = ["run", "longterm", "--until", "150s", "--task-interval", "25", "--se
             "--kill", "busy@45s", "--restart", "busy@90s", "--no-replay"]
 
 GOLDEN = {
-    "boxpush": "38a2fd137a995478a0b6d1d76d3a8e5b7f8d1f1f0b8b1c8f3d6d4b1b7d0a0f11",
-    "longterm": "0000000000000000000000000000000000000000000000000000000000000000",
+    "boxpush": "6f44ba0d87572acad0fb27d34c2b98f2a1bbe3482652bbf0d3f22ad2a493e6c9",
+    "longterm": "229b7658d4482c7e5240e62debfc4cba310c50f3ae0cd57c944793cb0bdd89fc",
 }
 
 
