@@ -205,7 +205,11 @@ class RunRecording:
             self.sample(sim, t)
 
     def sample(self, sim: Any, t: float) -> None:
-        put = self._sink.put
+        batch: list[tuple[str, float, Any]] = []
+
+        def put(topic: str, t: float, message: Any) -> None:
+            batch.append((topic, t, message))
+
         poses = snapshot_poses(sim.snapshot())
         put(ch.TF, t, lambda: ch.frame_transforms(t, poses))
         topic = ch.robot_topic
@@ -243,6 +247,7 @@ class RunRecording:
                         for b in sim.blobs(name)]
                 put(topic(name, ch.BLOBS), t, {"timestamp": ch.stamp(t), "width": width,
                                                "height": height, "blobs": seen})
+        self._sink.put_many(batch)
         self.samples += 1
 
     # --- any thread ---

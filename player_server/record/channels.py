@@ -55,8 +55,8 @@ STATE = "state"
 BLOBS = "blobs"
 ROBOT_CHANNELS: tuple[str, ...] = (LASER, SONAR, SONAR_RANGES, ODOMETRY, BATTERY, STATE, BLOBS)
 
-SONAR_BINS = 360
-"""the sonar ring as a LaserScan: one range per degree around the robot, 0 where no echo."""
+SONAR_BINS = 120
+"""the sonar ring as a LaserScan: one range per 3 degrees around the robot, 0 where no echo."""
 
 # --- schemas (JSON Schema of each message) ---
 _TIME = {"type": "object", "properties": {"sec": {"type": "integer", "minimum": 0},
@@ -262,7 +262,7 @@ def laser_scan(t_s: float, frame_id: str, mount: tuple[float, float, float, floa
 def sonar_ring_scan(t_s: float, frame_id: str, mounts: Sequence[tuple[float, float, float]],
                     ranges: Sequence[float], max_range: float) -> dict[str, Any]:
     """The echoes of a sonar ring as one LaserScan about the robot's origin: each echo
-    (mount + range along the transducer's axis) in the one-degree bin of its bearing, at its
+    (mount + range along the transducer's axis) in the bin of its bearing, at its
     distance from the origin; bins without an echo hold 0. No echo (a range at or beyond
     `max_range`) is left out."""
     bins = [0.0] * SONAR_BINS

@@ -54,9 +54,13 @@ class McapSink:
         self._thread.start()
 
     def put(self, topic: str, t_s: float, message: Message) -> None:
+        self.put_many([(topic, t_s, message)])
+
+    def put_many(self, items: list[tuple[str, float, Message]]) -> None:
+        """Hand over several messages at once (one queue operation)."""
         if self._closed:
             raise ValueError(f"recording {self.path} is closed")
-        self._queue.put((topic, t_s, message))
+        self._queue.put(items)
 
     def _channel(self, topic: str) -> int:
         cid = self._channels.get(topic)
@@ -80,20 +84,7 @@ class McapSink:
             if item is _STOP:
                 return
             if item is not None and self.error is None:
-                topic, t_s, message = item
-                try:
-                    body = message() if callable(message) else message
-                    ns = ch.nanoseconds(t_s)
-                    self._writer.add_message(self._channel(topic), log_time=ns,
-                                             data=ch.encode(body), publish_time=ns)
-                    self.written += 1
-                except (ValueError, TypeError) as exc:  # one bad message: count, go on
-                    self.dropped += 1
-                    if self.dropped <= 10:
-                        log.error("%s: message on %s not recorded: %s", self.path, topic, exc)
-                except OSError as exc:  # the disk: stop recording, keep the run going
-                    self.error = exc
-                    log.error("%s: recording stopped: %s", self.path, exc)
+                self._write(item)
             now = self._clock()
             if now >= next_flush and self.error is None:
                 next_flush = now + self._flush_period
@@ -102,6 +93,23 @@ class McapSink:
                 except OSError as exc:
                     self.error = exc
                     log.error("%s: recording stopped: %s", self.path, exc)
+
+    def _write(self, items: list[tuple[str, float, Message]]) -> None:
+        for topic, t_s, message in items:
+            try:
+                body = message() if callable(message) else message
+                ns = ch.nanoseconds(t_s)
+                self._writer.add_message(self._channel(topic), log_time=ns,
+                                         data=ch.encode(body), publish_time=ns)
+                self.written += 1
+            except (ValueError, TypeError) as exc:  # one bad message: count, go on
+                self.dropped += 1
+                if self.dropped <= 10:
+                    log.error("%s: message on %s not recorded: %s", self.path, topic, exc)
+            except OSError as exc:  # the disk: stop recording, keep the run going
+                self.error = exc
+                log.error("%s: recording stopped: %s", self.path, exc)
+                return
 
     def close(self) -> None:
         """Write what waits, the last chunk and the summary; close the file."""

@@ -29,11 +29,16 @@ def build_server(run: RecordedRun, base_port: int, *, host: str = "127.0.0.1",
     """A Player server over the recording (not started)."""
     endpoints = []
     for i, robot in enumerate(run.robots):
-        drivers = replay_drivers(run, robot)
+        try:
+            drivers = replay_drivers(run, robot)
+            mobile = bool(run.robots[robot].get("mobile", True))
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            raise RecordingError(f"{run.path}: robot {robot!r} of the recorded world is not "
+                                 f"usable: missing or malformed {exc}") from exc
         if drivers:
             endpoints.append(Endpoint(robot, drivers,
                                       requested_port=0 if base_port == 0 else base_port + i,
-                                      mobile=bool(run.robots[robot].get("mobile", True))))
+                                      mobile=mobile))
     if not endpoints:
         raise RecordingError(f"{run.path}: no robot has a recorded device to serve")
     return PlayerServer(ReplayClock(run), endpoints, interval_s=run.interval_s,

@@ -80,3 +80,16 @@ def test_a_recording_without_world_info_is_refused(tmp_path: Path) -> None:
     sink.close()
     with pytest.raises(RecordingError, match="not a run recording"):
         RecordedRun(tmp_path / "run.mcap")
+
+
+def test_a_recorded_world_that_does_not_fit_is_named(tmp_path: Path) -> None:
+    from player_server.replay.serve import build_server
+
+    path = tmp_path / "run.mcap"
+    sink = McapSink(path, clock=time.monotonic)
+    sink.put(ch.WORLD_INFO, 0.0, {"world": "w", "interval_s": 0.1, "robots": {
+        "r1": {"mobile": True, "devices": {}}}})  # no body, no laser layout
+    sink.put("/r1/laser", 0.5, {"ranges": [1.0]})
+    sink.close()
+    with pytest.raises(RecordingError, match="robot 'r1' of the recorded world"):
+        build_server(RecordedRun(path), 0)
