@@ -1,10 +1,12 @@
 """Real-time factor of the long-term experiment.
 
-    python bench/longterm_rtf.py [--sim-hours 3] [--keep] [--no-pin-cpus]
+    python bench/longterm_rtf.py [--sim-hours 3] [--keep] [--no-pin-cpus] [--no-record]
 
 Runs `murdoch run longterm --sim-hours H --speedup 0` into a temporary directory, prints the
 resident memory of every process at the start and at the end of the run, and as its last line
-`sim_hours=H wall_s=<x> rtf=<y> tasks_completed=<n> charge_trips=<c>`.
+`sim_hours=H wall_s=<x> rtf=<y> tasks_completed=<n> charge_trips=<c> mcap_mib=<m>`
+(the size of the run's run.mcap; `--no-record` runs without it, the baseline of what
+recording costs).
 Target on a 2-core machine: 3 simulated hours in at most 5 minutes (rtf >= 36).
 
 Before it, the CPU time of the whole run (the runner with its serving thread and every robot
@@ -50,6 +52,8 @@ def main() -> int:
                    help="niceness of the robot processes (default: murdoch run's)")
     p.add_argument("--no-pin-cpus", action="store_true",
                    help="let the serving thread share its CPU (murdoch run --no-pin-cpus)")
+    p.add_argument("--no-record", action="store_true",
+                   help="write no run.mcap (murdoch run --no-record)")
     args = p.parse_args()
     out = Path(tempfile.mkdtemp(prefix="bench-longterm-"))
     murdoch = Path(sys.executable).parent / "murdoch"
@@ -59,6 +63,8 @@ def main() -> int:
         cmd += ["--robot-nice", str(args.robot_nice)]
     if args.no_pin_cpus:
         cmd.append("--no-pin-cpus")
+    if args.no_record:
+        cmd.append("--no-record")
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     ticks0 = cpu_ticks()
     proc = subprocess.run(cmd, stdout=subprocess.DEVNULL, check=False)
@@ -69,6 +75,8 @@ def main() -> int:
     try:
         (run,) = out.iterdir()
         s = json.loads((run / "summary.json").read_text())
+        recording = run / "run.mcap"
+        mcap_mib = recording.stat().st_size / 2**20 if recording.is_file() else 0.0
         for name, mem in s["processes"].items():
             print(f"memory {name}: start {mem['rss_first_bytes'] / 2**20:.1f} MiB, "
                   f"end {mem['rss_last_bytes'] / 2**20:.1f} MiB, "
@@ -81,7 +89,7 @@ def main() -> int:
               f"cpu_steal={100 * steal:.0f}%")
         print(f"sim_hours={s['sim_time_s'] / 3600:g} wall_s={s['wall_time_s']:.1f} "
               f"rtf={s['real_time_factor']:.1f} tasks_completed={s['tasks']['executed']} "
-              f"charge_trips={s['charging_trips']}")
+              f"charge_trips={s['charging_trips']} mcap_mib={mcap_mib:.2f}")
     finally:
         if args.keep:
             print(f"run directory kept: {out}", file=sys.stderr)

@@ -24,6 +24,8 @@ SUBCOMMANDS: dict[str, Subcommand] = {
     "sweep": Subcommand("murdoch.consensus_cli:sweep", "Reproduce the CBGA paper's experiments."),
     "run": Subcommand("experiments.run_cli:run", "Run an experiment end to end."),
     "report": Subcommand("experiments.report_cli:report", "Rebuild a run's summary and plots."),
+    "record-info": Subcommand("experiments.record_cli:record_info",
+                              "Channels, message counts and duration of a run's run.mcap."),
 }
 
 

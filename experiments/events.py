@@ -1,4 +1,4 @@
-"""The run's event log: one JSON object per line in ``events.jsonl`` (and ``poses.jsonl``).
+"""The run's event log: one JSON object per line in ``events.jsonl``.
 
 Every line has ``t`` (simulation seconds, float) and ``kind`` (str), plus the fields of its
 kind listed in `REQUIRED_FIELDS` (more fields are allowed and kept). docs/experiments.md is
@@ -217,35 +217,3 @@ def iter_events(
 
 def read_events(path: Path, *, stats: ReadStats | None = None) -> list[dict[str, Any]]:
     return list(iter_events(path, stats=stats))
-
-
-class PoseSampler:
-    """Writes a `poses` event at most once per `period_s` of simulation time.
-
-    `bodies` maps a body name to (x_m, y_m, yaw_rad); positions are rounded to millimetres and
-    angles to milliradians, which keeps a multi-hour recording small.
-    """
-
-    def __init__(self, writer: EventWriter, *, period_s: float = 1.0) -> None:
-        if period_s <= 0:
-            raise ValueError("period_s must be positive")
-        self._writer = writer
-        self._period_s = period_s
-        self._next_t = -math.inf
-        self.samples = 0
-
-    @property
-    def period_s(self) -> float:
-        return self._period_s
-
-    def offer(self, t: float, bodies: Mapping[str, tuple[float, float, float]]) -> bool:
-        if t < self._next_t:
-            return False
-        self._next_t = t + self._period_s
-        rounded = {
-            name: [round(float(x), 3), round(float(y), 3), round(float(yaw), 3)]
-            for name, (x, y, yaw) in bodies.items()
-        }
-        self._writer.write(t, POSES, bodies=rounded)
-        self.samples += 1
-        return True

@@ -1,10 +1,10 @@
 """Watching a running simulation without slowing it down.
 
 `ObservedSim` wraps a `player_server.sim.Simulation` for `PlayerServer` (it is a `Steppable`):
-after each step, on the serving thread that owns the PyBullet client, it takes a snapshot only
-when someone wants one - the pose recorder once per `pose_period_s` of simulation time, the
-live view at most `live_period_s` of wall time apart - and hands it over. Both hand-overs are
-cheap (one JSON line into a buffered file; one assignment under a lock).
+after each step, on the serving thread that owns the PyBullet client, it runs its samplers
+(each every so many simulated seconds: the run recording, battery events, the boxpush referee)
+and, at most `live_period_s` of wall time apart, hands a snapshot to the live view (one
+assignment under a lock).
 
 `JsonlTail` follows a JSON-lines file another process appends to (robot event logs).
 `robot_event_to_run_events` turns a robot's event into run events.
@@ -56,7 +56,6 @@ class ObservedSim:
         sim: SnapshotSim,
         *,
         wall_clock: Callable[[], float],
-        pose_sampler: ev.PoseSampler | None = None,
         live_offer: Callable[[Any], None] | None = None,
         live_period_s: float = 0.1,
         samplers: tuple[tuple[float, Callable[[Any, float], None]], ...] = (),
@@ -65,9 +64,6 @@ class ObservedSim:
         # (period in simulation seconds, callback(sim, t)) run on the serving thread
         self._samplers = [(period, fn, [-1.0]) for period, fn in samplers]
         self._clock = wall_clock
-        self._poses = pose_sampler
-        self._next_pose_t = -1.0
-        self._pose_period = pose_sampler.period_s if pose_sampler is not None else 0.0
         self._live = live_offer
         self._live_period = live_period_s
         self._next_live_wall = -1.0
@@ -92,22 +88,12 @@ class ObservedSim:
             if t >= due[0]:
                 due[0] = t + period
                 fn(self.sim, t)
-        want_pose = self._poses is not None and t >= self._next_pose_t
-        want_live = False
         if self._live is not None:
             now = self._clock()
             if now >= self._next_live_wall:
-                want_live = True
                 self._next_live_wall = now + self._live_period
-        if not (want_pose or want_live):
-            return
-        snap = self.sim.snapshot()
-        self.snapshots += 1
-        if want_pose and self._poses is not None:
-            self._poses.offer(t, snapshot_poses(snap))
-            self._next_pose_t = t + self._pose_period
-        if want_live and self._live is not None:
-            self._live(snap)
+                self.snapshots += 1
+                self._live(self.sim.snapshot())
 
 
 class JsonlTail:

@@ -1,15 +1,18 @@
 """Everything a run leaves behind and shows while it runs, behind one object.
 
 The experiment runner creates a `RunRecorder`, calls `start()`, reports what happens with
-`event(...)`, wraps its simulation with `observe(sim)` (pose keyframes and the live view),
-samples process memory with `sample_processes(...)` now and then, calls `tick()` from its main
-loop for the progress display, and `finish(reason)` at the end, which writes the summary,
-plots and replay. With `meshcat=True` the live viewer is started and its URL printed.
+`event(...)`, wraps its simulation with `observe(sim)` (the recording's sensor and pose samples
+and the live view), samples process memory with `sample_processes(...)` now and then, calls
+`tick()` from its main loop for the progress display, and `finish(reason)` at the end, which
+closes ``run.mcap`` and writes the summary, plots and replay (built from ``run.mcap``). With
+`meshcat=True` the live viewer is started and its URL printed; with `record=False` there is
+no ``run.mcap`` and so no replay.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import re
 import threading
 from collections.abc import Callable, Mapping
@@ -21,6 +24,7 @@ from experiments import events as ev
 from experiments import rundir as rd
 from experiments.observe import ObservedSim, SnapshotSim
 from experiments.progress import Progress, ProgressDisplay, ProgressTracker
+from experiments.recording import RunRecording
 from experiments.report import Report, build_report
 from experiments.timeline import RobotStateTracker
 
@@ -57,7 +61,8 @@ class RunRecorder:
         stream: TextIO,
         terminal: bool | None = None,
         meshcat: bool = False,
-        pose_period_s: float = 1.0,
+        record: bool = True,
+        record_rate_hz: float = 2.0,
         progress_period_sim_s: float = 300.0,
         live_rate_hz: float = 10.0,
     ) -> None:
@@ -69,9 +74,13 @@ class RunRecorder:
         self._t0 = wall_clock()
         self._stream = stream
         self._events = ev.EventWriter(self.run.events, clock=wall_clock)
-        self._poses_writer = ev.EventWriter(self.run.poses, clock=wall_clock)
         self._processes = ev.EventWriter(self.run.processes, clock=wall_clock)
-        self.poses = ev.PoseSampler(self._poses_writer, period_s=pose_period_s)
+        if record and not (record_rate_hz > 0 and math.isfinite(record_rate_hz)):
+            raise ValueError(f"the record rate must be a positive number of Hz, got "
+                             f"{record_rate_hz}")
+        self._record = record
+        self._record_rate_hz = float(record_rate_hz)
+        self.recording: RunRecording | None = None
         robots = tuple(r.name for r in world.robots)
         self.tracker = ProgressTracker(robots)
         self._states = RobotStateTracker()
@@ -93,7 +102,13 @@ class RunRecorder:
     # --- lifecycle ---
 
     def start(self) -> None:
-        self.run.write_config({"experiment": self.experiment, **self.config})
+        self.run.write_config({"experiment": self.experiment, **self.config,
+                               "record": self._record,
+                               "record_rate_hz": self._record_rate_hz if self._record else None})
+        if self._record:
+            # its writer thread starts here, after the runner has chosen its CPUs
+            self.recording = RunRecording(self.run.recording, self.world,
+                                          rate_hz=self._record_rate_hz, clock=self._clock)
         self.event(0.0, ev.RUN_START, experiment=self.experiment,
                    seed=self.config.get("seed"), world=str(self.config.get("world", "")))
         if self._meshcat:
@@ -118,8 +133,9 @@ class RunRecorder:
         self, sim: SnapshotSim, *, battery_period_s: float = 30.0,
         samplers: tuple[tuple[float, Callable[[Any, float], None]], ...] = (),
     ) -> ObservedSim:
-        """Wrap the simulation for the serving loop: pose keyframes, live view, and a battery
-        sample of every robot with a power device every `battery_period_s`; `samplers`
+        """Wrap the simulation for the serving loop: the recording's samples (every
+        1 / record rate simulated seconds, once `start()` has opened it), the live view, and a
+        battery event of every robot with a power device every `battery_period_s`; `samplers`
         (period in simulation seconds, callback(sim, t)) also run on the serving thread."""
         powered = tuple(r.name for r in self.world.robots if r.devices.power is not None)
 
@@ -128,11 +144,16 @@ class RunRecorder:
                 self.event(t, ev.BATTERY,
                            percent={r: round(float(s.power(r).percent), 2) for r in powered})
 
+        def sample_recording(s: Any, t: float) -> None:
+            if self.recording is not None:
+                self.recording.on_step(s, t)
+
+        record = ((0.0, sample_recording),) if self._record else ()
         return ObservedSim(
-            sim, wall_clock=self._clock, pose_sampler=self.poses,
+            sim, wall_clock=self._clock,
             live_offer=self.live.offer if self.live is not None else None,
             live_period_s=1.0 / self._live_rate_hz,
-            samplers=((battery_period_s, sample_battery), *samplers),
+            samplers=((battery_period_s, sample_battery), *samplers, *record),
         )
 
     # --- while running ---
@@ -147,6 +168,13 @@ class RunRecorder:
             if live is not None:
                 for robot, state in changed.items():
                     live.set_robot(robot, state.state, state.label)
+            recording = self.recording
+            if recording is not None:
+                recording.event(e)
+                if changed:
+                    recording.robot_states(
+                        t, {r: (st.state, st.label) for r, st in changed.items()},
+                        {r: (st.state, st.label) for r, st in self._states.states().items()})
         return e
 
     def robot_states(self) -> dict[str, str]:
@@ -197,11 +225,12 @@ class RunRecorder:
                                   **dict(extra or {}))
         finally:
             self._events.close()
-            self._poses_writer.close()
             self._processes.close()
             self.display.stop()
             self._stop_viewer()
-        return build_report(self.run, replay=replay)
+            if self.recording is not None:
+                self.recording.close()
+        return build_report(self.run, replay=replay and self._record)
 
     def _stop_viewer(self) -> None:
         errors: list[BaseException] = []

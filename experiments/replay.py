@@ -1,8 +1,9 @@
 """``replay.html``: an offline meshcat animation of a run that opens in a browser without a server.
 
 The file holds meshcat's viewer script, the static scene of the world and one animation: the
-pose keyframes of every body (from ``poses.jsonl``), the state of every robot (one coloured
-body per state, shown in turn) and the task kind above a working robot. Keyframes are
+pose keyframes of every body (from the ``/tf`` channel of ``run.mcap``, the run's one
+recording), the state of every robot (one coloured body per state, shown in turn) and the
+task kind above a working robot. Keyframes are
 decimated: a body that stands still keeps only the samples around its moves, and no body keeps
 more than `max_keys_per_body`, so a multi-hour run gives a file of a few megabytes. Playback
 runs `speed` times faster than simulation time (chosen so that the whole run plays in at most

@@ -1,13 +1,14 @@
 """Everything derived from a run directory's events: summary.json, plots and replay.html.
 
 The runner calls `build_report` when a run ends and `murdoch report RUN_DIR` calls it again on
-demand, so a report can always be rebuilt from ``events.jsonl`` (and ``poses.jsonl``) alone.
+demand, so a report can always be rebuilt from ``events.jsonl`` (and ``run.mcap``) alone.
 """
 
 from __future__ import annotations
 
 import hashlib
 import logging
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -42,6 +43,16 @@ def world_of(run: rd.RunDir) -> Any | None:
     return load_world(path if path.suffix == ".toml" else world_path(str(world)))
 
 
+def recorded_poses(path: Path) -> Iterator[dict[str, Any]]:
+    """The pose keyframes of a recording's /tf channel as ``poses`` events (replay.html)."""
+    from player_server.record import channels as ch
+    from player_server.record.reader import iter_messages
+
+    for rec in iter_messages(path, topics=[ch.TF]):
+        bodies = {name: [x, y, yaw] for name, (x, y, yaw) in ch.poses_of(rec.json()).items()}
+        yield {"t": rec.t_s, "kind": ev.POSES, "bodies": bodies}
+
+
 def build_report(run: rd.RunDir, *, replay: bool = True) -> Report:
     stats = ev.ReadStats()
     events = ev.read_events(run.events, stats=stats)
@@ -63,13 +74,11 @@ def build_report(run: rd.RunDir, *, replay: bool = True) -> Report:
             from experiments.replay import write_replay
             from player_server.viz.scene import layout_from_world
 
-            pose_stats = ev.ReadStats()
-            poses = (
-                ev.iter_events(run.poses, stats=pose_stats, kinds=(ev.POSES,))
-                if run.poses.is_file()
-                else iter(())
-            )
-            info = write_replay(run.replay, layout_from_world(spec), poses, events,
-                                title=f"{run.root.name}")
-            replay_path = info.path
+            if not run.recording.is_file():
+                log.warning("%s: no %s; replay.html not built", run.root, rd.RECORDING)
+            else:
+                info = write_replay(run.replay, layout_from_world(spec),
+                                    recorded_poses(run.recording), events,
+                                    title=f"{run.root.name}")
+                replay_path = info.path
     return Report(run, summary, plots, replay_path, stats.malformed)

@@ -12,7 +12,7 @@ import click
 @click.command()
 @click.argument("run_dir", type=click.Path(exists=True, file_okay=False, path_type=Path))
 @click.option("--replay/--no-replay", default=False, show_default=True,
-              help="Also rebuild replay.html from poses.jsonl.")
+              help="Also rebuild replay.html from run.mcap.")
 @click.option("--json", "as_json", is_flag=True, help="Print the whole summary as JSON.")
 def report(run_dir: Path, replay: bool, as_json: bool) -> None:
     """Rebuild RUN_DIR's summary.json and plots from its events.jsonl."""

@@ -154,11 +154,17 @@ def _stop_robot(rp: RobotProcess, *, kill: bool = False, timeout_s: float = 5.0)
 @click.option("--pin-cpus/--no-pin-cpus", default=True, show_default=True,
               help="Give the simulator's serving thread a CPU of its own and run everything "
                    "else (robots, runner) on the others (Linux, at least two CPUs).")
+@click.option("--record-rate", type=click.FloatRange(min=0.01, max=10.0), default=2.0,
+              show_default=True,
+              help="Samples per simulated second of poses and sensors in run.mcap.")
+@click.option("--no-record", is_flag=True,
+              help="Write no run.mcap (and so no replay.html).")
 def run(experiment: str, sim_hours: float | None, until: str | None, speedup: float, seed: int,
         meshcat: bool, out: Path, world: str | None, task_interval: float,
         kills: tuple[str, ...], restarts: tuple[str, ...], switch_offs: tuple[str, ...],
         switch_ons: tuple[str, ...], goal_radius: float | None, no_replay: bool,
-        pipelined: bool, robot_nice: int, key: str | None, pin_cpus: bool) -> None:
+        pipelined: bool, robot_nice: int, key: str | None, pin_cpus: bool,
+        record_rate: float, no_record: bool) -> None:
     """Run EXPERIMENT end to end and leave a run directory behind."""
     if sim_hours is not None and until is not None:
         raise click.UsageError("give --sim-hours or --until, not both")
@@ -172,6 +178,7 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
         switch_offs=[parse_at(r) for r in switch_offs],
         switch_ons=[parse_at(r) for r in switch_ons], goal_radius_m=goal_radius,
         pipelined=pipelined, robot_nice=robot_nice, pin_cpus=pin_cpus, key=key,
+        record=not no_record, record_rate_hz=record_rate,
     )
     sys.exit(code)
 
@@ -273,7 +280,7 @@ def run_experiment(
     switch_offs: list[tuple[str, float]] | None = None,
     switch_ons: list[tuple[str, float]] | None = None, goal_radius_m: float | None = None,
     pipelined: bool = True, robot_nice: int = 0, pin_cpus: bool = False,
-    key: str | None = None,
+    key: str | None = None, record: bool = True, record_rate_hz: float = 2.0,
 ) -> int:
     from experiments import boxpush as bp
     from experiments import events as ev
@@ -340,7 +347,8 @@ def run_experiment(
             "goal_radius_m": goal_watch.radius_m,
         })
     rec = RunRecorder(out, experiment, config, world=spec, started=datetime.now(),
-                      wall_clock=time.monotonic, stream=sys.stdout, meshcat=meshcat)
+                      wall_clock=time.monotonic, stream=sys.stdout, meshcat=meshcat,
+                      record=record, record_rate_hz=record_rate_hz)
     click.echo(f"run directory: {rec.run.root}")
     sim = Simulation(spec, seed=seed)
     endpoints = world_endpoints(spec, sim, 0)

@@ -2,7 +2,8 @@
 
     config.json     the effective configuration, including the seed and the world file
     events.jsonl    every event of the run (see `experiments.events`)
-    poses.jsonl     pose keyframes of every body (kind ``poses``), for the replay
+    run.mcap        the recording: poses, sensors, batteries, states, events (for Foxglove,
+                    the Player replay and replay.html; `experiments.recording`)
     processes.jsonl wall-clock measurements: process memory samples and the run's wall time
     summary.json    counts as in the paper (`experiments.summary`)
     plots/          tasks.png, battery.png, allocation.png (`experiments.plots`)
@@ -21,7 +22,7 @@ from typing import Any
 
 CONFIG = "config.json"
 EVENTS = "events.jsonl"
-POSES = "poses.jsonl"
+RECORDING = "run.mcap"
 PROCESSES = "processes.jsonl"
 SUMMARY = "summary.json"
 PLOTS = "plots"
@@ -44,8 +45,8 @@ class RunDir:
         return self.root / EVENTS
 
     @property
-    def poses(self) -> Path:
-        return self.root / POSES
+    def recording(self) -> Path:
+        return self.root / RECORDING
 
     @property
     def processes(self) -> Path:

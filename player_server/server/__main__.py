@@ -20,7 +20,10 @@ def build_parser() -> argparse.ArgumentParser:
         prog="player-server",
         description="Serve the robots of a world over the Player 3.x protocol "
                     "(one port per robot, starting at the base port).")
-    p.add_argument("world", help="world file (.toml) or the name of a bundled world")
+    p.add_argument("world", nargs="?", help="world file (.toml) or the name of a bundled world")
+    p.add_argument("--replay", metavar="RUN.mcap", default=None,
+                   help="serve a run recording (run.mcap or its run directory) instead of a "
+                        "world: the recorded robots, commands ignored")
     p.add_argument("-p", "--port", type=int, default=DEFAULT_PORT,
                    help="base port (default %(default)s; 0 = ephemeral ports)")
     p.add_argument("--host", default="127.0.0.1", help="address to bind (default %(default)s)")
@@ -51,6 +54,14 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     level = logging.WARNING if args.quiet else logging.DEBUG if args.verbose else logging.INFO
     logging.basicConfig(level=level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    if args.replay is not None or args.world is None:
+        if args.world is not None or args.replay is None:
+            print("player-server: give a WORLD or --replay RUN.mcap (one of them)",
+                  file=sys.stderr)
+            return 2
+        from player_server.replay.serve import main as replay_main
+
+        return replay_main(args)
     from player_server.sim import Simulation
     from worlds import WorldError, load_world, world_path
 

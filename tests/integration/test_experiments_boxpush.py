@@ -15,6 +15,7 @@ from typing import Any
 import pytest
 
 from experiments import events as ev
+from experiments.report import recorded_poses
 from experiments.summary import terminal_state_problems
 
 pytestmark = pytest.mark.timeout(150)
@@ -40,8 +41,7 @@ def _run(tmp_path: Path, *args: str, wall_s: float = 120.0) -> tuple[
 
 def _box_track(run: Path, box: str = "bigbox") -> list[tuple[float, float, float]]:
     track = []
-    for line in (run / "poses.jsonl").read_text().splitlines():
-        d = json.loads(line)
+    for d in recorded_poses(run / "run.mcap"):
         x, y, _ = d["bodies"][box]
         track.append((float(d["t"]), float(x), float(y)))
     return track

@@ -12,6 +12,7 @@ import pytest
 
 from experiments import events as ev
 from experiments.recorder import RunRecorder, parse_proc_status, read_process_memory
+from experiments.report import recorded_poses
 from player_server.sim import Simulation
 from worlds import load_world, world_path
 
@@ -81,9 +82,10 @@ def test_recorded_run_with_live_view(tmp_path: Path) -> None:
     lines = [ln for ln in out.getvalue().splitlines() if ln.startswith("sim ")]
     assert len(lines) >= 3  # one per 20 simulated seconds and a final one
     config = json.loads(run.config.read_text())
-    assert config == {"experiment": "simple", "seed": 5, "world": "simple"}
-    poses = ev.read_events(run.poses)
-    assert 59 <= len(poses) <= 61
+    assert config == {"experiment": "simple", "seed": 5, "world": "simple", "record": True,
+                      "record_rate_hz": 2.0}
+    poses = list(recorded_poses(run.recording))  # two samples per simulated second
+    assert 119 <= len(poses) <= 121
     last = poses[-1]["bodies"][robot]
     assert last[:2] == pytest.approx(list(final[:2]), abs=0.05)
     kinds = [e["kind"] for e in ev.read_events(run.events)]

@@ -1,8 +1,9 @@
 """A lockstep run is a pure function of its world, seed and options.
 
 Each run below is made twice: once as it comes, once with the runner and every robot
-process restricted to one CPU that a busy process shares with them. Both must write exactly
-the events.jsonl recorded here (its sha256). A change that alters what the robots or the
+process restricted to one CPU that a busy process shares with them, and without its
+recording (`--no-record`: what run.mcap samples must not change the run). Both must write
+exactly the events.jsonl recorded here (its sha256). A change that alters what the robots or the
 allocation do legitimately changes these digests: rerun with `MURDOCH_PRINT_DIGESTS=1` to
 see the new ones, check the runs' summaries, and update the table.
 
@@ -66,12 +67,13 @@ def _one_busy_cpu() -> Iterator[int | None]:
 
 
 def _run(args: list[str], out: Path, cpu: int | None = None) -> dict[str, object]:
-    extra = ["--no-pin-cpus"] if cpu is not None else []
+    extra = ["--no-pin-cpus", "--no-record"] if cpu is not None else []
     preexec = (lambda: os.sched_setaffinity(0, {cpu})) if cpu is not None else None
     proc = subprocess.run([*_murdoch(), *args, *extra, "--out", str(out)], capture_output=True,
                           text=True, timeout=560, check=False, preexec_fn=preexec)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     (run,) = out.iterdir()
+    assert (run / "run.mcap").is_file() == (cpu is None)
     digest = hashlib.sha256((run / "events.jsonl").read_bytes()).hexdigest()
     summary = json.loads((run / "summary.json").read_text())
     assert summary["events_sha256"] == digest

@@ -13,6 +13,8 @@ import pytest
 
 from experiments import events as ev
 from experiments import rundir as rd
+from player_server.record import channels as ch
+from player_server.record.writer import McapSink
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -26,9 +28,8 @@ def _record_run(root: Path) -> rd.RunDir:
     run = rd.create_run_dir(root, "longterm", datetime(2026, 3, 4, 5, 6, 7))
     run.write_config({"experiment": "longterm", "seed": 11, "world": "longterm"})
     clock = iter(range(10**6)).__next__
-    with ev.EventWriter(run.events, clock=lambda: float(clock())) as w, \
-            ev.EventWriter(run.poses, clock=lambda: 0.0) as pw:
-        poses = ev.PoseSampler(pw, period_s=1.0)
+    sink = McapSink(run.recording, clock=lambda: 0.0)
+    with ev.EventWriter(run.events, clock=lambda: float(clock())) as w:
         w.write(0, ev.RUN_START, experiment="longterm", seed=11)
         for k in range(30):
             t = 60.0 * k
@@ -40,11 +41,13 @@ def _record_run(root: Path) -> rd.RunDir:
                     outcome="completed")
             w.write(t + 30, ev.BATTERY, percent={f"p{i}": 100 - k - i for i in range(1, 7)})
             for s in range(60):
-                poses.offer(t + s, {f"p{i}": (-4 + i + 0.01 * s, 0.0, 0.0) for i in range(1, 7)})
+                poses = {f"p{i}": (-4 + i + 0.01 * s, 0.0, 0.0) for i in range(1, 7)}
+                sink.put(ch.TF, t + s, ch.frame_transforms(t + s, poses))
         w.write(1800, ev.CHARGE_START, robot="p3")
         w.write(1900, ev.CHARGE_END, robot="p3")
         w.write(1900, ev.PROCESS, name="robot-p1", pid=123, rss_bytes=50_000_000)
         w.write(1900, ev.RUN_END, wall_s=60.0, reason="completed")
+    sink.close()
     with run.events.open("a") as f:
         f.write('{"t": 1901, "kind": "award", "tas')  # cut short
     return run

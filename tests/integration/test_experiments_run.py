@@ -2,17 +2,25 @@
 
 from __future__ import annotations
 
+import itertools
 import json
+import math
 import os
 import pstats
 import subprocess
 import sys
+import time
 from pathlib import Path
+from typing import Any
 
 import pytest
+from mcap.reader import make_reader
 
 from experiments import events as ev
 from experiments.summary import terminal_state_problems
+from player_server.client.connection import PlayerClient
+from player_server.client.proxies import LaserProxy, Position2dProxy
+from player_server.record.reader import iter_messages
 
 pytestmark = pytest.mark.timeout(240)
 
@@ -22,8 +30,11 @@ def _murdoch() -> list[str]:
     return [str(exe)] if exe.exists() else [sys.executable, "-m", "experiments.cli"]
 
 
-def test_short_longterm_run_with_a_killed_winner(tmp_path: Path) -> None:
-    out = tmp_path / "runs"
+@pytest.fixture(scope="module")
+def killed_winner_run(tmp_path_factory: pytest.TempPathFactory
+                      ) -> tuple[subprocess.CompletedProcess[str], Path]:
+    """A 2-minute longterm run whose busy robot is killed at 45 s and restarted at 90 s."""
+    out = tmp_path_factory.mktemp("killed-winner") / "runs"
     proc = subprocess.run(
         [*_murdoch(), "run", "longterm", "--until", "120s", "--task-interval", "25",
          "--seed", "4", "--kill", "busy@45s", "--restart", "busy@90s", "--out", str(out)],
@@ -31,7 +42,14 @@ def test_short_longterm_run_with_a_killed_winner(tmp_path: Path) -> None:
     )
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     (run,) = out.iterdir()
-    for name in ("config.json", "events.jsonl", "poses.jsonl", "summary.json", "replay.html",
+    return proc, run
+
+
+def test_short_longterm_run_with_a_killed_winner(
+    killed_winner_run: tuple[subprocess.CompletedProcess[str], Path]
+) -> None:
+    proc, run = killed_winner_run
+    for name in ("config.json", "events.jsonl", "run.mcap", "summary.json", "replay.html",
                  "plots/tasks.png", "plots/battery.png", "plots/allocation.png"):
         assert (run / name).is_file(), name
     config = json.loads((run / "config.json").read_text())
@@ -58,6 +76,147 @@ def test_short_longterm_run_with_a_killed_winner(tmp_path: Path) -> None:
     assert [e["robot"] for e in events if e["kind"] == ev.ROBOT_RESTART] == [victim]
     assert summary["processes"]["runner"]["peak_rss_bytes"] > 0
     assert "sim 0:02:00" in proc.stdout  # the final progress line
+
+
+def test_the_run_is_recorded_in_run_mcap(
+    killed_winner_run: tuple[subprocess.CompletedProcess[str], Path]
+) -> None:
+    """run.mcap read back with the mcap library's own reader, against events.jsonl."""
+    _, run = killed_winner_run
+    with (run / "run.mcap").open("rb") as f:
+        reader = make_reader(f)
+        assert reader.get_header().profile == "murdoch"
+        summary = reader.get_summary()
+        assert summary is not None and summary.statistics is not None
+        schema_of = {c.topic: summary.schemas[c.schema_id].name
+                     for c in summary.channels.values()}
+        counts = {summary.channels[cid].topic: n
+                  for cid, n in summary.statistics.channel_message_counts.items()}
+        assert summary.statistics.chunk_count >= 1
+        assert {c.message_encoding for c in summary.channels.values()} == {"json"}
+        messages: dict[str, list[tuple[int, int, dict[str, Any]]]] = {}
+        for _schema, channel, msg in reader.iter_messages():
+            messages.setdefault(channel.topic, []).append(
+                (msg.log_time, msg.publish_time, json.loads(msg.data)))
+    robots = [f"p{i}" for i in range(1, 7)]
+    assert schema_of["/tf"] == "foxglove.FrameTransforms"
+    assert schema_of["/events"] == schema_of["/murdoch"] == "foxglove.Log"
+    assert schema_of["/world"] == schema_of["/robots"] == "foxglove.SceneUpdate"
+    for r in robots:
+        assert schema_of[f"/{r}/sonar"] == "foxglove.LaserScan"
+        assert schema_of[f"/{r}/battery"] == "murdoch.Battery"
+        assert schema_of[f"/{r}/odometry"] == "murdoch.Odometry"
+    assert schema_of["/p1/laser"] == schema_of["/p2/laser"] == "foxglove.LaserScan"
+    assert "/p3/laser" not in schema_of  # p3 has no laser
+    assert sum(counts.values()) > 1000
+    # sensors: two samples per simulated second over 120 s, every robot at the same times
+    samples = [t for t, _, _ in messages["/tf"]]
+    assert 235 <= len(samples) <= 242
+    assert all(b - a == pytest.approx(0.5e9, abs=1e6) for a, b in itertools.pairwise(samples))
+    for r in robots:
+        for what in ("sonar", "sonar_ranges", "odometry", "battery"):
+            assert [t for t, _, _ in messages[f"/{r}/{what}"]] == samples, (r, what)
+    for t, published, m in messages["/p2/laser"]:
+        assert published == t == m["timestamp"]["sec"] * 10**9 + m["timestamp"]["nsec"]
+        assert len(m["ranges"]) == 181 and all(0.0 <= v <= 8.0 for v in m["ranges"])
+        assert m["frame_id"] == "p2" and m["start_angle"] == pytest.approx(-math.pi / 2)
+    tf = messages["/tf"][-1][2]["transforms"]
+    assert {t["child_frame_id"] for t in tf} >= {*robots, "red_ball", "ybox1"}
+    assert all(0.0 <= m["percent"] <= 100.0 for _, _, m in messages["/p1/battery"])
+    # every event of events.jsonl is a Log message at its simulation time, word for word
+    lines = (run / "events.jsonl").read_text().splitlines()
+    expected = sorted((round(json.loads(ln)["t"] * 1e9), ln) for ln in lines)
+    logged = sorted((t, m["message"]) for topic in ("/events", "/murdoch")
+                    for t, _, m in messages[topic])
+    assert logged == expected
+    assert all(json.loads(m["message"])["kind"] == "message" for _, _, m in messages["/murdoch"])
+    assert len(messages["/murdoch"]) == sum(1 for ln in lines if '"kind":"message"' in ln)
+    # the static world, and the killed robot's state going to failed and back
+    world = {e["id"] for e in messages["/world"][0][2]["entities"]}
+    assert {"floor", "wall/north", "charger/dock_sw", "charger/dock_ne"} <= world
+    (failure,) = [json.loads(ln) for ln in lines if '"kind":"robot_failure"' in ln]
+    states = [(t / 1e9, m["state"]) for t, _, m in messages[f"/{failure['robot']}/state"]]
+    assert (failure["t"], "failed") in states
+    assert states[-1][1] != "failed"  # restarted at 90 s
+
+
+def _replay_server(recording: Path, *args: str) -> tuple[subprocess.Popen[str], dict[str, int]]:
+    proc = subprocess.Popen([sys.executable, "-m", "player_server.server", "--replay",
+                             str(recording), "-p", "0", *args],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert proc.stdout is not None
+    ports: dict[str, int] = {}
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and len(ports) < 6:
+        line = proc.stdout.readline()
+        if not line:
+            break
+        parts = line.split()
+        if len(parts) >= 3 and parts[1].isdigit():
+            ports[parts[0]] = int(parts[1])
+    return proc, ports
+
+
+def test_player_server_replays_the_recording(
+    killed_winner_run: tuple[subprocess.CompletedProcess[str], Path]
+) -> None:
+    _, run = killed_winner_run
+    recorded: dict[str, list[tuple[float, dict[str, Any]]]] = {}
+    for rec in iter_messages(run / "run.mcap", topics=["/p2/laser", "/p2/odometry"]):
+        recorded.setdefault(rec.topic, []).append((rec.t_s, rec.json()))
+
+    def at(topic: str, t: float) -> dict[str, Any]:
+        return [m for ts, m in recorded[topic] if ts <= t + 1e-6][-1]
+
+    server, ports = _replay_server(run / "run.mcap", "--speedup", "2")
+    try:
+        assert set(ports) == {f"p{i}" for i in range(1, 7)}
+        with PlayerClient("127.0.0.1", ports["p2"], timeout_s=10.0, read_timeout_s=10.0,
+                          lockstep=False) as client:
+            laser = client.subscribe(LaserProxy)
+            pos = client.subscribe(Position2dProxy)
+            assert len(laser.get_geometry().pose.__slots__) == 6
+            assert laser.get_config().max_range == pytest.approx(8.0)
+            pos.set_velocity(0.5, 0.0)  # taken and ignored: the recording goes on as it was
+            seen = 0
+            for _ in range(200):
+                client.read()
+                if laser.scan is None or pos.state is None:
+                    continue
+                t = client.data_time_s
+                assert t is not None
+                assert laser.ranges == pytest.approx(at("/p2/laser", t)["ranges"], abs=1e-3)
+                odo = at("/p2/odometry", t)
+                assert (pos.x, pos.y, pos.yaw) == pytest.approx(
+                    (odo["x"], odo["y"], odo["yaw"]), abs=1e-3)
+                seen += 1
+                if seen >= 5:
+                    break
+            assert seen >= 5
+        out = subprocess.run([sys.executable, "-m", "player_server.client.print_tool", "-p",
+                              str(ports["p1"]), "-c", "2", "laser"],
+                             capture_output=True, text=True, timeout=60, check=False)
+        assert out.returncode == 0, out.stderr
+        assert sum(ln.startswith("#laser(6:0)") for ln in out.stdout.splitlines()) == 2
+    finally:
+        server.terminate()
+        try:
+            server.wait(15)
+        except subprocess.TimeoutExpired:
+            server.kill()
+            server.wait(5)
+    assert server.returncode in (0, -15)
+
+
+def test_replay_of_what_is_not_a_recording(tmp_path: Path) -> None:
+    bad = tmp_path / "events.jsonl"
+    bad.write_text('{"t":0.0,"kind":"run_start"}\n')
+    for target in (bad, tmp_path):
+        proc = subprocess.run([sys.executable, "-m", "player_server.server", "--replay",
+                               str(target), "-p", "0"],
+                              capture_output=True, text=True, timeout=60, check=False)
+        assert proc.returncode == 2 and "player-server:" in proc.stderr, proc.stderr
+        assert "Traceback" not in proc.stderr
 
 
 def test_short_boxpush_run_auctions_pushing_subtasks(tmp_path: Path) -> None:

@@ -109,17 +109,6 @@ def test_reader_skips_and_counts_malformed_lines(tmp_path: Path) -> None:
     assert stats.malformed == 5
 
 
-def test_pose_sampler_keeps_one_sample_per_period(tmp_path: Path) -> None:
-    path = tmp_path / "poses.jsonl"
-    with ev.EventWriter(path, clock=FakeClock()) as w:
-        sampler = ev.PoseSampler(w, period_s=1.0)
-        for k in range(50):  # 0.1 s ticks for 5 s
-            sampler.offer(k * 0.1, {"p1": (1.23456, -2.0, 0.123456)})
-    poses = ev.read_events(path)
-    assert [round(p["t"], 1) for p in poses] == [0.0, 1.0, 2.0, 3.0, 4.0]
-    assert poses[0]["bodies"]["p1"] == [1.235, -2.0, 0.123]
-
-
 def test_run_dir_layout_and_config(tmp_path: Path) -> None:
     started = datetime(2026, 1, 2, 3, 4, 5)
     run = rd.create_run_dir(tmp_path / "runs", "longterm", started)

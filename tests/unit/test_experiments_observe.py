@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from experiments import events as ev
 from experiments.observe import JsonlTail, ObservedSim, robot_event_to_run_events
 
 
@@ -39,20 +38,20 @@ class CountingSim:
         return ("p1",)
 
 
-def test_snapshots_only_when_wanted(tmp_path: Path) -> None:
+def test_samplers_on_simulated_time_live_view_on_wall_time() -> None:
     sim = CountingSim()
     wall = [0.0]
     offered = []
-    with ev.EventWriter(tmp_path / "poses.jsonl", clock=lambda: 0.0) as w:
-        obs = ObservedSim(sim, wall_clock=lambda: wall[0], pose_sampler=ev.PoseSampler(w),
-                          live_offer=offered.append, live_period_s=0.1)
-        for _ in range(600):  # 60 simulated seconds in 0.6 wall seconds
-            obs.step()
-            wall[0] += 0.001
-    poses = ev.read_events(tmp_path / "poses.jsonl")
-    assert len(poses) == 60  # one per simulated second
+    sampled: list[float] = []
+    obs = ObservedSim(sim, wall_clock=lambda: wall[0], live_offer=offered.append,
+                      live_period_s=0.1,
+                      samplers=((1.0, lambda s, t: sampled.append(round(t, 3))),))
+    for _ in range(600):  # 60 simulated seconds in 0.6 wall seconds
+        obs.step()
+        wall[0] += 0.001
+    assert len(sampled) == 60 and sampled[:2] == [0.1, 1.1]  # one per simulated second
     assert 6 <= len(offered) <= 7  # one per 0.1 wall second
-    assert sim.snapshots <= len(poses) + len(offered)
+    assert sim.snapshots == len(offered)
     assert obs.robot_names() == ("p1",)  # the rest of the simulation shows through
 
 

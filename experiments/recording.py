@@ -1,0 +1,281 @@
+"""`RunRecording`: the run as it goes, into ``run.mcap`` (the channels of
+`player_server.record.channels`).
+
+Three inputs, one file:
+
+- `on_step(sim, t)` runs on the serving thread after every step (a sampler of `ObservedSim`)
+  and calls `sample(sim, t)` at every tick on a multiple of 1 / `rate_hz` simulated seconds:
+  it copies what the simulation holds now - every body's pose, each robot's laser and sonar
+  ranges, odometry, battery and blobs - and hands it to the writer thread, which builds and
+  encodes the messages. The sensing kernels have already computed this tick's readings for
+  the robots' own Player rounds, so sampling reads caches.
+- `event(e)` records a run event (as the Log line it is in events.jsonl).
+- `robot_states(t, states)` records the robots' states when one changes.
+
+Nothing here writes to events.jsonl or decides anything in the run: recording or not, a
+lockstep run's events are the same.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from experiments import events as ev
+from experiments.observe import snapshot_poses
+from player_server.record import channels as ch
+from player_server.record.writer import McapSink
+from player_server.viz import scene
+
+DEFAULT_RATE_HZ = 2.0
+_WARNING_KINDS = frozenset({ev.ROBOT_FAILURE, ev.FAULT_SKIPPED, ev.REALLOCATION, ev.ALARM,
+                            ev.GOAL_UNACHIEVABLE})
+_STATE_CODES = {scene.IDLE: 0, scene.WORKING: 1, scene.CHARGING: 2, scene.FAILED: 3}
+
+
+@dataclass(frozen=True, slots=True)
+class _Sensing:
+    """What is sampled of one robot (fixed by the world)."""
+
+    name: str
+    odometry: bool
+    laser: tuple[float, float, float, float, float, float] | None  # mount, min, max angle
+    sonar: tuple[tuple[tuple[float, float, float], ...], float] | None  # mounts, max range
+    power: bool
+    blobs: tuple[int, int] | None  # image width, height
+
+
+def _mount(m: Any) -> list[float]:
+    return [float(m.x), float(m.y), float(m.z), float(m.yaw)]
+
+
+def world_info(world: Any, rate_hz: float) -> dict[str, Any]:
+    """Each robot's devices as the Player replay needs them (geometry, scan layout)."""
+    robots: dict[str, Any] = {}
+    for r in world.robots:
+        d = r.devices
+        dev: dict[str, Any] = {}
+        if d.position2d is not None:
+            dev["position2d"] = {"max_speed": float(d.position2d.max_speed_mps)}
+        if d.laser is not None:
+            s = d.laser
+            dev["laser"] = {"pose": _mount(s.pose), "min_angle": s.min_angle_rad,
+                            "max_angle": s.max_angle_rad, "samples": s.samples,
+                            "resolution": s.resolution_rad, "max_range": s.max_range_m,
+                            "range_res": s.range_res_m, "frequency": s.frequency_hz}
+        if d.sonar is not None:
+            dev["sonar"] = {"poses": [_mount(m) for m in d.sonar.poses],
+                            "max_range": float(d.sonar.max_range_m)}
+        if d.power is not None:
+            dev["power"] = {}
+        if d.blobfinder is not None and d.camera is not None:
+            dev["blobfinder"] = {"width": int(d.camera.width_px),
+                                 "height": int(d.camera.height_px)}
+        robots[r.name] = {
+            "mobile": bool(r.mobile),
+            "body": {"length": float(r.body.length_m), "width": float(r.body.width_m),
+                     "height": float(r.body.height_m), "offset_x": float(r.body.offset_x_m)},
+            "devices": dev,
+        }
+    return {"world": str(world.name), "interval_s": float(world.sim.interval_sim_s),
+            "record_rate_hz": rate_hz, "robots": robots}
+
+
+def _sensing(world: Any) -> tuple[_Sensing, ...]:
+    out = []
+    for r in world.robots:
+        d = r.devices
+        laser = sonar = blobs = None
+        if d.laser is not None:
+            p = d.laser.pose
+            laser = (float(p.x), float(p.y), float(p.z), float(p.yaw),
+                     float(d.laser.min_angle_rad), float(d.laser.max_angle_rad))
+        if d.sonar is not None:
+            sonar = (tuple((float(m.x), float(m.y), float(m.yaw)) for m in d.sonar.poses),
+                     float(d.sonar.max_range_m))
+        if d.blobfinder is not None and d.camera is not None:
+            blobs = (int(d.camera.width_px), int(d.camera.height_px))
+        out.append(_Sensing(r.name, d.position2d is not None, laser, sonar,
+                            d.power is not None, blobs))
+    return tuple(out)
+
+
+def static_scene(layout: scene.SceneLayout) -> dict[str, Any]:
+    """The world that never moves, in the world frame."""
+    ents = []
+    w, h = layout.x_max_m - layout.x_min_m, layout.y_max_m - layout.y_min_m
+    cx, cy = layout.centre
+    ents.append(ch.entity(0.0, ch.WORLD_FRAME, "floor", cubes=[
+        ch.cube(cx, cy, -0.005, 0.0, w, h, 0.01, layout.floor_colour)]))
+    for kind, blocks in (("wall", layout.walls), ("obstacle", layout.obstacles)):
+        for b in blocks:
+            ents.append(ch.entity(0.0, ch.WORLD_FRAME, f"{kind}/{b.name}", cubes=[
+                ch.cube(b.x_m, b.y_m, b.size_z_m / 2, b.yaw_rad, b.size_x_m, b.size_y_m,
+                        b.size_z_m, b.colour)]))
+    for kind, discs in (("post", layout.posts), ("charger", layout.chargers)):
+        for d in discs:
+            ents.append(ch.entity(0.0, ch.WORLD_FRAME, f"{kind}/{d.name}", cylinders=[
+                ch.cylinder(d.x_m, d.y_m, d.height_m / 2, d.radius_m, d.height_m, d.colour)],
+                texts=[ch.text(d.x_m, d.y_m, d.height_m + 0.2, d.name)]
+                if kind == "charger" else []))
+    return ch.scene_update(ents)
+
+
+def bodies_scene(layout: scene.SceneLayout) -> dict[str, Any]:
+    """Boxes, objects and markers, each drawn in its own frame (posed by /tf)."""
+    ents = []
+    for b in layout.boxes:
+        ents.append(ch.entity(0.0, b.name, f"box/{b.name}", frame_locked=True, cubes=[
+            ch.cube(0.0, 0.0, b.size_z_m / 2, 0.0, b.size_x_m, b.size_y_m, b.size_z_m,
+                    b.colour)]))
+    for kind, discs in (("object", layout.objects), ("marker", layout.markers)):
+        for d in discs:
+            ents.append(ch.entity(0.0, d.name, f"{kind}/{d.name}", frame_locked=True,
+                                  cylinders=[ch.cylinder(0.0, 0.0, d.height_m / 2, d.radius_m,
+                                                         d.height_m, d.colour)],
+                                  texts=[ch.text(0.0, 0.0, d.height_m + 0.2, d.name)]
+                                  if kind == "marker" else []))
+    return ch.scene_update(ents)
+
+
+def robots_scene(t: float, layout: scene.SceneLayout,
+                 states: Mapping[str, tuple[str, str]]) -> dict[str, Any]:
+    """Every robot's body in its state's colour, a heading marker and its task label."""
+    ents = []
+    height = scene.ROBOT_HEIGHT_M
+    for r in layout.robots:
+        state, label = states.get(r.name, (scene.IDLE, ""))
+        words = r.name if not label else f"{r.name}: {label}"
+        ents.append(ch.entity(t, r.name, f"robot/{r.name}", frame_locked=True, cubes=[
+            ch.cube(r.offset_x_m, 0.0, height / 2, 0.0, r.length_m, r.width_m, height,
+                    scene.STATE_COLOURS.get(state, scene.STATE_COLOURS[scene.IDLE])),
+            ch.cube(r.offset_x_m + r.length_m / 2 - 0.05, 0.0, height + 0.01, 0.0, 0.1, 0.1,
+                    0.02, scene.NOSE_COLOUR),
+        ], texts=[ch.text(0.0, 0.0, scene.LABEL_HEIGHT_M, words)]))
+    return ch.scene_update(ents)
+
+
+def _ranges(values: Any, digits: int = 3) -> list[float]:
+    """Non-negative finite ranges rounded to millimetres (unusable readings become 0)."""
+    a = np.asarray(values, dtype=np.float64)
+    a = np.where(np.isfinite(a) & (a >= 0.0), a, 0.0)
+    return np.round(a, digits).tolist()  # type: ignore[no-any-return]
+
+
+class RunRecording:
+    """Owns ``run.mcap`` of one run (see the module's doc)."""
+
+    def __init__(self, path: Path, world: Any, *, rate_hz: float = DEFAULT_RATE_HZ,
+                 clock: Callable[[], float]) -> None:
+        if not (rate_hz > 0 and math.isfinite(rate_hz)):
+            raise ValueError(f"the record rate must be a positive number of Hz, got {rate_hz}")
+        self.path = Path(path)
+        self.rate_hz = float(rate_hz)
+        self.world = world
+        self.layout = scene.layout_from_world(world)
+        self._sensing = _sensing(world)
+        self._interval = float(world.sim.interval_sim_s)
+        self._every = max(1, round(self.period_s / self._interval))
+        self._last_tick = -1
+        self._sink = McapSink(self.path, clock=clock)
+        self.samples = 0
+        self._sink.put(ch.WORLD_INFO, 0.0, world_info(world, self.rate_hz))
+        self._sink.put(ch.WORLD_SCENE, 0.0, static_scene(self.layout))
+        self._sink.put(ch.BODIES_SCENE, 0.0, bodies_scene(self.layout))
+        self._sink.put(ch.ROBOTS_SCENE, 0.0, robots_scene(0.0, self.layout, {}))
+
+    @property
+    def period_s(self) -> float:
+        return 1.0 / self.rate_hz
+
+    # --- serving thread ---
+
+    def on_step(self, sim: Any, t: float) -> None:
+        """After every step: sample at every tick that is a whole multiple of the period (so
+        samples are evenly spaced on simulation time and fall on the same ticks in every
+        run of the same options)."""
+        tick = round(t / self._interval)
+        if tick % self._every == 0 and tick != self._last_tick:
+            self._last_tick = tick
+            self.sample(sim, t)
+
+    def sample(self, sim: Any, t: float) -> None:
+        batch: list[tuple[str, float, Any]] = []
+
+        def put(topic: str, t: float, message: Any) -> None:
+            batch.append((topic, t, message))
+
+        poses = snapshot_poses(sim.snapshot())
+        put(ch.TF, t, lambda: ch.frame_transforms(t, poses))
+        topic = ch.robot_topic
+        for s in self._sensing:
+            name = s.name
+            if s.odometry:
+                o = sim.odometry(name)
+                put(topic(name, ch.ODOMETRY), t, {
+                    "timestamp": ch.stamp(t), "x": round(float(o.x), 4),
+                    "y": round(float(o.y), 4), "yaw": round(float(o.yaw), 4),
+                    "vx": round(float(o.vx), 4), "vy": round(float(o.vy), 4),
+                    "vyaw": round(float(o.vyaw), 4), "stall": bool(o.stall)})
+            if s.laser is not None:
+                mx, my, mz, myaw, lo, hi = s.laser
+                ranges = _ranges(sim.laser(name))
+                put(topic(name, ch.LASER), t, lambda n=name, r=ranges, a=(mx, my, mz, myaw),
+                    lo=lo, hi=hi: ch.laser_scan(t, n, a, lo, hi, r))
+            if s.sonar is not None:
+                mounts, max_range = s.sonar
+                sranges = _ranges(sim.sonar(name))
+                put(topic(name, ch.SONAR_RANGES), t,
+                    {"timestamp": ch.stamp(t), "ranges": sranges})
+                put(topic(name, ch.SONAR), t, lambda n=name, r=sranges, m=mounts,
+                    mr=max_range: ch.sonar_ring_scan(t, n, m, r, mr))
+            if s.power:
+                p = sim.power(name)
+                put(topic(name, ch.BATTERY), t, {
+                    "timestamp": ch.stamp(t), "percent": round(float(p.percent), 3),
+                    "charging": 1 if p.charging else 0, "volts": round(float(p.volts), 3),
+                    "watts": round(float(p.watts), 3), "joules": round(float(p.joules), 1)})
+            if s.blobs is not None:
+                width, height = s.blobs
+                seen = [[int(b.id), int(b.colour), int(b.area), int(b.x), int(b.y), int(b.l),
+                         int(b.r), int(b.t), int(b.b), round(float(b.range_m), 3)]
+                        for b in sim.blobs(name)]
+                put(topic(name, ch.BLOBS), t, {"timestamp": ch.stamp(t), "width": width,
+                                               "height": height, "blobs": seen})
+        self._sink.put_many(batch)
+        self.samples += 1
+
+    # --- any thread ---
+
+    def event(self, e: Mapping[str, Any]) -> None:
+        kind = str(e["kind"])
+        t = float(e["t"])
+        level = (ch.LOG_WARNING if kind in _WARNING_KINDS
+                 or (kind == ev.TASK_OUTCOME and e.get("outcome") != ev.COMPLETED)
+                 else ch.LOG_ERROR if kind == ev.RUN_END and e.get("reason") != "completed"
+                 else ch.LOG_INFO)
+        name = str(e.get("msg_kind", kind)) if kind == ev.MESSAGE else kind
+        self._sink.put(ch.MURDOCH if kind == ev.MESSAGE else ch.EVENTS, t,
+                       lambda: ch.log_message(t, name, ev.encode_event(e), level))
+
+    def robot_states(self, t: float, changed: Mapping[str, tuple[str, str]],
+                     every: Mapping[str, tuple[str, str]]) -> None:
+        """`changed` robots' states (state, label), then the scene of `every` robot."""
+        for robot, (state, label) in changed.items():
+            self._sink.put(ch.robot_topic(robot, ch.STATE), t, {
+                "timestamp": ch.stamp(t), "state": state, "label": label,
+                "code": _STATE_CODES.get(state, -1)})
+        snapshot = dict(every)
+        self._sink.put(ch.ROBOTS_SCENE, t, lambda: robots_scene(t, self.layout, snapshot))
+
+    def close(self) -> None:
+        self._sink.close()
+
+    @property
+    def written(self) -> int:
+        return self._sink.written
