@@ -44,6 +44,7 @@ class SonarDriver(Driver):
         self.spec = robot.devices.sonar
         self.powered = True
         self.properties = {"max_range": float(self.spec.max_range_m)}
+        self.property_limits = {"max_range": (0.0, float(self.spec.max_range_m))}
         self._geom = self.geometry()
         # the last reading and what was made of it: the simulator hands back the same array
         # while the reading is unchanged, and then so does this driver
@@ -81,6 +82,7 @@ class LaserDriver(Driver):
         self.serial_number = serial_number
         self.powered = True
         self.properties = {"max_range": float(self.spec.max_range_m)}
+        self.property_limits = {"max_range": (0.0, float(self.spec.max_range_m))}
         self._geom = sm.LaserGeom(mount_pose(self.spec.pose), LASER_SIZE)
         self._last: tuple[Any, tuple[float, ...]] = (None, ())  # reading, its ranges
 
@@ -127,6 +129,7 @@ class RangerDriver(Driver):
         self.robot = robot
         self.spec = robot.devices.ranger
         self.properties = {"max_range": float(self.spec.max_range_m)}
+        self.property_limits = {"max_range": (0.0, float(self.spec.max_range_m))}
         self._geom = self.geometry()
 
     def config(self) -> sm.RangerConfig:
