@@ -67,7 +67,6 @@ _PLAYER = int(Interface.PLAYER)
 _POSITION2D = int(Interface.POSITION2D)
 _SYNCH_OK = encode_message(_PLAYER, 0, int(MsgType.SYNCH), c.PLAYER_SYNCH_OK)
 LOCKSTEP_PROPERTY = "lockstep"
-_LOGGED_BAD = 10
 _FIRST_ROUND_GRACE = 4.0
 
 _PROP_TYPES: dict[int, type] = {

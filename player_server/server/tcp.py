@@ -22,6 +22,7 @@ import errno
 import logging
 import selectors
 import socket
+import struct
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -167,7 +168,7 @@ class TcpFrontEnd:
         """Write queued output of every connection (without blocking)."""
         for conn in list(self._conns.values()):
             if conn.session.closing is not None:
-                self._drop(conn, conn.session.closing)
+                self._drop(conn, conn.session.closing, abort=True)
                 continue
             if not conn.out and self.core.has_output(conn.session):
                 self._write(conn)
@@ -180,7 +181,7 @@ class TcpFrontEnd:
             if self.core.has_backlog(conn.session):
                 self.core.process(conn.session)
                 if conn.session.closing is not None:
-                    self._drop(conn, conn.session.closing)
+                    self._drop(conn, conn.session.closing, abort=True)
                 elif not conn.session.round_pending:
                     self._write(conn)
 
@@ -206,7 +207,7 @@ class TcpFrontEnd:
                           f"({dec.buffered} bytes waiting)")
                 self._limiter.log("frame timeout", logging.WARNING, "closing client %s on %s: %s",
                                   conn.session.peer, conn.session.endpoint.name, reason)
-                self._drop(conn, reason)
+                self._drop(conn, reason, abort=True)
 
     def _rest_listeners(self, ep: Endpoint, exc: OSError) -> None:
         """accept ran out of resources: stop listening for a while (doubling the pause)."""
@@ -290,7 +291,7 @@ class TcpFrontEnd:
                 conn.sock.setsockopt(socket.IPPROTO_TCP, _QUICKACK, 1)
         self.core.receive(conn.session, view[:n])
         if conn.session.closing is not None:
-            self._drop(conn, conn.session.closing)
+            self._drop(conn, conn.session.closing, abort=True)
         elif not conn.session.round_pending:
             self._write(conn)  # replies leave at once; a pending round joins its ACK later
 
@@ -331,8 +332,14 @@ class TcpFrontEnd:
             self._sel.modify(conn.sock, want, ("conn", conn))
             conn.events = want
 
-    def _drop(self, conn: _Conn, reason: str) -> None:
+    def _drop(self, conn: _Conn, reason: str, *, abort: bool = False) -> None:
+        """Close a connection; ``abort`` resets it, discarding whatever the kernel still
+        holds for it (a client the server cut off gets nothing more and costs nothing)."""
         fd = conn.sock.fileno()
+        if abort and fd >= 0:
+            with contextlib.suppress(OSError):
+                conn.sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER,
+                                     struct.pack("ii", 1, 0))
         if fd >= 0:
             with contextlib.suppress(KeyError, ValueError):
                 self._sel.unregister(conn.sock)
