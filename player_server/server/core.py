@@ -360,7 +360,7 @@ class ServerCore:
                 self._bad(s, h, f"command refused by {driver.driver_name}: {exc}")
             else:
                 if driver.watched:
-                    self.watchdog.commanded(s.id, driver)
+                    self.watchdog.commanded(s.id, driver, s.endpoint.name)
         else:
             self._bad(s, h, f"clients do not send message type {h.type}")
 

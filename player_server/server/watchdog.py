@@ -28,8 +28,8 @@ class CommandWatchdog:
         self._now = sim_time_s
         #: session id -> simulated time it was last heard from
         self._heard: dict[int, float] = {}
-        #: id(driver) -> (driver, controlling session id)
-        self._controllers: dict[int, tuple[Driver, int]] = {}
+        #: id(driver) -> (driver, controlling session id, where: the robot's name)
+        self._controllers: dict[int, tuple[Driver, int, str]] = {}
         self._closed: set[int] = set()
         #: devices stopped because their controller went silent
         self.stops = 0
@@ -38,14 +38,14 @@ class CommandWatchdog:
         if self.timeout_s > 0:
             self._heard[session_id] = now_s
 
-    def commanded(self, session_id: int, driver: Driver) -> None:
+    def commanded(self, session_id: int, driver: Driver, where: str = "") -> None:
         """``driver`` accepted a command from this session: it is now its controller."""
         if self.timeout_s > 0:
-            self._controllers[id(driver)] = (driver, session_id)
+            self._controllers[id(driver)] = (driver, session_id, where)
 
     def closed(self, session_id: int) -> None:
         """The connection is gone: the devices it controls stop once it times out."""
-        if any(sid == session_id for _, sid in self._controllers.values()):
+        if any(sid == session_id for _, sid, _ in self._controllers.values()):
             self._closed.add(session_id)
         else:
             self._heard.pop(session_id, None)
@@ -59,18 +59,20 @@ class CommandWatchdog:
         if self.timeout_s <= 0 or not self._controllers:
             return
         now = self._now()
-        for key, (driver, sid) in list(self._controllers.items()):
+        for key, (driver, sid, where) in list(self._controllers.items()):
             last = self._heard.get(sid)
             if last is not None and now - last <= self.timeout_s:
                 continue
             del self._controllers[key]
             self.stops += 1
-            log.warning("watchdog: no word from the client driving %s for %.1f simulated s; "
-                        "stopped", driver.driver_name, self.timeout_s)
+            log.warning("watchdog: no word from the client driving %s of %s for %.1f "
+                        "simulated s; stopped", driver.driver_name, where or "?",
+                        self.timeout_s)
             try:
                 driver.watchdog_stop()
             except Exception:  # contained: the device keeps its last command, logged
                 log.exception("watchdog: %s could not stop", driver.driver_name)
-            if sid in self._closed and not any(s == sid for _, s in self._controllers.values()):
+            if sid in self._closed and not any(
+                    s == sid for _, s, _ in self._controllers.values()):
                 self._closed.discard(sid)
                 self._heard.pop(sid, None)

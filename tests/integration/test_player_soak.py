@@ -4,8 +4,10 @@ Hostile clients on one robot's port send every class of bad frame (``hostile_wir
 as PUSH and PULL readers, leave frames half sent and open connections past the cap, while
 a good PULL client on the overhead camera's port keeps reading. Checked: the server never
 dies, the good client never fails, and the server's resident memory is back within 10 % of
-its start once the hostile clients have left. The good client's worst gap between rounds
-is printed (``-s`` shows it), not asserted.
+its start once the hostile clients have left. "Start" is after a warm-up round of the same
+attack (about 12,000 frames): the first use of a device's sensing and encoding (compiled
+kernels, caches) grows the process once, which is not what is measured here. The good
+client's worst gap between rounds is printed (``-s`` shows it), not asserted.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ hw = load_sibling(__file__, "hostile_wire.py")
 
 pytestmark = [pytest.mark.soak, pytest.mark.timeout(1800)]
 FRAMES = 120_000
+WARM_UP_FRAMES = 12_000
 
 
 def rss_kib(pid: int) -> int:
@@ -55,10 +58,10 @@ def start_server() -> tuple[subprocess.Popen[str], dict[str, int]]:
     return proc, ports
 
 
-def attack(port: int, sent: list[int], stop: threading.Event) -> None:
+def attack(port: int, sent: list[int], stop: threading.Event, frames: int = FRAMES) -> None:
     rng = random.Random(2026)
     conn = 0
-    while sent[0] < FRAMES and not stop.is_set():
+    while sent[0] < frames and not stop.is_set():
         conn += 1
         try:
             if conn % 10 == 3:  # a PUSH reader that stalls with every DATA accepted
@@ -117,6 +120,14 @@ def test_soak_hostile_frames_against_a_good_client() -> None:
                           read_timeout_s=30.0) as good:
             good.set_datamode(c.PLAYER_DATAMODE_PULL)
             good.subscribe(FiducialProxy)
+            warm = threading.Thread(target=attack, args=(ports["robot1"], [0], stop,
+                                                         WARM_UP_FRAMES), daemon=True)
+            warm.start()
+            for _ in range(100_000):
+                if not warm.is_alive():
+                    break
+                good.read()
+            warm.join(60)
             for _ in range(50):
                 good.read()
             rss0 = rss_kib(proc.pid)
