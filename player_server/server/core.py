@@ -26,6 +26,13 @@ goes out first and the simulation steps after it, then the next round's data is 
 (``prepare``) while the clients work on theirs. The commands a client sends after round k
 act in the step that leads from round k+1 to k+2 (one tick of actuation delay); the
 schedule is fixed, so a seeded run still repeats exactly.
+
+Limits (``CoreConfig``, docs/player.md "Hostile clients"): ``receive`` handles at most
+``input_budget`` messages and leaves the rest for ``process`` on later turns
+(``has_backlog``); a client with more than ``output_limit_bytes`` queued is closed; an
+exception while handling a message is contained to it; the communication watchdog
+(``server/watchdog.py``) hears every message and stops a device whose driving client fell
+silent.
 """
 
 from __future__ import annotations
