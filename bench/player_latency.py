@@ -6,16 +6,25 @@ the ``simple`` world in its own process, then measures with our client:
 * req_rtt_us_median: position2d GET_GEOM request -> ACK round trip;
 * pull_round_us_median: one PULL round (REQ DATA, ACK, 6 DATA, SYNCH) with position2d,
   sonar, laser, ranger, bumper and power subscribed;
-* msgs_per_s: DATA messages received per second by back-to-back PULL rounds.
+* msgs_per_s: DATA messages received per second by back-to-back PULL rounds;
+* raw_tcp_rtt_us_median: the floor, a plain loopback TCP round trip of a request-sized
+  message to an echo process (no Player), measured in the same runs, alternating with the
+  Player request; ``rtt_ratio`` = req_rtt / raw_tcp_rtt;
+* nagle_tick_ms_median: a lockstep tick of a client that, like stock libplayerc, leaves
+  Nagle's algorithm on and writes a velocity command (no reply) and then REQ DATA as two
+  separate sends (the server's prompt ACK keeps the second from waiting ~40 ms).
 
 Each figure is the median over several runs (each run's own median for latencies).
-The last line reads ``req_rtt_us_median=<x> pull_round_us_median=<y> msgs_per_s=<z>``.
+The last line reads ``req_rtt_us_median=<x> pull_round_us_median=<y> msgs_per_s=<z>
+raw_tcp_rtt_us_median=<r> rtt_ratio=<q> nagle_tick_ms_median=<t>``.
 """
 
 from __future__ import annotations
 
 import argparse
+import socket
 import statistics
+import struct
 import subprocess
 import sys
 import time
@@ -29,6 +38,11 @@ from player_server.client import (
     RangerProxy,
     SonarProxy,
 )
+from player_server.protocol import actuator_msgs as am
+from player_server.protocol import constants as c
+from player_server.protocol import encode_message
+from player_server.protocol import player_msgs as pm
+from player_server.protocol.common import DevAddr, Pose2d
 
 
 def start_server(world: str, *mode: str) -> tuple[subprocess.Popen[str], int]:
@@ -47,6 +61,108 @@ def start_server(world: str, *mode: str) -> tuple[subprocess.Popen[str], int]:
             return proc, int(parts[1])
     proc.kill()
     raise RuntimeError("the server did not print its port table")
+
+
+_ECHO = """
+import socket, sys
+ls = socket.socket()
+ls.bind(("127.0.0.1", 0))
+ls.listen(1)
+print(ls.getsockname()[1], flush=True)
+c, _ = ls.accept()
+c.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+while True:
+    b = c.recv(65536)
+    if not b:
+        break
+    c.sendall(b)
+"""
+#: a Player request with a header and no body, as GET_GEOM is
+_REQUEST_SIZE = 40
+
+
+class RawEcho:
+    """Another process echoing what it receives: the loopback TCP round trip floor."""
+
+    def __init__(self) -> None:
+        self.proc = subprocess.Popen([sys.executable, "-c", _ECHO], stdout=subprocess.PIPE,
+                                     text=True)
+        assert self.proc.stdout is not None
+        port = int(self.proc.stdout.readline())
+        self.sock = socket.create_connection(("127.0.0.1", port))
+        self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self.msg = b"q" * _REQUEST_SIZE
+
+    def round_trip(self) -> None:
+        self.sock.sendall(self.msg)
+        got = 0
+        while got < _REQUEST_SIZE:
+            got += len(self.sock.recv(65536))
+
+    def close(self) -> None:
+        self.sock.close()
+        self.proc.wait(10)
+
+
+def nagle_ticks(world: str, runs: int, n: int) -> float:
+    """Median lockstep tick (ms) of a client with Nagle on sending command and REQ DATA as
+    two writes, reading its round to the SYNCH."""
+    proc, port = start_server(world, "--lockstep")
+    try:
+        sock = socket.create_connection(("127.0.0.1", port))
+        assert sock.getsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY) == 0  # Nagle on
+        buf = bytearray()
+
+        def read_until(mtype: int) -> None:
+            nonlocal buf
+            while True:
+                while len(buf) >= 40:
+                    size = struct.unpack_from(">I", buf, 36)[0]
+                    if len(buf) < 40 + size:
+                        break
+                    t = struct.unpack_from(">I", buf, 16)[0]
+                    del buf[:40 + size]
+                    if t == mtype:
+                        return
+                chunk = sock.recv(1 << 16)
+                if not chunk:
+                    raise ConnectionError("server closed")
+                buf += chunk
+
+        def exactly(n_bytes: int) -> None:
+            nonlocal buf
+            while len(buf) < n_bytes:
+                buf += sock.recv(1 << 16)
+            del buf[:n_bytes]
+
+        sock.settimeout(30.0)
+        exactly(32)  # banner
+        sock.sendall(encode_message(1, 0, 3, c.PLAYER_REQ_DATAMODE,
+                                    pm.DeviceDatamodeReq(c.PLAYER_DATAMODE_PULL)))
+        read_until(4)
+        sock.sendall(encode_message(1, 0, 3, c.PLAYER_REQ_DEV, pm.DeviceReq(
+            DevAddr(0, 0, 4, 0), c.PLAYER_OPEN_MODE, "")))
+        read_until(4)
+        cmd = encode_message(4, 0, 2, c.PLAYER_POSITION2D_CMD_VEL,
+                             am.Position2dCmdVel(Pose2d(0.0, 0.0, 0.0), 1))
+        req = encode_message(1, 0, 3, c.PLAYER_REQ_DATA)
+
+        def tick() -> None:
+            sock.send(cmd)  # a command: no reply
+            sock.send(req)  # the next write: Nagle holds it until the command is ACKed
+            read_until(5)  # ... the round's SYNCH
+
+        for _ in range(20):
+            tick()
+        result = statistics.median(statistics.median(timed(tick, n)) for _ in range(runs))
+        sock.close()
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+    return result * 1e3
 
 
 def timed(fn: object, n: int) -> list[float]:
@@ -94,8 +210,12 @@ def main() -> int:
         for _ in range(200):
             cl.read()
             pos.get_geometry()
-        req, pull, rate = [], [], []
+        req, pull, rate, raw = [], [], [], []
+        echo = RawEcho()
+        for _ in range(200):
+            echo.round_trip()
         for run in range(args.runs):
+            w = statistics.median(timed(echo.round_trip, args.n)) * 1e6
             r = statistics.median(timed(pos.get_geometry, args.n)) * 1e6
             p = statistics.median(timed(cl.read, args.n)) * 1e6
             before = sum(x.data_count for x in proxies)
@@ -106,9 +226,11 @@ def main() -> int:
             req.append(r)
             pull.append(p)
             rate.append(msgs)
-            print(f"run {run + 1}: req_rtt {r:.1f} us, pull_round {p:.1f} us, "
-                  f"{msgs:.0f} DATA msgs/s", flush=True)
+            raw.append(w)
+            print(f"run {run + 1}: req_rtt {r:.1f} us (raw tcp {w:.1f} us), pull_round "
+                  f"{p:.1f} us, {msgs:.0f} DATA msgs/s", flush=True)
         cl.close()
+        echo.close()
     finally:
         proc.terminate()
         try:
@@ -118,9 +240,13 @@ def main() -> int:
     lockstep = lockstep_rounds(args.world, args.runs, max(args.n // 4, 50))
     print(f"for information: a lockstep tick (physics step + round, one robot process) "
           f"takes {lockstep:.1f} us median")
+    nagle = nagle_ticks(args.world, args.runs, max(args.n // 4, 50))
     r, p, m = statistics.median(req), statistics.median(pull), statistics.median(rate)
-    print(f"targets: req_rtt <= 100 us ({r / 100:.2f}x), pull_round <= 300 us ({p / 300:.2f}x)")
-    print(f"req_rtt_us_median={r:.1f} pull_round_us_median={p:.1f} msgs_per_s={m:.0f}")
+    w = statistics.median(raw)
+    print(f"targets: req_rtt <= 100 us ({r / 100:.2f}x), pull_round <= 300 us ({p / 300:.2f}x),"
+          f" Nagle client lockstep tick <= 2 ms ({nagle / 2:.2f}x)")
+    print(f"req_rtt_us_median={r:.1f} pull_round_us_median={p:.1f} msgs_per_s={m:.0f} "
+          f"raw_tcp_rtt_us_median={w:.1f} rtt_ratio={r / w:.2f} nagle_tick_ms_median={nagle:.3f}")
     return 0
 
 

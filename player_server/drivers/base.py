@@ -8,6 +8,7 @@ stepping thread, so drivers need no locking.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -58,11 +59,16 @@ class Driver:
     live: ClassVar[bool] = False
     #: REQ subtypes handled by ``handle_request``
     requests: ClassVar[frozenset[int]] = frozenset()
+    #: does the communication watchdog stop this device when its client goes silent?
+    watched: ClassVar[bool] = False
 
     def __init__(self, index: int = 0, driver_name: str = "") -> None:
         self.index = index
         self.driver_name = driver_name or f"sim_{type(self).__name__.lower()}"
         self.properties: dict[str, PropValue] = {}
+        #: inclusive (low, high) bounds of numeric properties a client may set; every
+        #: number set must be finite, bounded here or not
+        self.property_limits: dict[str, tuple[float, float]] = {}
 
     # -- data ---------------------------------------------------------------------------
     def data(self) -> Sequence[tuple[int, Any]]:
@@ -71,6 +77,9 @@ class Driver:
 
     def before_step(self) -> None:
         """Called before every simulation step (e.g. to run a controller)."""
+
+    def watchdog_stop(self) -> None:
+        """The client driving this device went silent: stop (only if ``watched``)."""
 
     # -- commands and requests ------------------------------------------------------------
     def handle_command(self, subtype: int, body: Any) -> None:
@@ -101,6 +110,13 @@ class Driver:
             type(old) is not type(value) and not (isinstance(old, float) and isinstance(value, int))
         ):
             raise ValueError(f"property {key!r} holds a {type(old).__name__}")
+        if isinstance(value, float) and not math.isfinite(value):
+            raise ValueError(f"property {key!r} must be finite, got {value}")
+        bounds = self.property_limits.get(key)
+        if bounds is not None and not isinstance(value, (bool, str)) and not (
+                bounds[0] <= value <= bounds[1]):
+            raise ValueError(f"property {key!r} must be in [{bounds[0]:g}, {bounds[1]:g}], "
+                             f"got {value}")
         self.properties[key] = value
 
     def close(self) -> None:

@@ -180,6 +180,7 @@ class OverheadCameraDriver(Driver):
         self.m_per_px_x = cam.view_size_x_m / cam.width_px
         self.m_per_px_y = cam.view_size_y_m / cam.height_px
         self.properties = {"jpeg": False, "jpeg_quality": 80}
+        self.property_limits = {"jpeg_quality": (1, 100)}
 
     def render(self) -> Any:
         cam = self.cam

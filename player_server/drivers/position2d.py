@@ -17,6 +17,9 @@ from player_server.protocol.constants import Interface
 _MAKE_DATA = am.Position2dData.xdr_make  # type: ignore[attr-defined]
 _MAKE_POSE = Pose2d.xdr_make  # type: ignore[attr-defined]
 
+#: odometry coordinates a client may set or send as a goal (metres, either axis)
+ODOM_LIMIT_M = 1.0e4
+
 _NULL_REQUESTS = frozenset({
     c.PLAYER_POSITION2D_REQ_VELOCITY_MODE, c.PLAYER_POSITION2D_REQ_POSITION_MODE,
     c.PLAYER_POSITION2D_REQ_SPEED_PID, c.PLAYER_POSITION2D_REQ_POSITION_PID,
@@ -36,6 +39,11 @@ def _numbers(body: Any) -> list[float]:
     return out
 
 
+def _within_odometry(x: float, y: float) -> None:
+    if abs(x) > ODOM_LIMIT_M or abs(y) > ODOM_LIMIT_M:
+        raise ValueError(f"odometry position ({x:g}, {y:g}) is beyond +-{ODOM_LIMIT_M:g} m")
+
+
 class Position2dDriver(Driver):
     """Differential drive. Position (CMD POS) and heading (CMD VEL_HEAD) goals are followed
     by a proportional controller that sets the velocity before every simulation step."""
@@ -44,6 +52,7 @@ class Position2dDriver(Driver):
     commands = frozenset({1, 2, 3, 4})
     deferred_commands = commands  # velocity targets and goals, followed from the next step
     requests = frozenset(range(1, 10))
+    watched = True  # a robot whose driving client goes silent stops
 
     def __init__(self, sim: Any, robot: Any, index: int = 0) -> None:
         super().__init__(index, "sim_position2d")
@@ -55,6 +64,12 @@ class Position2dDriver(Driver):
             "max_yaw_rate": float(self.spec.max_yaw_rate_radps),
             "position_tolerance_m": 0.05,
             "heading_tolerance_rad": 0.05,
+        }
+        self.property_limits = {
+            "max_speed": (0.0, float(self.spec.max_speed_mps)),
+            "max_yaw_rate": (0.0, float(self.spec.max_yaw_rate_radps)),
+            "position_tolerance_m": (1e-3, 10.0),
+            "heading_tolerance_rad": (1e-3, math.pi),
         }
         self._goal: tuple[str, tuple[float, ...]] | None = None
         self._geom = am.Position2dGeom(*body_geometry(robot))  # fixed by the world
@@ -82,6 +97,7 @@ class Position2dDriver(Driver):
             return
         finite(*(float(n) for n in _numbers(body)))
         if subtype == c.PLAYER_POSITION2D_CMD_POS:
+            _within_odometry(body.pos.px, body.pos.py)
             self._goal = ("pos", (body.pos.px, body.pos.py, body.pos.pa,
                                   abs(body.vel.px) or float(self.properties["max_speed"])))
         elif subtype == c.PLAYER_POSITION2D_CMD_CAR:
@@ -93,6 +109,10 @@ class Position2dDriver(Driver):
             self._goal = ("head", (body.velocity, body.angle))
         else:
             raise Unsupported(f"position2d command {subtype}")
+
+    def watchdog_stop(self) -> None:
+        self._goal = None
+        self.sim.set_velocity(self.robot.name, 0.0, 0.0)
 
     def before_step(self) -> None:
         if self._goal is None:
@@ -127,6 +147,7 @@ class Position2dDriver(Driver):
             return ACK
         if subtype == c.PLAYER_POSITION2D_REQ_SET_ODOM:
             finite(body.pose.px, body.pose.py, body.pose.pa)
+            _within_odometry(body.pose.px, body.pose.py)
             self.sim.set_odometry(name, body.pose.px, body.pose.py, body.pose.pa)
             return ACK
         if subtype == c.PLAYER_POSITION2D_REQ_RESET_ODOM:

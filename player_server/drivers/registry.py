@@ -42,19 +42,23 @@ def _keyed(drivers: list[Driver]) -> dict[DeviceKey, Driver]:
     return {(d.interf, d.index): d for d in drivers}
 
 
-def robot_drivers(sim: Any, robot: Any) -> dict[DeviceKey, Driver]:
-    """Drivers for every device the robot declares, plus simulation:0."""
+def robot_drivers(sim: Any, robot: Any, *, world_control: bool = False
+                  ) -> dict[DeviceKey, Driver]:
+    """Drivers for every device the robot declares, plus simulation:0 (which pauses, resets
+    and moves bodies only with ``world_control``)."""
     drivers: list[Driver] = []
     for name in robot.devices.names():
         cls = _BY_DEVICE.get(name)
         if cls is None:
             raise ValueError(f"robot {robot.name!r}: no driver for device {name!r}")
         drivers.append(cls(sim, robot))
-    drivers.append(SimulationDriver(sim))
+    drivers.append(SimulationDriver(sim, world_control=world_control))
     return _keyed(drivers)
 
 
-def overhead_drivers(sim: Any, world: Any) -> dict[DeviceKey, Driver]:
+def overhead_drivers(sim: Any, world: Any, *, world_control: bool = False
+                     ) -> dict[DeviceKey, Driver]:
     """Camera:0, blobfinder:0, fiducial:0 and simulation:0 of the overhead camera."""
     return _keyed([OverheadCameraDriver(sim, world), OverheadBlobfinderDriver(sim, world),
-                   OverheadFiducialDriver(sim, world), SimulationDriver(sim)])
+                   OverheadFiducialDriver(sim, world),
+                   SimulationDriver(sim, world_control=world_control)])

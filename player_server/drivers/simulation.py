@@ -15,17 +15,48 @@ from player_server.protocol.constants import Interface
 log = logging.getLogger(__name__)
 
 
+#: what changes the world: allowed to network clients only when the server says so
+WORLD_CONTROL_COMMANDS = frozenset({c.PLAYER_SIMULATION_CMD_PAUSE, c.PLAYER_SIMULATION_CMD_RESET})
+WORLD_CONTROL_REQUESTS = frozenset({c.PLAYER_SIMULATION_REQ_SET_POSE2D,
+                                    c.PLAYER_SIMULATION_REQ_SET_POSE3D})
+
+
+class WorldControlRefused(ValueError):
+    """A world-changing request or command while world control is not allowed."""
+
+
 class SimulationDriver(Driver):
+    """Ground-truth poses for every client; pausing, resetting and moving bodies only with
+    ``world_control`` (``player-server --allow-world-control``)."""
+
     interf = int(Interface.SIMULATION)
     commands = frozenset({c.PLAYER_SIMULATION_CMD_PAUSE, c.PLAYER_SIMULATION_CMD_RESET,
                           c.PLAYER_SIMULATION_CMD_SAVE})
     requests = frozenset({1, 2, 3, 4})
 
-    def __init__(self, sim: Any, index: int = 0) -> None:
+    def __init__(self, sim: Any, index: int = 0, *, world_control: bool = False) -> None:
         super().__init__(index, "sim_simulation")
         self.sim = sim
+        self.world_control = world_control
+        self.refused = 0
+
+    def _check_control(self, what: str) -> None:
+        if not self.world_control:
+            self.refused += 1
+            raise WorldControlRefused(
+                f"{what} changes the world; the server allows it only with "
+                "--allow-world-control")
+
+    def _check_pose(self, name: str, x: float, y: float, yaw: float) -> None:
+        finite(x, y, yaw)
+        arena = self.sim.spec.arena
+        if abs(x) > arena.half_x_m or abs(y) > arena.half_y_m:
+            raise ValueError(f"pose ({x:g}, {y:g}) of {name!r} is outside the "
+                             f"{arena.size_x_m:g} x {arena.size_y_m:g} m arena")
 
     def handle_command(self, subtype: int, body: Any) -> None:
+        if subtype in WORLD_CONTROL_COMMANDS:
+            self._check_control(f"simulation command {subtype}")
         if subtype == c.PLAYER_SIMULATION_CMD_PAUSE:
             self.sim.set_paused(not self.sim.paused)
             log.info("simulation %s", "paused" if self.sim.paused else "resumed")
@@ -43,8 +74,10 @@ class SimulationDriver(Driver):
         if subtype == c.PLAYER_SIMULATION_REQ_GET_POSE2D:
             x, y, yaw = self.sim.get_pose(body.name)
             return ack(simm.SimulationPose2dReq(body.name, Pose2d(x, y, yaw)))
+        if subtype in WORLD_CONTROL_REQUESTS:
+            self._check_control(f"simulation request {subtype}")
         if subtype == c.PLAYER_SIMULATION_REQ_SET_POSE2D:
-            finite(body.pose.px, body.pose.py, body.pose.pa)
+            self._check_pose(body.name, body.pose.px, body.pose.py, body.pose.pa)
             self.sim.set_pose(body.name, body.pose.px, body.pose.py, body.pose.pa)
             return ACK
         if subtype == c.PLAYER_SIMULATION_REQ_GET_POSE3D:
@@ -52,7 +85,7 @@ class SimulationDriver(Driver):
             return ack(simm.SimulationPose3dReq(
                 body.name, Pose3d(x, y, 0.0, 0.0, 0.0, yaw), float(self.sim.time_s)))
         if subtype == c.PLAYER_SIMULATION_REQ_SET_POSE3D:
-            finite(body.pose.px, body.pose.py, body.pose.pyaw)
+            self._check_pose(body.name, body.pose.px, body.pose.py, body.pose.pyaw)
             self.sim.set_pose(body.name, body.pose.px, body.pose.py, body.pose.pyaw)
             return ACK
         raise Unsupported(f"simulation request {subtype}")

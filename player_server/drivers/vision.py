@@ -44,6 +44,7 @@ class CameraDriver(Driver):
         self.robot = robot
         self.spec = robot.devices.camera
         self.properties = {"jpeg": False, "jpeg_quality": 80}
+        self.property_limits = {"jpeg_quality": (1, 100)}
 
     def image(self) -> sm.CameraData:
         img = self.sim.camera_image(self.robot.name)

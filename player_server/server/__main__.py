@@ -29,7 +29,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--host", default="127.0.0.1", help="address to bind (default %(default)s)")
     p.add_argument("--speedup", type=float, default=None,
                    help="simulated seconds per wall second, 0 = as fast as possible "
-                        "(default: the world's)")
+                        "(default: 1, real time; with --lockstep 0, the clients set the pace)")
     p.add_argument("--lockstep", action="store_true",
                    help="advance a tick only when every lockstep client asked for it")
     p.add_argument("--pipelined", action="store_true",
@@ -41,6 +41,20 @@ def build_parser() -> argparse.ArgumentParser:
                    help="demote a participant that holds the clock longer (0 = never)")
     p.add_argument("--paused", action="store_true",
                    help="start paused (rounds are still served; simulation CMD PAUSE resumes)")
+    p.add_argument("--allow-world-control", action="store_true",
+                   help="let network clients pause, reset and move bodies through "
+                        "simulation:0 (reading poses is always allowed)")
+    p.add_argument("--watchdog", type=float, default=2.0, metavar="S",
+                   help="stop a robot whose driving client has been silent for S simulated "
+                        "seconds (default %(default)s; 0 = off)")
+    p.add_argument("--max-connections", type=int, default=64, metavar="N",
+                   help="connections open at once over all ports (default %(default)s)")
+    p.add_argument("--output-limit", type=float, default=32.0, metavar="MIB",
+                   help="disconnect a client with more than this many MiB of output waiting "
+                        "unread (default %(default)s; 0 = no limit)")
+    p.add_argument("--frame-timeout", type=float, default=10.0, metavar="S",
+                   help="disconnect a client that leaves a message incomplete for S seconds "
+                        "(default %(default)s; 0 = never)")
     p.add_argument("--seed", type=int, default=None, help="simulation seed (default: world's)")
     p.add_argument("--fidelity", choices=("fast", "render"), default=None)
     p.add_argument("--quit-time", type=float, default=None, metavar="S",
@@ -50,8 +64,33 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _check_options(p: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Refuse option values that make no sense, naming the option (no traceback)."""
+    for name, value, ok, expected in (
+        ("--speedup", args.speedup, args.speedup is None or args.speedup >= 0, "a number >= 0"),
+        ("--watchdog", args.watchdog, args.watchdog >= 0, "seconds >= 0"),
+        ("--max-connections", args.max_connections, args.max_connections >= 1,
+         "an integer >= 1"),
+        ("--output-limit", args.output_limit, args.output_limit >= 0, "MiB >= 0"),
+        ("--frame-timeout", args.frame_timeout, args.frame_timeout >= 0, "seconds >= 0"),
+        ("--lockstep-timeout", args.lockstep_timeout, args.lockstep_timeout >= 0,
+         "seconds >= 0"),
+    ):
+        if not ok or (isinstance(value, float) and value != value):
+            p.error(f"{name}: expected {expected}, got {value}")
+
+
+def default_speedup(speedup: float | None, lockstep: bool) -> float:
+    """Real time unless told otherwise; in lockstep the clients set the pace."""
+    if speedup is not None:
+        return speedup
+    return 0.0 if lockstep else 1.0
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    _check_options(parser, args)
     level = logging.WARNING if args.quiet else logging.DEBUG if args.verbose else logging.INFO
     logging.basicConfig(level=level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     if args.replay is not None or args.world is None:
@@ -74,16 +113,20 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     sim = Simulation(world, seed=args.seed, fidelity=args.fidelity)
     sim.set_paused(args.paused)
-    endpoints = world_endpoints(world, sim, args.port)
+    endpoints = world_endpoints(world, sim, args.port,
+                                allow_world_control=args.allow_world_control)
     server = PlayerServer(
         sim, endpoints,
         interval_s=sim.interval_s,
         clock=time.monotonic,
         host=args.host,
-        speedup=world.sim.speedup if args.speedup is None else args.speedup,
+        speedup=default_speedup(args.speedup, args.lockstep),
         config=CoreConfig(lockstep=args.lockstep, lockstep_clients=args.lockstep_clients,
                           lockstep_timeout_s=args.lockstep_timeout,
-                          pipelined=args.pipelined),
+                          pipelined=args.pipelined, watchdog_s=args.watchdog,
+                          max_connections=args.max_connections,
+                          output_limit_bytes=int(args.output_limit * (1 << 20)),
+                          frame_timeout_s=args.frame_timeout),
         quit_time_s=world.sim.quit_time_s if args.quit_time is None else args.quit_time,
     )
     try:
@@ -94,6 +137,8 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     mode = ("pipelined lockstep" if args.pipelined else "lockstep") if args.lockstep \
         else f"speedup {server.speedup:g}"
+    if args.allow_world_control:
+        mode += ", world control allowed"
     print(f"world {world.name!r} ({world.source}), {mode}", flush=True)
     print(server.table(), flush=True)
 

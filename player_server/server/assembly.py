@@ -8,10 +8,12 @@ from player_server.drivers.registry import overhead_drivers, robot_drivers
 from player_server.server.endpoint import Endpoint
 
 
-def world_endpoints(world: Any, sim: Any, base_port: int) -> list[Endpoint]:
+def world_endpoints(world: Any, sim: Any, base_port: int, *,
+                    allow_world_control: bool = False) -> list[Endpoint]:
     """One endpoint per robot on base_port, base_port + 1, ...; the overhead camera last.
 
-    With ``base_port`` 0 every endpoint gets an ephemeral port.
+    With ``base_port`` 0 every endpoint gets an ephemeral port. Network clients may pause,
+    reset and move bodies through simulation:0 only with ``allow_world_control``.
     """
     endpoints: list[Endpoint] = []
 
@@ -19,10 +21,12 @@ def world_endpoints(world: Any, sim: Any, base_port: int) -> list[Endpoint]:
         return 0 if base_port == 0 else base_port + i
 
     for i, robot in enumerate(world.robots):
-        endpoints.append(Endpoint(robot.name, robot_drivers(sim, robot), requested_port=port(i),
+        drivers = robot_drivers(sim, robot, world_control=allow_world_control)
+        endpoints.append(Endpoint(robot.name, drivers, requested_port=port(i),
                                   mobile=bool(robot.mobile)))
     if world.overhead_camera is not None:
-        endpoints.append(Endpoint(world.overhead_camera.name, overhead_drivers(sim, world),
+        drivers = overhead_drivers(sim, world, world_control=allow_world_control)
+        endpoints.append(Endpoint(world.overhead_camera.name, drivers,
                                   requested_port=port(len(world.robots)), mobile=False))
     return endpoints
 

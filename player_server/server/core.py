@@ -26,6 +26,13 @@ goes out first and the simulation steps after it, then the next round's data is 
 (``prepare``) while the clients work on theirs. The commands a client sends after round k
 act in the step that leads from round k+1 to k+2 (one tick of actuation delay); the
 schedule is fixed, so a seeded run still repeats exactly.
+
+Limits (``CoreConfig``, docs/player.md "Hostile clients"): ``receive`` handles at most
+``input_budget`` messages and leaves the rest for ``process`` on later turns
+(``has_backlog``); a client with more than ``output_limit_bytes`` queued is closed; an
+exception while handling a message is contained to it; the communication watchdog
+(``server/watchdog.py``) hears every message and stops a device whose driving client fell
+silent.
 """
 
 from __future__ import annotations
@@ -52,7 +59,9 @@ from player_server.protocol.constants import Interface, MsgType
 from player_server.protocol.errors import EncodeError, FrameError
 from player_server.protocol.header import Message
 from player_server.server.endpoint import Endpoint
+from player_server.server.log_limit import LogLimiter
 from player_server.server.out_queue import DataKey, OutQueue
+from player_server.server.watchdog import CommandWatchdog
 
 log = logging.getLogger(__name__)
 
@@ -65,7 +74,6 @@ _PLAYER = int(Interface.PLAYER)
 _POSITION2D = int(Interface.POSITION2D)
 _SYNCH_OK = encode_message(_PLAYER, 0, int(MsgType.SYNCH), c.PLAYER_SYNCH_OK)
 LOCKSTEP_PROPERTY = "lockstep"
-_LOGGED_BAD = 10
 _FIRST_ROUND_GRACE = 4.0
 
 _PROP_TYPES: dict[int, type] = {
@@ -90,6 +98,20 @@ class CoreConfig:
     max_message_size: int = c.MAX_MESSAGE_SIZE
     #: stop reading from a client while this many replies wait unsent
     max_replies_waiting: int = 4096
+    # -- limits against hostile or broken clients (see docs/player.md) --
+    #: a client whose queued output exceeds this many bytes is disconnected (0 = no limit)
+    output_limit_bytes: int = 32 << 20
+    #: messages handled per client per loop turn; the rest wait for the next turn
+    input_budget: int = 64
+    #: replace rules a connection may add (more are NACKed)
+    max_rules: int = 64
+    #: connections open at once over every port (more are refused at accept)
+    max_connections: int = 64
+    #: a frame not completed within this many seconds closes its connection (0 = never)
+    frame_timeout_s: float = 10.0
+    #: simulated seconds without a message from the client that last commanded a robot's
+    #: motion before the robot is stopped (0 = no watchdog)
+    watchdog_s: float = 2.0
 
 
 @dataclass
@@ -124,6 +146,8 @@ class Session:
     has_live: bool = False
     stalled_since: float | None = None
     closing: str | None = None
+    #: messages left in the decoder when the client's budget for a loop turn ran out
+    backlog: bool = False
     counters: SessionCounters = field(default_factory=SessionCounters)
     # what the rules say, per DATA key and per device (cleared when rules or subs change)
     rule_of: dict[DataKey, int] = field(default_factory=dict)
@@ -152,6 +176,11 @@ class CoreCounters:
     bad_messages: int = 0
     rounds_published: int = 0
     demoted: int = 0
+    commands_refused: int = 0
+    internal_errors: int = 0
+    driver_errors: int = 0
+    closed_output_limit: int = 0
+    rules_refused: int = 0
 
 
 class ServerCore:
@@ -180,6 +209,8 @@ class ServerCore:
         #: called with a session as soon as one of its rounds is queued (the front end
         #: writes it at once, so a client can start on its round while later ones are built)
         self.round_ready: Callable[[Session], None] | None = None
+        self.limiter = LogLimiter(log)
+        self.watchdog = CommandWatchdog(self.config.watchdog_s, sim_time_s)
 
     # -- sessions -------------------------------------------------------------------------
     def open_session(self, endpoint: Endpoint, peer: str = "") -> Session:
@@ -202,6 +233,7 @@ class ServerCore:
         session.forget_plan()
         session.round_pending = False
         self.sessions.pop(session.id, None)
+        self.watchdog.closed(session.id)
 
     def take_output(self, session: Session, max_bytes: int = 1 << 20) -> bytes:
         return session.queue.take(max_bytes)
@@ -212,28 +244,46 @@ class ServerCore:
     def accepting_input(self, session: Session) -> bool:
         return (
             session.closing is None
+            and not session.backlog
             and session.queue.replies_waiting < self.config.max_replies_waiting
         )
 
     # -- input ----------------------------------------------------------------------------
     def receive(self, session: Session, data: bytes | bytearray | memoryview) -> None:
-        """Feed bytes from a client; handles every complete message."""
+        """Feed bytes from a client and handle up to ``input_budget`` complete messages;
+        the rest wait in the decoder (``has_backlog``) for ``process`` on a later turn."""
         if session.closing is not None:
             return
         session.decoder.feed(data)
+        self.process(session)
+
+    def has_backlog(self, session: Session) -> bool:
+        """Did the client's last turn end with messages still to handle?"""
+        return session.backlog and session.closing is None
+
+    def process(self, session: Session) -> None:
+        """Handle up to ``input_budget`` buffered messages of one client (its fair share of
+        a loop turn: a client flooding requests cannot starve the others)."""
+        budget = self.config.input_budget if self.config.input_budget > 0 else 1 << 62
+        session.backlog = False
         while session.closing is None:
+            if budget <= 0:
+                session.backlog = session.decoder.buffered > 0
+                return
             try:
                 ev = session.decoder.next_event()
             except FrameError as exc:
                 self._bad(session, None, str(exc))
                 session.closing = str(exc)
                 self.counters.sessions_closed_bad_input += 1
-                log.warning("closing client %s on %s: %s", session.peer,
-                            session.endpoint.name, exc)
+                self.limiter.log("closing", logging.WARNING, "closing client %s on %s: %s",
+                                 session.peer, session.endpoint.name, exc)
                 return
             if ev is NEED_DATA:
                 return
+            budget -= 1
             session.counters.messages_in += 1
+            self.watchdog.heard(session.id, self._sim_time_s())
             if isinstance(ev, Undecodable):
                 self._bad(session, ev.header, ev.reason)
                 if ev.header.type == _REQ:
@@ -244,20 +294,24 @@ class ServerCore:
             replies_before = session.counters.replies
             try:
                 self._dispatch(session, ev)
-            except Exception:  # a driver bug must not take the server down
-                log.exception("error handling %s from %s", ev.header, session.peer)
+            except Exception as exc:  # a driver bug must not take the server down
+                self.counters.internal_errors += 1
+                self.limiter.log("internal error", logging.ERROR,
+                                 "error handling %s from %s on %s: %r", ev.header,
+                                 session.peer, session.endpoint.name, exc, exc_info=True)
                 self._bad(session, ev.header, "internal error")
                 if ev.type == _REQ and session.counters.replies == replies_before:
                     self._reply(session, ev.interf, ev.index, ev.subtype, None, ack=False)
+            self._check_output(session)
 
     def _bad(self, session: Session, header: Any, reason: str) -> None:
         session.counters.bad_messages += 1
         self.counters.bad_messages += 1
-        n = session.counters.bad_messages
-        # a client sending garbage must not flood the log: the first few, then 1 in 1000
-        level = logging.WARNING if n <= _LOGGED_BAD or n % 1000 == 0 else logging.DEBUG
-        log.log(level, "bad message #%d from %s on %s (%s): %s", n, session.peer,
-                session.endpoint.name, header, reason)
+        # a client sending garbage must not flood the log (the counters keep the tally)
+        self.limiter.log("bad message", logging.WARNING,
+                         "bad message #%d from %s on %s (%s): %s",
+                         session.counters.bad_messages, session.peer, session.endpoint.name,
+                         header, reason)
 
     def _reply(
         self, s: Session, interf: int, index: int, subtype: int, body: Any, *, ack: bool
@@ -275,6 +329,7 @@ class ServerCore:
             wire = encode_message(interf, index, _NACK, subtype, None,
                                   timestamp=self._sim_time_s(), robot=s.endpoint.port)
         s.queue.push_reply(wire)
+        self._check_output(s)
 
     def _dispatch(self, s: Session, msg: Message) -> None:
         h = msg.header
@@ -310,18 +365,26 @@ class ServerCore:
             try:
                 driver.handle_command(h.subtype, msg.body)
             except Unsupported as exc:
-                log.info("%s ignores command %d: %s", driver.driver_name, h.subtype, exc)
+                self.limiter.log("unsupported command", logging.INFO, "%s ignores command %d: %s",
+                                 driver.driver_name, h.subtype, exc)
+            except (ValueError, TypeError, KeyError, AttributeError, OverflowError) as exc:
+                # a command with values the device refuses (NaN, out of range, ...)
+                self.counters.commands_refused += 1
+                self._bad(s, h, f"command refused by {driver.driver_name}: {exc}")
+            else:
+                if driver.watched:
+                    self.watchdog.commanded(s.id, driver, s.endpoint.name)
         else:
             self._bad(s, h, f"clients do not send message type {h.type}")
 
-    @staticmethod
-    def _call_driver_request(driver: Driver, subtype: int, body: Any) -> Reply:
+    def _call_driver_request(self, driver: Driver, subtype: int, body: Any) -> Reply:
         try:
             return driver.handle_request(subtype, body)
         except Unsupported:
             return Reply(False)
-        except (KeyError, ValueError, TypeError, AttributeError) as exc:
-            log.warning("%s rejects request %d: %s", driver.driver_name, subtype, exc)
+        except (KeyError, ValueError, TypeError, AttributeError, OverflowError) as exc:
+            self.limiter.log("refused request", logging.INFO, "%s refuses request %d: %s",
+                             driver.driver_name, subtype, exc)
             return Reply(False)
 
     # -- the player device ------------------------------------------------------------------
@@ -362,7 +425,13 @@ class ServerCore:
                 self._reply(s, _PLAYER, msg.index, st,
                             pm.DeviceDriverInfo(addr, drv.driver_name), ack=True)
         elif st == c.PLAYER_REQ_ADD_REPLACE_RULE and isinstance(body, pm.AddReplaceRuleReq):
-            if body.replace in (0, 1, 2):
+            if len(s.rules) >= self.config.max_rules:
+                self.counters.rules_refused += 1
+                self.limiter.log("rules", logging.WARNING,
+                                 "client %s on %s: more than %d replace rules refused",
+                                 s.peer, s.endpoint.name, self.config.max_rules)
+                self._reply(s, _PLAYER, msg.index, st, None, ack=False)
+            elif body.replace in (0, 1, 2):
                 s.rules.append(body)
                 s.forget_plan()
                 self._reply(s, _PLAYER, msg.index, st, None, ack=True)
@@ -428,9 +497,10 @@ class ServerCore:
                 value = bool(body.value) if want is bool else body.value
                 driver.set_property(key, value)
                 self._reply(s, h.interf, h.index, st, None, ack=True)
-        except (KeyError, TypeError, ValueError) as exc:
-            log.info("property request %d %r on %s refused: %s", st, key,
-                     driver.driver_name, exc)
+        except (KeyError, TypeError, ValueError, OverflowError) as exc:
+            self.limiter.log("refused property", logging.INFO,
+                             "property request %d %r on %s refused: %s", st, key,
+                             driver.driver_name, exc)
             self._reply(s, h.interf, h.index, st, None, ack=False)
 
     # -- data -------------------------------------------------------------------------------
@@ -476,8 +546,10 @@ class ServerCore:
                     payloads[pk] = (body, payload)
                 out.append(((key[0], key[1], _DATA, subtype), encode_with_payload(
                     key[0], key[1], _DATA, subtype, payload, timestamp=t, robot=ep.port)))
-        except Exception:
-            log.exception("driver %s failed to produce data", driver.driver_name)
+        except Exception as exc:  # contained to this device: the others still send theirs
+            self.counters.driver_errors += 1
+            self.limiter.log("driver data", logging.ERROR, "driver %s failed to produce data: %r",
+                             driver.driver_name, exc, exc_info=True)
             out = []
         self._cache[ck] = (version, out)
         return out
@@ -553,6 +625,7 @@ class ServerCore:
         if s.has_live:
             data = self._live_bytes(s) + data
         s.queue.push_reply(data)
+        self._check_output(s)
         s.round_pending = False
         s.last_round = self.round_seq
         s.counters.rounds += 1
@@ -562,6 +635,7 @@ class ServerCore:
 
     def publish(self) -> None:
         """A new round of data exists (the simulation stepped): push or serve it."""
+        self.watchdog.check()
         self.round_seq += 1
         self.counters.rounds_published += 1
         for s in list(self.sessions.values()):
@@ -575,6 +649,7 @@ class ServerCore:
                     if rule != c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE:
                         s.queue.push_data(
                             dkey, wire, rule == c.PLAYER_PLAYER_MSG_REPLACE_RULE_REPLACE)
+                self._check_output(s)
                 s.last_round = self.round_seq
                 if self.round_ready is not None:
                     self.round_ready(s)
@@ -649,10 +724,23 @@ class ServerCore:
                     self.counters.demoted += 1
         return False
 
+    # -- limits ---------------------------------------------------------------------------
+    def _check_output(self, s: Session) -> None:
+        """A client that lets more than ``output_limit_bytes`` pile up unread is closed."""
+        limit = self.config.output_limit_bytes
+        if limit > 0 and s.closing is None and s.queue.nbytes > limit:
+            s.closing = (f"output buffer limit exceeded ({s.queue.nbytes} bytes queued, "
+                         f"limit {limit})")
+            s.queue.clear()
+            self.counters.closed_output_limit += 1
+            self.limiter.log("output limit", logging.WARNING, "closing client %s on %s: %s",
+                             s.peer, s.endpoint.name, s.closing)
+
     def stats(self) -> dict[str, Any]:
         return {
             "sessions": len(self.sessions),
             "round_seq": self.round_seq,
             "participants": len(self.participants()),
+            "watchdog_stops": self.watchdog.stops,
             **vars(self.counters),
         }

@@ -17,6 +17,7 @@ from player_server.drivers.base import Driver
 from player_server.server.affinity import pin_current_thread
 from player_server.server.core import CoreConfig, ServerCore
 from player_server.server.endpoint import Endpoint
+from player_server.server.log_limit import LogLimiter
 from player_server.server.tcp import TcpFrontEnd
 
 log = logging.getLogger(__name__)
@@ -73,7 +74,7 @@ class PlayerServer:
         client (the experiment runner's own MURDOCH node) takes its tick here."""
         self._clock = clock
         self.core = ServerCore(self.endpoints, lambda: float(sim.time_s), config)
-        self.tcp = TcpFrontEnd(self.core, host)
+        self.tcp = TcpFrontEnd(self.core, host, clock=clock)
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self.finished = threading.Event()
@@ -85,6 +86,9 @@ class PlayerServer:
         self._ahead = False
         #: ticks stepped right after the input that completed them (lockstep)
         self._eager_steps = 0
+        #: exceptions raised by drivers' before_step (each contained, counted, logged)
+        self.driver_errors = 0
+        self._limiter = LogLimiter(log, clock=clock)
 
     # -- lifecycle ----------------------------------------------------------------------------
     def start(self) -> PlayerServer:
@@ -170,7 +174,12 @@ class PlayerServer:
     def _step(self) -> None:
         if not self.sim.paused:
             for d in self._drivers:
-                d.before_step()
+                try:
+                    d.before_step()
+                except Exception as exc:  # contained to this device; the step goes on
+                    self.driver_errors += 1
+                    self._limiter.log("before_step", logging.ERROR, "driver %s failed before "
+                                      "the step: %r", d.driver_name, exc, exc_info=True)
             self.sim.step()
 
     def _paused_rounds(self) -> None:

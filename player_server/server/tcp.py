@@ -3,23 +3,44 @@
 The only module of the server that touches sockets. Every accepted connection becomes a
 ``Session`` of the core; bytes read are handed to ``core.receive`` and queued output is
 written with as few ``send`` calls as possible (whole messages, TCP_NODELAY).
+
+Every receive is followed by TCP_QUICKACK (Linux): a client that leaves Nagle's algorithm on
+(as libplayerc does) and sends a command, which gets no reply, then a request would
+otherwise wait for the server's delayed ACK (~40 ms) before the request leaves it.
+
+Against hostile clients: at most ``max_connections`` at once (more are closed at accept); a
+client whose input exceeds its per-turn budget is not read again until the core has worked
+through it; a frame not completed within ``frame_timeout_s`` closes its connection; when
+``accept`` fails for want of file handles the listeners rest for a while (backing off up to
+``_ACCEPT_BACKOFF_MAX_S``) instead of spinning.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import logging
 import selectors
 import socket
+import struct
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from player_server.server.core import ServerCore, Session
 from player_server.server.endpoint import Endpoint
+from player_server.server.log_limit import LogLimiter
 
 log = logging.getLogger(__name__)
 
 _RECV_SIZE = 256 * 1024
+_QUICKACK = getattr(socket, "TCP_QUICKACK", None)
+#: accept errors that mean "no resources now": rest the listeners instead of spinning
+_ACCEPT_EXHAUSTED = {errno.EMFILE, errno.ENFILE, errno.ENOBUFS, errno.ENOMEM}
+_ACCEPT_BACKOFF_MIN_S = 0.05
+_ACCEPT_BACKOFF_MAX_S = 2.0
+#: how often connections are checked for frames left incomplete too long
+_FRAME_CHECK_S = 0.5
 
 
 @dataclass(eq=False)
@@ -29,17 +50,31 @@ class _Conn:
     out: memoryview = field(default_factory=lambda: memoryview(b""))
     reading: bool = True
     events: int = selectors.EVENT_READ
+    #: (clock, messages decoded) when bytes of an incomplete frame were first seen waiting
+    partial: tuple[float, int] | None = None
 
 
 class TcpFrontEnd:
     """Listens on one port per endpoint and moves bytes between sockets and the core."""
 
-    def __init__(self, core: ServerCore, host: str = "127.0.0.1", backlog: int = 16) -> None:
+    def __init__(self, core: ServerCore, host: str = "127.0.0.1", backlog: int = 16,
+                 clock: Callable[[], float] = time.monotonic) -> None:
         self.core = core
         self.host = host
         self._backlog = backlog
+        self._clock = clock
+        self._limiter = LogLimiter(log, clock=clock)
+        self._conn_log = LogLimiter(log, burst=50, clock=clock)
+        #: listeners rest until this time after accept ran out of file handles
+        self._accept_resume: float | None = None
+        self._accept_backoff = _ACCEPT_BACKOFF_MIN_S
+        self._next_frame_check = 0.0
+        self.refused_connections = 0
+        self.accept_failures = 0
+        self.frame_timeouts = 0
         self._sel = selectors.DefaultSelector()
         self._listeners: list[socket.socket] = []
+        self._listener_eps: list[Endpoint] = []
         self._conns: dict[int, _Conn] = {}
         self._by_session: dict[int, _Conn] = {}
         core.round_ready = self._round_ready
@@ -63,6 +98,7 @@ class TcpFrontEnd:
                 ls.setblocking(False)
                 ep.port = ls.getsockname()[1]
                 self._listeners.append(ls)
+                self._listener_eps.append(ep)
                 self._sel.register(ls, selectors.EVENT_READ, ("listen", ep))
         except OSError:
             self.close()
@@ -76,7 +112,8 @@ class TcpFrontEnd:
         for conn in list(self._conns.values()):
             self._drop(conn, "server stopping")
         for ls in self._listeners:
-            self._sel.unregister(ls)
+            with contextlib.suppress(KeyError, ValueError):
+                self._sel.unregister(ls)
             ls.close()
         self._listeners.clear()
         with contextlib.suppress(KeyError, ValueError):
@@ -101,6 +138,11 @@ class TcpFrontEnd:
         ``before_flush`` runs after input was handled and before output is written (so
         replies and a round produced in it leave in one write).
         """
+        self._resume_accepting()
+        if any(self.core.has_backlog(c.session) for c in self._conns.values()):
+            timeout_s = 0.0  # input waits to be handled: just look for more I/O
+        elif self._accept_resume is not None:
+            timeout_s = min(timeout_s, max(0.0, self._accept_resume - self._clock()))
         for key, mask in self._sel.select(max(0.0, timeout_s)):
             kind, obj = key.data
             if kind == "listen":
@@ -116,6 +158,8 @@ class TcpFrontEnd:
                     self._read(conn)
                 if mask & selectors.EVENT_WRITE and conn.sock.fileno() >= 0:
                     self._write(conn)
+        self._work_backlogs()
+        self._check_frames()
         if before_flush is not None:
             before_flush()
         self.flush()
@@ -124,11 +168,66 @@ class TcpFrontEnd:
         """Write queued output of every connection (without blocking)."""
         for conn in list(self._conns.values()):
             if conn.session.closing is not None:
-                self._drop(conn, conn.session.closing)
+                self._drop(conn, conn.session.closing, abort=True)
                 continue
             if not conn.out and self.core.has_output(conn.session):
                 self._write(conn)
             self._update_interest(conn)
+
+    # -- limits ---------------------------------------------------------------------------
+    def _work_backlogs(self) -> None:
+        """Give every client with input left over from its last turn another budget."""
+        for conn in list(self._conns.values()):
+            if self.core.has_backlog(conn.session):
+                self.core.process(conn.session)
+                if conn.session.closing is not None:
+                    self._drop(conn, conn.session.closing, abort=True)
+                elif not conn.session.round_pending:
+                    self._write(conn)
+
+    def _check_frames(self) -> None:
+        """Close connections that left a frame incomplete for longer than allowed."""
+        limit = self.core.config.frame_timeout_s
+        if limit <= 0:
+            return
+        now = self._clock()
+        if now < self._next_frame_check:
+            return
+        self._next_frame_check = now + _FRAME_CHECK_S
+        for conn in list(self._conns.values()):
+            dec = conn.session.decoder
+            if dec.buffered == 0 or self.core.has_backlog(conn.session):
+                conn.partial = None
+                continue
+            if conn.partial is None or conn.partial[1] != dec.messages + dec.undecodable:
+                conn.partial = (now, dec.messages + dec.undecodable)
+            elif now - conn.partial[0] > limit:
+                self.frame_timeouts += 1
+                reason = (f"a frame stayed incomplete for more than {limit:g} s "
+                          f"({dec.buffered} bytes waiting)")
+                self._limiter.log("frame timeout", logging.WARNING, "closing client %s on %s: %s",
+                                  conn.session.peer, conn.session.endpoint.name, reason)
+                self._drop(conn, reason, abort=True)
+
+    def _rest_listeners(self, ep: Endpoint, exc: OSError) -> None:
+        """accept ran out of resources: stop listening for a while (doubling the pause)."""
+        self.accept_failures += 1
+        self._limiter.log("accept", logging.WARNING,
+                          "accept failed on %s: %s; not accepting for %.2f s", ep.name, exc,
+                          self._accept_backoff)
+        for ls in self._listeners:
+            with contextlib.suppress(KeyError, ValueError):
+                self._sel.unregister(ls)
+        self._accept_resume = self._clock() + self._accept_backoff
+        self._accept_backoff = min(self._accept_backoff * 2.0, _ACCEPT_BACKOFF_MAX_S)
+
+    def _resume_accepting(self) -> None:
+        if self._accept_resume is None or self._clock() < self._accept_resume or self._closed:
+            return
+        self._accept_resume = None
+        for ls, ep in zip(self._listeners, self._listener_eps, strict=True):
+            with contextlib.suppress(KeyError, ValueError):
+                self._sel.register(ls, selectors.EVENT_READ, ("listen", ep))
 
     # -- internals --------------------------------------------------------------------------
     def _accept(self, ls: socket.socket, ep: Endpoint) -> None:
@@ -138,8 +237,21 @@ class TcpFrontEnd:
             except (BlockingIOError, InterruptedError):
                 return
             except OSError as exc:
-                log.warning("accept failed on %s: %s", ep.name, exc)
+                if exc.errno in _ACCEPT_EXHAUSTED:
+                    self._rest_listeners(ep, exc)
+                else:
+                    self._limiter.log("accept", logging.WARNING, "accept failed on %s: %s",
+                                      ep.name, exc)
                 return
+            self._accept_backoff = _ACCEPT_BACKOFF_MIN_S
+            if len(self._conns) >= self.core.config.max_connections:
+                self.refused_connections += 1
+                self._limiter.log("connection cap", logging.WARNING,
+                                  "refused a connection from %s:%s to %s: %d connections "
+                                  "already open (the limit)", addr[0], addr[1], ep.name,
+                                  len(self._conns))
+                sock.close()
+                continue
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             peer = f"{addr[0]}:{addr[1]}"
             session = self.core.open_session(ep, peer)
@@ -156,7 +268,8 @@ class TcpFrontEnd:
             self._conns[sock.fileno()] = conn
             self._by_session[session.id] = conn
             self._sel.register(sock, selectors.EVENT_READ, ("conn", conn))
-            log.info("client %s connected to %s (port %d)", peer, ep.name, ep.port)
+            self._conn_log.log("connect", logging.INFO, "client %s connected to %s (port %d)",
+                               peer, ep.name, ep.port)
 
     def _read(self, conn: _Conn) -> None:
         view = self._rview
@@ -171,9 +284,14 @@ class TcpFrontEnd:
         if not n:
             self._drop(conn, "closed by peer")
             return
+        if _QUICKACK is not None:
+            # acknowledge now, not after the delayed-ACK timer: a Nagle client's next
+            # message waits for this ACK
+            with contextlib.suppress(OSError):
+                conn.sock.setsockopt(socket.IPPROTO_TCP, _QUICKACK, 1)
         self.core.receive(conn.session, view[:n])
         if conn.session.closing is not None:
-            self._drop(conn, conn.session.closing)
+            self._drop(conn, conn.session.closing, abort=True)
         elif not conn.session.round_pending:
             self._write(conn)  # replies leave at once; a pending round joins its ACK later
 
@@ -214,8 +332,14 @@ class TcpFrontEnd:
             self._sel.modify(conn.sock, want, ("conn", conn))
             conn.events = want
 
-    def _drop(self, conn: _Conn, reason: str) -> None:
+    def _drop(self, conn: _Conn, reason: str, *, abort: bool = False) -> None:
+        """Close a connection; ``abort`` resets it, discarding whatever the kernel still
+        holds for it (a client the server cut off gets nothing more and costs nothing)."""
         fd = conn.sock.fileno()
+        if abort and fd >= 0:
+            with contextlib.suppress(OSError):
+                conn.sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER,
+                                     struct.pack("ii", 1, 0))
         if fd >= 0:
             with contextlib.suppress(KeyError, ValueError):
                 self._sel.unregister(conn.sock)
@@ -226,4 +350,5 @@ class TcpFrontEnd:
         conn.sock.close()
         self.core.close_session(conn.session)
         self.closed_connections += 1
-        log.info("client %s left %s: %s", conn.session.peer, conn.session.endpoint.name, reason)
+        self._conn_log.log("leave", logging.INFO, "client %s left %s: %s", conn.session.peer,
+                           conn.session.endpoint.name, reason)

@@ -397,6 +397,8 @@ class Simulation:
         """Teleport a body (at rest). Robots keep their odometry (a teleport is not motion)."""
         if name not in self._body_kind:
             raise KeyError(f"no body named {name!r}")
+        if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(yaw)):
+            raise ValueError(f"pose of {name!r} must be finite, got ({x}, {y}, {yaw})")
         kind, bid = self._body_kind[name]
         cid = self._client
         if kind == "robot":

@@ -43,7 +43,7 @@ def _start_server(world: str, robots: int, seed: int = 1, lockstep: bool = True,
     pacing = ["--lockstep", "--lockstep-clients", str(robots)] if lockstep else []
     proc = subprocess.Popen(
         [str(BIN / "player-server"), world, "-p", "0", *pacing, "--speedup", str(speedup),
-         "--seed", str(seed), "-q"],
+         "--seed", str(seed), "--allow-world-control", "-q"],
         stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
     )
     ports: dict[str, int] = {}

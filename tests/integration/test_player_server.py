@@ -45,8 +45,10 @@ def serve(world: str = "simple", *, speedup: float = 0.0, paused: bool = False,
     spec = load_world(world_path(world))
     sim = Simulation(spec, seed=seed)
     sim.set_paused(paused)
-    server = PlayerServer(sim, world_endpoints(spec, sim, 0), interval_s=sim.interval_s,
-                          clock=time.monotonic, speedup=speedup, config=config)
+    # these tests move bodies and pause through simulation:0
+    server = PlayerServer(sim, world_endpoints(spec, sim, 0, allow_world_control=True),
+                          interval_s=sim.interval_s, clock=time.monotonic, speedup=speedup,
+                          config=config)
     try:
         server.start()
         yield server
