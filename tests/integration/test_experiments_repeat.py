@@ -33,7 +33,7 @@ LONGTERM = ["run", "longterm", "--until", "150s", "--task-interval", "25", "--se
 
 GOLDEN = {
     "boxpush": "38a2fd137a99547853117854444ed2c9aa6600006b3c1c170a8623b65a4abd34",
-    "longterm": "3a3c2b6592fc7e065e8d69ce63282003e287117bf4c50f95f4a74d4fba792aaf",
+    "longterm": "4335cd33dbffa9533a69fe4b7eb9f15fc11055c379ee381da9267a8510605f6c",
 }
 """sha256 of events.jsonl for each run."""
 OUTCOMES = {
