@@ -184,8 +184,12 @@ class MurdochLink:
                     "colour": self._current_params.get("colour", "orange")}
                 if self._heading_rad is not None:
                     params["heading_rad"] = round(self._heading_rad, 3)
-                sub = TaskSpec(name, spec.subjects, params, duration_s=8.0, timeout_s=60.0,
-                               parent=parent, **SUB_TASK.fields())
+                t = SUB_TASK
+                sub = TaskSpec(name, spec.subjects, params, duration_s=8.0,
+                               bid_window_s=t.bid_window_s, renew_period_s=t.renew_period_s,
+                               contract_timeout_s=t.contract_timeout_s,
+                               abandon_after_s=t.abandon_after_s, timeout_s=60.0,
+                               parent=parent)
                 self._subtasks[name] = self.node.announce(sub, patience_s=self._patience_s)
 
     def step(self) -> None:

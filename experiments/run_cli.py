@@ -267,10 +267,12 @@ def _task_spec(planned: Any) -> Any:
     from murdoch.auction.timing import USER_TASK
 
     kind = planned.kind
+    t = USER_TASK
     return TaskSpec(kind, TASKS[kind].subjects, planned.params,
                     duration_s=float(planned.params.get("duration_s", 0.0)),
-                    timeout_s=float(planned.params["duration_s"]) + 600.0,
-                    **USER_TASK.fields())
+                    bid_window_s=t.bid_window_s, renew_period_s=t.renew_period_s,
+                    contract_timeout_s=t.contract_timeout_s, abandon_after_s=t.abandon_after_s,
+                    timeout_s=float(planned.params["duration_s"]) + 600.0)
 
 
 def run_experiment(

@@ -124,7 +124,8 @@ class RunLoop:
         self.team_clock = team_clock
         self.wait_clock = wait_clock
         self.request_stop = request_stop
-        self.goal_watch, self.actions = boxpush if boxpush is not None else (None, None)
+        self.goal_watch: Any = boxpush[0] if boxpush is not None else None
+        self.actions: Any = boxpush[1] if boxpush is not None else None
         self.mobile = mobile
         self.spec = spec
         self.place = place

@@ -49,11 +49,11 @@ def terminal_state_problems(events: Iterable[Mapping[str, Any]]) -> dict[str, li
 
 
 def summarize(events: Iterable[Mapping[str, Any]],
-              processes: Iterable[Mapping[str, Any]] = ()) -> dict[str, Any]:
+              process_records: Iterable[Mapping[str, Any]] = ()) -> dict[str, Any]:
     """The summary of a run from its events (simulated history) and its processes.jsonl
     records (wall-clock facts: memory samples and the wall time)."""
     evs = list(events)
-    wall_records = list(processes)
+    wall_records = list(process_records)
     kinds = Counter(str(e["kind"]) for e in evs)
     outcomes = Counter(str(e["outcome"]) for e in evs if e["kind"] == ev.TASK_OUTCOME)
     task_kind_of: dict[str, str] = {}

@@ -22,10 +22,6 @@ class AuctionTiming:
     abandon_after_s: float
     """A winner that hears no renewal this long gives the task up."""
 
-    def fields(self) -> dict[str, float]:
-        return {"bid_window_s": self.bid_window_s, "renew_period_s": self.renew_period_s,
-                "contract_timeout_s": self.contract_timeout_s,
-                "abandon_after_s": self.abandon_after_s}
 
 
 USER_TASK = AuctionTiming(bid_window_s=1.0, renew_period_s=2.0, contract_timeout_s=10.0,

@@ -538,9 +538,9 @@ class ServerCore:
                 # a driver hands back the same body object while its reading is unchanged
                 # (a robot standing still): its bytes are re-used, only the header is new
                 pk = (ck, subtype)
-                hit = payloads.get(pk)
-                if hit is not None and hit[0] is body:
-                    payload = hit[1]
+                known = payloads.get(pk)
+                if known is not None and known[0] is body:
+                    payload = known[1]
                 else:
                     payload = encode_payload(body)
                     payloads[pk] = (body, payload)
