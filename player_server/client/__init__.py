@@ -5,6 +5,7 @@ Depends only on ``player_server.protocol`` (and the standard library).
 
 from player_server.client.connection import PlayerClient
 from player_server.client.errors import (
+    PlayerConnectionClosed,
     PlayerConnectionError,
     PlayerError,
     PlayerNack,
@@ -37,6 +38,7 @@ __all__ = [
     "GripperProxy",
     "LaserProxy",
     "PlayerClient",
+    "PlayerConnectionClosed",
     "PlayerConnectionError",
     "PlayerError",
     "PlayerNack",

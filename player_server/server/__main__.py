@@ -17,13 +17,15 @@ from player_server.server.runner import PlayerServer
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="player-server",
+        prog="player-server", add_help=False,
         description="Serve the robots of a world over the Player 3.x protocol "
                     "(one port per robot, starting at the base port).")
+    p.add_argument("--help", action="help", help="show this help and exit")
     p.add_argument("world", help="world file (.toml) or the name of a bundled world")
     p.add_argument("-p", "--port", type=int, default=DEFAULT_PORT,
                    help="base port (default %(default)s; 0 = ephemeral ports)")
-    p.add_argument("--host", default="127.0.0.1", help="address to bind (default %(default)s)")
+    p.add_argument("-h", "--host", default="127.0.0.1",
+                   help="address to bind (default %(default)s)")
     p.add_argument("--speedup", type=float, default=None,
                    help="simulated seconds per wall second, 0 = as fast as possible "
                         "(default: the world's)")
@@ -39,7 +41,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--paused", action="store_true",
                    help="start paused (rounds are still served; simulation CMD PAUSE resumes)")
     p.add_argument("--seed", type=int, default=None, help="simulation seed (default: world's)")
-    p.add_argument("--fidelity", choices=("fast", "render"), default=None)
+    p.add_argument("--fidelity", choices=("fast", "render"), default=None,
+                   help="sensing: fast (2-D ray casts, geometric blobs) or render (PyBullet "
+                        "rays, rendered images); default: the world's")
     p.add_argument("--quit-time", type=float, default=None, metavar="S",
                    help="stop at this simulation time (default: the world's; 0 = never)")
     p.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors")
