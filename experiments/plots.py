@@ -55,9 +55,9 @@ def plot_tasks(evs: list[Mapping[str, Any]], end_s: float) -> Figure:
             awarded.add(str(e["task"]))
             series["allocated"].append(float(e["t"]))
         elif k == ev.TASK_OUTCOME:
-            series[str(e["outcome"])].append(float(e["t"]))
+            series[ev.counted_outcome(e)].append(float(e["t"]))
     fig, ax = plt.subplots(figsize=(9, 4.5), dpi=100)
-    for name in ("introduced", "allocated", *ev.OUTCOMES):
+    for name in ("introduced", "allocated", *ev.COUNTED_OUTCOMES):
         times = series.get(name, [])
         xs = [0.0] + [t / scale for t in times] + [end_s / scale]
         ys = [0, *range(1, len(times) + 1), len(times)]

@@ -56,7 +56,7 @@ class ProgressTracker:
         self._sim_s = 0.0
         self._introduced = 0
         self._allocated: set[str] = set()
-        self._outcomes = {o: 0 for o in ev.OUTCOMES}
+        self._outcomes = {o: 0 for o in ev.COUNTED_OUTCOMES}
         self._reallocations = 0
         self._battery: dict[str, float] = {}
 
@@ -68,8 +68,8 @@ class ProgressTracker:
                 self._introduced += 1
             elif kind == ev.AWARD:
                 self._allocated.add(str(event["task"]))
-            elif kind == ev.TASK_OUTCOME and event["outcome"] in self._outcomes:
-                self._outcomes[event["outcome"]] += 1
+            elif kind == ev.TASK_OUTCOME and ev.counted_outcome(event) in self._outcomes:
+                self._outcomes[ev.counted_outcome(event)] += 1
             elif kind == ev.REALLOCATION:
                 self._reallocations += 1
             elif kind == ev.BATTERY:

@@ -36,6 +36,7 @@ def report(run_dir: Path, replay: bool, as_json: bool) -> None:
                f"{rtf if rtf is not None else '-'}")
     click.echo(f"tasks      introduced {tasks['introduced']}  executed {tasks['executed']}  "
                f"failed {tasks['failed']}  unachievable {tasks['unachievable']}  "
+               f"open at end {tasks.get('open_at_end', 0)}  "
                f"reallocations {tasks['reallocations']}")
     click.echo(f"charging   {s['charging_trips']} trips   robot failures {s['robot_failures']}")
     click.echo(f"messages   {s['messages']['total']} ({s['messages']['total_bytes']} bytes)")

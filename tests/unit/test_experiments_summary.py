@@ -176,3 +176,31 @@ def test_plots_are_written(tmp_path: Path) -> None:
 def test_plots_of_an_empty_run(tmp_path: Path) -> None:
     paths = write_plots([], tmp_path, robots=("p1",))
     assert all(p.stat().st_size > 1000 for p in paths)
+
+
+def test_tasks_open_when_the_run_ends_are_open_at_end_not_failed() -> None:
+    evs = [
+        E(0.0, ev.RUN_START, experiment="longterm", seed=1),
+        E(1.0, ev.TASK_INTRODUCED, task="t1", task_kind="sentry-duty"),
+        E(1.0, ev.TASK_INTRODUCED, task="t2", task_kind="cleanup"),
+        E(1.0, ev.TASK_INTRODUCED, task="t3", task_kind="cleanup"),
+        E(1.0, ev.TASK_INTRODUCED, task="t4", task_kind="cleanup"),
+        E(2.0, ev.AWARD, task="t1", robot="p1"),
+        E(5.0, ev.TASK_OUTCOME, task="t2", outcome=ev.FAILED, reason="robot stuck"),
+        E(9.0, ev.TASK_OUTCOME, task="t1", robot="p1", outcome=ev.FAILED, reason="run ended"),
+        E(9.0, ev.TASK_OUTCOME, task="t3", outcome=ev.FAILED,
+          reason="run ended: box at the goal"),
+        E(9.0, ev.TASK_OUTCOME, task="t4", outcome=ev.OPEN_AT_END, reason="run ended"),
+        E(9.0, ev.RUN_END, wall_s=1.0, reason="completed"),
+    ]
+    s = summarize(evs)
+    assert s["tasks"]["failed"] == 1
+    assert s["tasks"]["open_at_end"] == 3
+    assert s["tasks"]["by_kind"]["cleanup"] == {"failed": 1, "introduced": 3, "open_at_end": 2}
+    assert s["invariant_terminal_states"]["holds"]
+    tracker = ProgressTracker(("p1",))
+    for e in evs:
+        tracker.apply(e)
+    p = tracker.progress(1.0)
+    assert p.failed == 1
+    assert ev.counted_outcome({"outcome": "completed", "reason": "run ended"}) == "completed"
