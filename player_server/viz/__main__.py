@@ -5,13 +5,16 @@
 
 Starts the loopback-only viewer, prints its URL, and steps the simulation with every robot
 wandering (the simulator's demo driver); robots on a charging pad show as charging. Stops at
-the end of the simulated time or on Ctrl-C.
+the end of the simulated time, on Ctrl-C or on SIGTERM, and takes its viewer process with it
+(the viewer also exits by itself if this process is killed).
 """
 
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
+import threading
 import time
 
 
@@ -46,6 +49,9 @@ def main(argv: list[str] | None = None) -> int:
     robots = [r.name for r in layout.robots]
     has_power = {r.name: r.devices.power is not None for r in spec.robots}
     pacer = Pacer(sim.interval_s, args.speedup, time.monotonic, time.sleep)
+    stop = threading.Event()
+    # SIGTERM stops like Ctrl-C: the viewer process is stopped on the way out
+    signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
     with ViewerProcess(web_port=args.web_port) as viewer:
         channel = ZmqChannel(viewer.urls.zmq_url)
         view = LiveView(layout, channel, max_rate_hz=args.rate_hz)
@@ -54,7 +60,7 @@ def main(argv: list[str] | None = None) -> int:
         next_offer = 0.0
         period = 1.0 / args.rate_hz
         try:
-            while sim.time_s < args.sim_seconds:
+            while sim.time_s < args.sim_seconds and not stop.is_set():
                 driver.tick()
                 pacer.wait(sim.tick)
                 now = time.monotonic()
