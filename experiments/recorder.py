@@ -44,6 +44,11 @@ def read_process_memory(pid: int) -> dict[str, int] | None:
     return parse_proc_status(text) if "VmRSS:" in text else None
 
 
+def _duration_of(config: Mapping[str, Any]) -> float | None:
+    value = config.get("duration_s")
+    return float(value) if isinstance(value, int | float) and value > 0 else None
+
+
 class RunRecorder:
     def __init__(
         self,
@@ -79,6 +84,7 @@ class RunRecorder:
         self.display = ProgressDisplay(
             self.tracker, wall_clock=wall_clock, stream=stream, terminal=terminal,
             line_period_sim_s=progress_period_sim_s, title=f"murdoch {experiment}",
+            duration_s=_duration_of(config),
         )
         self._meshcat = meshcat
         self._live_rate_hz = live_rate_hz
