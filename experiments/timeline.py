@@ -1,9 +1,9 @@
 """What each robot was doing, derived from events: states for the viewer, intervals for plots.
 
-A robot is ``failed`` (its process is down), else ``charging``, else ``working`` (it holds a
-task it was awarded), else ``idle``. `RobotStateTracker.apply` folds one event at a time and
-returns the robots whose state or label changed, so the live view and the batch functions
-share the same rules.
+A robot is ``failed`` (down: its process was killed or it was switched off), else
+``charging``, else ``working`` (it holds a task it was awarded), else ``idle``.
+`RobotStateTracker.apply` folds one event at a time and returns the robots whose state or label
+changed, so the live view and the batch functions share the same rules.
 """
 
 from __future__ import annotations
@@ -19,6 +19,11 @@ WORKING = "working"
 CHARGING = "charging"
 FAILED = "failed"
 STATES: tuple[str, ...] = (IDLE, WORKING, CHARGING, FAILED)
+
+
+# a killed robot and a switched-off one are down alike until restarted / switched on
+_DOWN = frozenset((ev.ROBOT_FAILURE, ev.ROBOT_SWITCH_OFF))
+_UP = frozenset((ev.ROBOT_RESTART, ev.ROBOT_SWITCH_ON))
 
 
 @dataclass(frozen=True, slots=True)
@@ -91,11 +96,11 @@ class RobotStateTracker:
             self.add_robot(robot)
             self.robots[robot].charging = kind == ev.CHARGE_START
             touched.append(robot)
-        elif kind in (ev.ROBOT_FAILURE, ev.ROBOT_RESTART):
+        elif kind in _DOWN or kind in _UP:
             robot = str(event["robot"])
             self.add_robot(robot)
             r = self.robots[robot]
-            r.failed = kind == ev.ROBOT_FAILURE
+            r.failed = kind in _DOWN
             r.task = None
             r.charging = False
             touched.append(robot)
