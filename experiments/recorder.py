@@ -151,7 +151,10 @@ class RunRecorder:
             live = self.live
             if live is not None:
                 for robot, state in changed.items():
-                    live.set_robot(robot, state.state, state.label)
+                    live.set_robot(robot, state.state, state.view_label)
+                if e["kind"] == ev.BATTERY:
+                    for robot, percent in e["percent"].items():
+                        live.set_battery(str(robot), float(percent))
         return e
 
     def robot_states(self) -> dict[str, str]:

@@ -3,8 +3,10 @@
 The simulation never waits for the viewer. Its owner hands over the newest snapshot with
 `LiveView.offer` (one lock and one assignment; older, unsent snapshots are simply replaced) or
 gives the view a `source` callable that the view's own thread polls. Robot states and task
-labels arrive through `set_robot`. The view's thread wakes at most `max_rate_hz` times a
-second, sends only what changed, and keeps running (with back-off) while no viewer answers.
+labels arrive through `set_robot`, battery levels through `set_battery`. The scene carries a
+legend of the robot states, each robot's name (with its battery once known) and the simulation
+clock of the newest snapshot. The view's thread wakes at most `max_rate_hz` times a second,
+sends only what changed, and keeps running (with back-off) while no viewer answers.
 """
 
 from __future__ import annotations
@@ -84,12 +86,15 @@ class LiveView:
         self._lock = threading.Lock()
         self._latest: Any = None
         self._wanted: dict[str, RobotView] = {}
+        self._battery: dict[str, float] = {}
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._error: BaseException | None = None
         # state of the viewer as last sent; owned by the view's thread
         self._sent_poses: dict[str, Pose] = {}
         self._sent_robots: dict[str, RobotView] = {}
+        self._sent_battery: dict[str, int] = {}
+        self._sent_clock = ""
         self._scene_sent = False
         self._ids = scene.IdSource("live")
         self._frames = 0
@@ -112,6 +117,12 @@ class LiveView:
             raise ValueError(f"unknown robot state {state!r}; expected one of {scene.ROBOT_STATES}")
         with self._lock:
             self._wanted[robot] = RobotView(state, label)
+
+    def set_battery(self, robot: str, percent: float) -> None:
+        if not math.isfinite(percent):
+            raise ValueError(f"battery of {robot} is not a number: {percent!r}")
+        with self._lock:
+            self._battery[robot] = float(percent)
 
     def stats(self) -> LiveStats:
         with self._lock:
@@ -170,14 +181,24 @@ class LiveView:
         with self._lock:
             snap, self._latest = self._latest, None
             wanted = dict(self._wanted)
+            battery = dict(self._battery)
         commands: list[dict[str, Any]] = []
         if not self._scene_sent:
             commands.extend(scene.static_scene(self._layout, id_prefix="live-scene"))
+            commands.extend(scene.legend_commands(self._ids, self._layout))
+            commands.extend(scene.clock_commands(self._ids, self._layout, 0.0))
+            self._sent_clock = scene.clock_text(0.0)
             self._sent_poses.clear()
             self._sent_robots = {r.name: RobotView() for r in self._layout.robots}
+            self._sent_battery.clear()
         if snap is not None:
             commands.extend(self._pose_commands(body_poses(snap)))
+            t = getattr(snap, "time_s", None)
+            if t is not None and scene.clock_text(float(t)) != self._sent_clock:
+                self._sent_clock = scene.clock_text(float(t))
+                commands.extend(scene.clock_commands(self._ids, self._layout, float(t)))
         commands.extend(self._robot_commands(wanted))
+        commands.extend(self._battery_commands(battery))
         for cmd in commands:
             self._sink.send(cmd)
         self._scene_sent = True
@@ -199,6 +220,15 @@ class LiveView:
                 continue
             self._sent_poses[name] = (x, y, yaw)
             yield scene.set_transform(path, scene.pose_matrix(x, y, 0.0, yaw))
+
+    def _battery_commands(self, battery: Mapping[str, float]) -> Iterable[dict[str, Any]]:
+        for robot, percent in battery.items():
+            if robot not in self._sent_robots:
+                continue
+            shown = round(percent)
+            if self._sent_battery.get(robot) != shown:
+                self._sent_battery[robot] = shown
+                yield from scene.name_change(self._ids, robot, percent)
 
     def _robot_commands(self, wanted: Mapping[str, RobotView]) -> Iterable[dict[str, Any]]:
         for robot, view in wanted.items():

@@ -12,8 +12,14 @@ Scene tree (all under ``/murdoch``)::
     robots/<name>/body/<state>                                one coloured body per state,
                                                               exactly one visible
     robots/<name>/nose                                        heading marker
-    robots/<name>/label                                       task label (live view)
+    robots/<name>/name                                        name (and battery, live view)
+    robots/<name>/label                                       task and target (live view)
     robots/<name>/labels/<k>                                  task labels (replay)
+    hud/clock                                                 simulation clock (live view)
+    hud/legend/<state>, hud/legend/<state>/text               legend of robot states
+
+Boxes and objects keep their world colour unless it could be mistaken for a robot state's
+colour (`display_colour`): then the viewer draws a paler version of it.
 
 Robot states and their colours are fixed here (`STATE_COLOURS`) so that the live view, the
 replay and the tests agree on them.
@@ -52,8 +58,13 @@ CHARGER_COLOUR = 0xF5D000
 NOSE_COLOUR = 0x111111
 
 ROBOT_HEIGHT_M = 0.24
-LABEL_HEIGHT_M = 0.75
-LABEL_SCALE_M = 2.0
+LABEL_HEIGHT_M = 1.6
+LABEL_SCALE_M = 3.0
+NAME_HEIGHT_M = 0.55
+NAME_SCALE_M = 2.0
+LEGEND_LABELS = {IDLE: "idle", WORKING: "working", CHARGING: "charging", FAILED: "down"}
+# how far (RGB, 0-255 per channel) a box or object colour stays from every robot state colour
+STATE_COLOUR_MARGIN = 110.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -225,10 +236,30 @@ def delete(path: str) -> Command:
     return {"type": "delete", "path": path}
 
 
-def label_object(ids: IdSource, text: str) -> dict[str, Any]:
+def colour_distance(a: int, b: int) -> float:
+    ra, ga, ba = (a >> 16) & 0xFF, (a >> 8) & 0xFF, a & 0xFF
+    rb, gb, bb = (b >> 16) & 0xFF, (b >> 8) & 0xFF, b & 0xFF
+    return math.sqrt((ra - rb) ** 2 + (ga - gb) ** 2 + (ba - bb) ** 2)
+
+
+def display_colour(colour: int) -> int:
+    """The colour a box or object is drawn in: its own, or, when that is close to a robot
+    state's colour, mixed towards white until it is `STATE_COLOUR_MARGIN` away from all."""
+    c = colour
+    for _ in range(8):
+        if min(colour_distance(c, sc) for sc in STATE_COLOURS.values()) >= STATE_COLOUR_MARGIN:
+            return c
+        r, g, b = (c >> 16) & 0xFF, (c >> 8) & 0xFF, c & 0xFF
+        r, g, b = (int(v + (255 - v) * 0.35) for v in (r, g, b))
+        c = (r << 16) | (g << 8) | b
+    return c
+
+
+def label_object(ids: IdSource, text: str, *, scale_m: float = LABEL_SCALE_M,
+                 height_m: float = LABEL_HEIGHT_M) -> dict[str, Any]:
     """A camera-facing sprite showing `text` (drawn by the viewer on a canvas)."""
     tid, mid, oid = ids.next(), ids.next(), ids.next()
-    s = LABEL_SCALE_M
+    s = scale_m
     return {
         "metadata": {"version": 4.5, "type": "Object"},
         "geometries": [],
@@ -243,7 +274,7 @@ def label_object(ids: IdSource, text: str) -> dict[str, Any]:
             "uuid": oid,
             "type": "Sprite",
             "material": mid,
-            "matrix": [s, 0, 0, 0, 0, s, 0, 0, 0, 0, s, 0, 0, 0, LABEL_HEIGHT_M, 1],
+            "matrix": [s, 0, 0, 0, 0, s, 0, 0, 0, 0, s, 0, 0, 0, height_m, 1],
         },
     }
 
@@ -303,7 +334,8 @@ def static_scene(layout: SceneLayout, *, id_prefix: str = "s") -> list[Command]:
         # the box's own matrix lifts it so that its pose frame sits on the floor
         lift = pose_matrix(0.0, 0.0, b.size_z_m / 2, 0.0)
         geom = _box_geometry(b.size_x_m, b.size_y_m, b.size_z_m)
-        cmds.append(set_object(f"{path}/shape", _mesh(ids, geom, b.colour, matrix=lift)))
+        colour = display_colour(b.colour)
+        cmds.append(set_object(f"{path}/shape", _mesh(ids, geom, colour, matrix=lift)))
         cmds.append(set_transform(path, pose_matrix(b.x_m, b.y_m, 0.0, b.yaw_rad)))
     for group, discs in (("objects", layout.objects), ("markers", layout.markers)):
         for o in discs:
@@ -319,7 +351,7 @@ def _upright_disc(ids: IdSource, path: str, o: Disc) -> list[Command]:
     lift[14] = o.height_m / 2
     geom = _cylinder_geometry(o.radius_m, o.height_m)
     return [
-        set_object(f"{path}/shape", _mesh(ids, geom, o.colour, matrix=lift)),
+        set_object(f"{path}/shape", _mesh(ids, geom, display_colour(o.colour), matrix=lift)),
         set_transform(path, pose_matrix(o.x_m, o.y_m, 0.0, 0.0)),
     ]
 
@@ -336,6 +368,7 @@ def robot_commands(ids: IdSource, r: RobotShape) -> list[Command]:
     nose = pose_matrix(r.offset_x_m + r.length_m * 0.3, 0.0, ROBOT_HEIGHT_M + 0.01, 0.0)
     nose_geom = _box_geometry(r.length_m * 0.3, r.width_m * 0.25, 0.02)
     cmds.append(set_object(f"{path}/nose", _mesh(ids, nose_geom, NOSE_COLOUR, matrix=nose)))
+    cmds.extend(name_change(ids, r.name, None))
     cmds.append(set_transform(path, pose_matrix(r.x_m, r.y_m, 0.0, r.yaw_rad)))
     return cmds
 
@@ -350,6 +383,59 @@ def state_change(robot: str, old: str | None, new: str) -> list[Command]:
     ]
     cmds.append(set_property(f"{robot_path(robot)}/body/{new}", "visible", True))
     return cmds
+
+
+def hud_scale_m(layout: SceneLayout) -> float:
+    """Sprites of the clock and legend grow with the arena, so they stay readable."""
+    return max(2.0, layout.extent_m / 7.0)
+
+
+def clock_text(time_s: float) -> str:
+    s = int(max(0.0, time_s))
+    return f"sim {s // 3600}:{(s % 3600) // 60:02d}:{s % 60:02d}"
+
+
+def clock_commands(ids: IdSource, layout: SceneLayout, time_s: float) -> list[Command]:
+    """The simulation clock, above the north-west corner of the arena."""
+    scale = hud_scale_m(layout)
+    path = f"{ROOT}/hud/clock"
+    return [
+        set_object(path, label_object(ids, clock_text(time_s), scale_m=scale, height_m=0.0)),
+        set_transform(path, pose_matrix(layout.x_min_m + scale * 0.5,
+                                        layout.y_max_m + scale * 0.35, 0.5, 0.0)),
+    ]
+
+
+def legend_commands(ids: IdSource, layout: SceneLayout) -> list[Command]:
+    """A swatch of each robot state's colour with its name, in a row south of the arena."""
+    scale = hud_scale_m(layout)
+    cmds: list[Command] = []
+    step = (layout.x_max_m - layout.x_min_m) / len(ROBOT_STATES)
+    y = layout.y_min_m - scale * 0.35
+    for k, state in enumerate(ROBOT_STATES):
+        path = f"{ROOT}/hud/legend/{state}"
+        x = layout.x_min_m + step * (k + 0.2)
+        size = scale * 0.18
+        swatch = _mesh(ids, _box_geometry(size, size, 0.05), STATE_COLOURS[state], lit=False)
+        cmds.append(set_object(f"{path}/swatch", swatch))
+        text = label_object(ids, LEGEND_LABELS[state], scale_m=scale * 0.8, height_m=0.0)
+        cmds.append(set_object(f"{path}/text", text))
+        cmds.append(set_transform(f"{path}/text", pose_matrix(scale * 0.45, 0.0, 0.1, 0.0)))
+        cmds.append(set_transform(path, pose_matrix(x, y, 0.05, 0.0)))
+    return cmds
+
+
+def name_text(robot: str, battery_percent: float | None = None) -> str:
+    if battery_percent is None:
+        return robot
+    return f"{robot} {battery_percent:.0f}%"
+
+
+def name_change(ids: IdSource, robot: str, battery_percent: float | None) -> list[Command]:
+    """The robot's name sprite, with its battery level once one is known."""
+    text = name_text(robot, battery_percent)
+    return [set_object(f"{robot_path(robot)}/name",
+                       label_object(ids, text, scale_m=NAME_SCALE_M, height_m=NAME_HEIGHT_M))]
 
 
 def label_change(ids: IdSource, robot: str, text: str) -> list[Command]:

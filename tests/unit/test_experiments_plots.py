@@ -102,3 +102,19 @@ def test_per_robot_shares_and_tasks_by_kind(tmp_path: Path) -> None:
     paths = write_plots(evs, tmp_path, ROBOTS)
     assert [p.name for p in paths] == list(PLOT_FILES)
     assert (tmp_path / "robots.png").stat().st_size > 10_000
+
+
+def test_the_live_label_names_the_task_and_its_target() -> None:
+    tracker = timeline.RobotStateTracker()
+    tracker.apply(E(1.0, ev.TASK_INTRODUCED, task="t1", task_kind="cleanup",
+                    params={"colour": "blue", "duration_s": 60}))
+    tracker.apply(E(1.0, ev.TASK_INTRODUCED, task="t2", task_kind="sentry-duty",
+                    params={"colour": "red", "x": 1, "y": -2.5}))
+    tracker.apply(E(1.0, ev.TASK_INTRODUCED, task="t3", task_kind="goto-goal"))
+    got = {}
+    for task, robot in (("t1", "p1"), ("t2", "p2"), ("t3", "p3")):
+        got.update(tracker.apply(E(2.0, ev.AWARD, task=task, robot=robot)))
+    assert got["p1"].view_label == "cleanup: blue box"
+    assert got["p2"].view_label == "sentry-duty: red object at spot (1.0, -2.5)"
+    assert got["p3"].view_label == "goto-goal t3"
+    assert tracker.state_of("p1").label == "cleanup t1"  # plots keep kind and id

@@ -89,7 +89,9 @@ def test_live_view_sends_only_what_changed() -> None:
     sink = RecordingSink()
     view = LiveView(layout, sink)
     first = view.publish_once()
-    assert first == len(scene.static_scene(layout))
+    hud = scene.IdSource("x")
+    assert first == (len(scene.static_scene(layout)) + len(scene.legend_commands(hud, layout))
+                     + len(scene.clock_commands(hud, layout, 0.0)))
     assert view.publish_once() == 0  # nothing new
     view.offer({robot: (1.0, 1.0, 0.0)})
     view.offer({robot: (1.0, 2.0, 0.0)})  # replaces the unsent one
@@ -123,3 +125,53 @@ def test_body_poses_accepts_snapshot_shapes() -> None:
         bodies = (Body(),)
 
     assert body_poses(Snap2()) == {"b": (3.0, 4.0, 0.0)}
+
+
+def test_live_scene_has_a_legend_names_a_clock_and_batteries() -> None:
+    layout = scene.layout_from_world(load_world(world_path("longterm")))
+    sink = RecordingSink()
+    view = LiveView(layout, sink)
+    view.publish_once()
+    objects = {c["path"]: c for c in sink.commands if c["type"] == "set_object"}
+
+    def text(path: str) -> str:
+        return objects[path]["object"]["textures"][0]["text"]
+
+    for state in scene.ROBOT_STATES:
+        assert text(f"{scene.ROOT}/hud/legend/{state}/text") == scene.LEGEND_LABELS[state]
+        swatch = objects[f"{scene.ROOT}/hud/legend/{state}/swatch"]["object"]
+        assert swatch["materials"][0]["color"] == scene.STATE_COLOURS[state]
+    for r in layout.robots:
+        assert text(f"{scene.robot_path(r.name)}/name") == r.name
+    assert text(f"{scene.ROOT}/hud/clock") == "sim 0:00:00"
+
+    class Snap:
+        time_s = 3725.4
+        bodies = ()
+
+    sink.commands.clear()
+    view.offer(Snap())
+    view.set_battery("p1", 83.4)
+    view.set_robot("p1", scene.WORKING, "cleanup: red box")
+    view.publish_once()
+    texts = {c["path"]: c["object"]["textures"][0]["text"] for c in sink.commands
+             if c["type"] == "set_object" and c["object"].get("textures")}
+    assert texts[f"{scene.ROOT}/hud/clock"] == "sim 1:02:05"
+    assert texts[f"{scene.robot_path('p1')}/name"] == "p1 83%"
+    assert texts[f"{scene.robot_path('p1')}/label"] == "cleanup: red box"
+    view.set_battery("p1", 83.2)  # the same when rounded: nothing sent
+    view.offer(Snap())
+    assert view.publish_once() == 0
+
+
+def test_boxes_and_objects_never_look_like_a_robot_state() -> None:
+    for world in ("simple", "boxpush", "longterm"):
+        layout = scene.layout_from_world(load_world(world_path(world)))
+        for thing in (*layout.boxes, *layout.objects):
+            shown = scene.display_colour(thing.colour)
+            for state, colour in scene.STATE_COLOURS.items():
+                assert scene.colour_distance(shown, colour) >= scene.STATE_COLOUR_MARGIN, (
+                    world, thing.name, state)
+    assert scene.display_colour(0xFFFFFF) == 0xFFFFFF  # far from every state: unchanged
+    green = scene.display_colour(0x1FB84A)  # the charging colour itself gets paler
+    assert green != 0x1FB84A
