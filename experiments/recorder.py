@@ -180,8 +180,9 @@ class RunRecorder:
     def progress(self) -> Progress:
         return self.display.snapshot()
 
-    def finish(self, reason: str, *, replay: bool = True) -> Report:
-        """Write run_end, close the logs, stop the viewer, build summary, plots and replay."""
+    def finish(self, reason: str, *, replay: bool = True, keep_viewer: bool = False) -> Report:
+        """Write run_end, close the logs, stop the viewer (unless `keep_viewer`: then
+        `hold_viewer` or `close_viewer` later), build summary, plots and replay."""
         if self._finished:
             raise RuntimeError("the run is already finished")
         self._finished = True
@@ -192,8 +193,28 @@ class RunRecorder:
             self._events.close()
             self._poses_writer.close()
             self.display.stop()
-            self._stop_viewer()
+            if not keep_viewer:
+                self._stop_viewer()
         return build_report(self.run, replay=replay)
+
+    def hold_viewer(self, wait: Callable[[], None]) -> None:
+        """Keep the live view up after the run (its last frame stays on screen) until `wait`
+        returns or raises KeyboardInterrupt (Ctrl-C), then stop it. `wait` is
+        `signal.pause` in the command; tests pass their own."""
+        if self.live is None:
+            return
+        self._stream.write(f"the live view stays up at {self.viewer_url}; "
+                           "press Ctrl-C to close it\n")
+        self._stream.flush()
+        try:
+            wait()
+        except KeyboardInterrupt:
+            pass
+        finally:
+            self._stop_viewer()
+
+    def close_viewer(self) -> None:
+        self._stop_viewer()
 
     def _stop_viewer(self) -> None:
         errors: list[BaseException] = []

@@ -128,3 +128,14 @@ def check_schedule(
         for robot, t in then:
             if not any(r == robot and t0 < t for r, t0 in first):
                 raise RunSetupError(f"{a} {robot}@{_duration(t)}: no {b} {robot} before it")
+
+
+MESHCAT_SPEEDUP = 10.0  # a watched run: 10 simulated seconds per wall second
+
+
+def effective_speedup(given: float | None, meshcat: bool) -> float:
+    """--speedup as given; when not given, 0 (as fast as possible, lockstep), or
+    `MESHCAT_SPEEDUP` for a run watched live (20 simulated minutes in 2 wall minutes)."""
+    if given is not None:
+        return given
+    return MESHCAT_SPEEDUP if meshcat else 0.0

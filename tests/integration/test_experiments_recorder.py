@@ -98,3 +98,27 @@ def test_recorded_run_with_live_view(tmp_path: Path) -> None:
         assert (run.plots / name).is_file()
     with pytest.raises(RuntimeError, match="already finished"):
         rec.finish("completed")
+
+
+def test_the_live_view_can_stay_up_after_the_run_until_ctrl_c(tmp_path: Path) -> None:
+    spec = load_world(world_path("simple"))
+    out = io.StringIO()
+    rec = RunRecorder(
+        tmp_path / "runs", "simple", {"seed": 5, "world": "simple", "duration_s": 60.0},
+        world=spec, started=datetime(2026, 5, 6, 7, 8, 9), wall_clock=time.monotonic,
+        stream=out, terminal=False, meshcat=True,
+    )
+    rec.start()
+    viewer = rec._viewer
+    rec.finish("completed", replay=False, keep_viewer=True)
+    assert viewer.alive()  # the last frame stays on screen
+    waited = []
+
+    def ctrl_c() -> None:
+        waited.append(viewer.alive())
+        raise KeyboardInterrupt
+
+    rec.hold_viewer(ctrl_c)
+    assert waited == [True]
+    assert not viewer.alive()
+    assert f"the live view stays up at {rec.viewer_url}; press Ctrl-C to close it" in out.getvalue()

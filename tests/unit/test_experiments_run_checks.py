@@ -132,3 +132,12 @@ def test_a_full_disk_keeps_a_valid_summary_and_leaves_no_temporary_file(
     assert summary["tasks"]["open_at_end"] == 1
     assert sorted(p.name for p in run.root.iterdir() if p.name.endswith(".tmp")) == []
     assert not run.replay.exists()
+
+
+def test_watched_runs_are_paced_unless_told_otherwise() -> None:
+    from experiments.run_checks import MESHCAT_SPEEDUP, effective_speedup
+
+    assert effective_speedup(None, meshcat=True) == MESHCAT_SPEEDUP == 10.0
+    assert effective_speedup(None, meshcat=False) == 0.0
+    assert effective_speedup(0.0, meshcat=True) == 0.0
+    assert effective_speedup(3.0, meshcat=False) == 3.0
