@@ -397,7 +397,7 @@ def clock_text(time_s: float) -> str:
 
 def clock_commands(ids: IdSource, layout: SceneLayout, time_s: float) -> list[Command]:
     """The simulation clock, above the north-west corner of the arena."""
-    scale = hud_scale_m(layout)
+    scale = hud_scale_m(layout) * 1.5
     path = f"{ROOT}/hud/clock"
     return [
         set_object(path, label_object(ids, clock_text(time_s), scale_m=scale, height_m=0.0)),
