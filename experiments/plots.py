@@ -165,8 +165,10 @@ def plot_allocation(
             if iv.state != timeline.WORKING or span <= 0:
                 continue
             width_px = w / span * axes_px
-            # the whole label, else the task kind, else nothing: labels never overlap
-            for text in (iv.label, _short_label(iv.label)):
+            # the whole label, else the task kind, else its first word, else nothing: labels
+            # never overlap
+            kind = _short_label(iv.label)
+            for text in (iv.label, kind, kind.split("-", 1)[0]):
                 if _fits(text, width_px, fontsize, dpi):
                     ax.text(x0 + w / 2, row, text, ha="center", va="center",
                             fontsize=fontsize, clip_on=True)
