@@ -65,6 +65,7 @@ class RunRecorder:
         pose_period_s: float = 1.0,
         progress_period_sim_s: float = 300.0,
         live_rate_hz: float = 10.0,
+        live_trail_points: int = 0,
     ) -> None:
         self.world = world
         self.experiment = experiment
@@ -88,6 +89,7 @@ class RunRecorder:
         )
         self._meshcat = meshcat
         self._live_rate_hz = live_rate_hz
+        self._live_trail_points = live_trail_points
         self._viewer: Any = None
         self._channel: Any = None
         self.live: Any = None
@@ -113,7 +115,8 @@ class RunRecorder:
         self._viewer = ViewerProcess()
         self._channel = ZmqChannel(self._viewer.urls.zmq_url)
         self.live = LiveView(layout_from_world(self.world), self._channel,
-                             max_rate_hz=self._live_rate_hz)
+                             max_rate_hz=self._live_rate_hz,
+                             trail_points=self._live_trail_points)
         self.live.start()
         self.viewer_url = self._viewer.urls.web_url
         self._stream.write(f"meshcat live view: {self.viewer_url}\n")

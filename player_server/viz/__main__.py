@@ -27,6 +27,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--web-port", type=int, default=0, help="0 = any free port")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--rate-hz", type=float, default=10.0, help="viewer updates per second")
+    parser.add_argument("--trails", type=int, default=0, metavar="N",
+                        help="draw each robot's last N positions as a trail (0 = none)")
     args = parser.parse_args(argv)
 
     from pathlib import Path
@@ -54,7 +56,7 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
     with ViewerProcess(web_port=args.web_port) as viewer:
         channel = ZmqChannel(viewer.urls.zmq_url)
-        view = LiveView(layout, channel, max_rate_hz=args.rate_hz)
+        view = LiveView(layout, channel, max_rate_hz=args.rate_hz, trail_points=args.trails)
         print(f"meshcat live view: {viewer.urls.web_url}", flush=True)
         view.start()
         next_offer = 0.0

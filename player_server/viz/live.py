@@ -14,6 +14,7 @@ from __future__ import annotations
 import logging
 import math
 import threading
+from collections import deque
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -73,7 +74,11 @@ class LiveView:
         source: Callable[[], Any] | None = None,
         move_epsilon_m: float = 0.002,
         retry_period_s: float = 1.0,
+        trail_points: int = 0,
+        trail_step_m: float = 0.1,
     ) -> None:
+        """`trail_points` > 0 draws a trail behind each robot: its last that many positions,
+        `trail_step_m` apart."""
         if max_rate_hz <= 0:
             raise ValueError("max_rate_hz must be positive")
         self._layout = layout
@@ -102,6 +107,11 @@ class LiveView:
         self._offered = 0
         self._replaced = 0
         self._viewer_errors = 0
+        self._trail_points = max(0, int(trail_points))
+        self._trail_step_m = trail_step_m
+        self._trails: dict[str, deque[tuple[float, float]]] = {}
+        self._trails_changed: set[str] = set()
+        self._robot_names = {r.name for r in layout.robots}
 
     # --- called by the simulation's owner (any thread) ---
 
@@ -199,6 +209,9 @@ class LiveView:
                 commands.extend(scene.clock_commands(self._ids, self._layout, float(t)))
         commands.extend(self._robot_commands(wanted))
         commands.extend(self._battery_commands(battery))
+        for robot in sorted(self._trails_changed):
+            commands.append(scene.trail_command(self._ids, robot, self._trails[robot]))
+        self._trails_changed.clear()
         for cmd in commands:
             self._sink.send(cmd)
         self._scene_sent = True
@@ -219,6 +232,13 @@ class LiveView:
             ):
                 continue
             self._sent_poses[name] = (x, y, yaw)
+            if self._trail_points and name in self._robot_names:
+                trail = self._trails.setdefault(name, deque(maxlen=self._trail_points))
+                if not trail or math.hypot(x - trail[-1][0], y - trail[-1][1]) >= (
+                        self._trail_step_m):
+                    trail.append((x, y))
+                    if len(trail) >= 2:
+                        self._trails_changed.add(name)
             yield scene.set_transform(path, scene.pose_matrix(x, y, 0.0, yaw))
 
     def _battery_commands(self, battery: Mapping[str, float]) -> Iterable[dict[str, Any]]:

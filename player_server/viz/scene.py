@@ -15,6 +15,7 @@ Scene tree (all under ``/murdoch``)::
     robots/<name>/name                                        name (and battery, live view)
     robots/<name>/label                                       task and target (live view)
     robots/<name>/labels/<k>                                  task labels (replay)
+    trails/<name>                                             path behind a robot (live, option)
     hud/clock                                                 simulation clock (live view)
     hud/legend/<state>, hud/legend/<state>/text               legend of robot states
 
@@ -27,6 +28,7 @@ replay and the tests agree on them.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -56,6 +58,8 @@ WALL_COLOUR = 0x4A4A52
 OBSTACLE_COLOUR = 0x6B5B4B
 CHARGER_COLOUR = 0xF5D000
 NOSE_COLOUR = 0x111111
+TRAIL_COLOUR = 0x6A3D9A  # purple: no robot state's colour
+TRAIL_HEIGHT_M = 0.03
 
 ROBOT_HEIGHT_M = 0.24
 LABEL_HEIGHT_M = 1.6
@@ -423,6 +427,49 @@ def legend_commands(ids: IdSource, layout: SceneLayout) -> list[Command]:
         cmds.append(set_transform(f"{path}/text", pose_matrix(scale * 0.45, 0.0, 0.1, 0.0)))
         cmds.append(set_transform(path, pose_matrix(x, y, 0.05, 0.0)))
     return cmds
+
+
+TRAIL_WIDTH_M = 0.07
+
+
+def trail_triangles(points: Sequence[tuple[float, float]],
+                    width_m: float = TRAIL_WIDTH_M) -> list[float]:
+    """A flat ribbon through `points` as triangle vertices (x, y, z, ...): two per segment
+    (WebGL draws lines one pixel wide whatever their width, too thin to see)."""
+    out: list[float] = []
+    h = width_m / 2.0
+    z = TRAIL_HEIGHT_M
+    for (x0, y0), (x1, y1) in itertools.pairwise(points):
+        dx, dy = x1 - x0, y1 - y0
+        length = math.hypot(dx, dy)
+        if length == 0.0:
+            continue
+        nx, ny = -dy / length * h, dx / length * h
+        a, b = (x0 + nx, y0 + ny), (x0 - nx, y0 - ny)
+        c, d = (x1 + nx, y1 + ny), (x1 - nx, y1 - ny)
+        for vx, vy in (a, b, c, c, b, d):
+            out.extend((float(vx), float(vy), z))
+    return out
+
+
+def trail_command(ids: IdSource, robot: str, points: Sequence[tuple[float, float]]) -> Command:
+    """A ribbon through `points` (x, y) just above the floor: where the robot has been."""
+    gid, mid, oid = ids.next(), ids.next(), ids.next()
+    obj = {
+        "metadata": {"version": 4.5, "type": "Object"},
+        "geometries": [{
+            "uuid": gid, "type": "BufferGeometry",
+            "data": {"attributes": {"position": {
+                "itemSize": 3, "type": "Float32Array", "array": trail_triangles(points),
+                "normalized": False,
+            }}},
+        }],
+        "materials": [{"uuid": mid, "type": "MeshBasicMaterial", "color": TRAIL_COLOUR,
+                       "side": 2}],
+        "object": {"uuid": oid, "type": "Mesh", "geometry": gid, "material": mid,
+                   "matrix": pose_matrix(0.0, 0.0, 0.0, 0.0)},
+    }
+    return set_object(f"{ROOT}/trails/{robot}", obj)
 
 
 def name_text(robot: str, battery_percent: float | None = None) -> str:

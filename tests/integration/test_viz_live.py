@@ -235,10 +235,16 @@ def test_live_view_in_headless_chromium_shows_the_legend(tmp_path: Path) -> None
     png = tmp_path / "live.png"
     with ViewerProcess() as viewer:
         channel = ZmqChannel(viewer.urls.zmq_url, timeout_s=5.0)
-        view = LiveView(layout, channel, max_rate_hz=20.0)
+        view = LiveView(layout, channel, max_rate_hz=20.0, trail_points=50)
         try:
             view.start()
             view.set_robot("p2", scene.WORKING, "cleanup: red box")
+            for k in range(30):  # p1 drives east: a trail behind it
+                view.offer({"p1": (-4.0 + 0.25 * k, 2.0, 0.0)})
+                target = view.stats().frames + 1
+                deadline = time.monotonic() + 20.0
+                while view.stats().frames < target and time.monotonic() < deadline:
+                    time.sleep(0.01)
             deadline = time.monotonic() + 20.0
             while view.stats().frames < 3 and time.monotonic() < deadline:
                 time.sleep(0.05)
@@ -262,3 +268,6 @@ def test_live_view_in_headless_chromium_shows_the_legend(tmp_path: Path) -> None
         want = np.array([(colour >> 16) & 0xFF, (colour >> 8) & 0xFF, colour & 0xFF])
         count = int((np.abs(rgb - want).max(axis=2) <= 8).sum())
         assert count > 20, f"no {state} colour in the live view's screenshot"
+    trail = np.array([(scene.TRAIL_COLOUR >> 16) & 0xFF, (scene.TRAIL_COLOUR >> 8) & 0xFF,
+                      scene.TRAIL_COLOUR & 0xFF])
+    assert int((np.abs(rgb - trail).max(axis=2) <= 12).sum()) > 20, "no trail drawn"

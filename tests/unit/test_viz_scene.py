@@ -175,3 +175,29 @@ def test_boxes_and_objects_never_look_like_a_robot_state() -> None:
     assert scene.display_colour(0xFFFFFF) == 0xFFFFFF  # far from every state: unchanged
     green = scene.display_colour(0x1FB84A)  # the charging colour itself gets paler
     assert green != 0x1FB84A
+
+
+def test_trails_follow_robots_when_asked_for() -> None:
+    layout = scene.layout_from_world(load_world(world_path("simple")))
+    robot = layout.robots[0].name
+    sink = RecordingSink()
+    view = LiveView(layout, sink, trail_points=3, trail_step_m=0.1)
+    view.publish_once()
+    for k in range(6):
+        view.offer({robot: (0.2 * k, 0.0, 0.0)})
+        sink.commands.clear()
+        view.publish_once()
+    trails = [c for c in sink.commands if c["path"] == f"{scene.ROOT}/trails/{robot}"]
+    (trail,) = trails
+    verts = trail["object"]["geometries"][0]["data"]["attributes"]["position"]["array"]
+    xs = sorted(set(round(x, 6) for x in verts[0::3]))
+    assert xs == pytest.approx([0.6, 0.8, 1.0])  # a ribbon through the last three positions
+    assert len(verts) == 2 * 6 * 3  # two segments of two triangles
+    assert trail["object"]["materials"][0]["color"] == scene.TRAIL_COLOUR
+    assert scene.TRAIL_COLOUR not in scene.STATE_COLOURS.values()
+    plain = RecordingSink()
+    no_trail = LiveView(layout, plain)
+    for k in range(3):
+        no_trail.offer({robot: (0.2 * k, 0.0, 0.0)})
+        no_trail.publish_once()
+    assert not [c for c in plain.commands if "/trails/" in c["path"]]
