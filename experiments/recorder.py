@@ -66,6 +66,7 @@ class RunRecorder:
         progress_period_sim_s: float = 300.0,
         live_rate_hz: float = 10.0,
         live_trail_points: int = 0,
+        live_lasers: bool = False,
     ) -> None:
         self.world = world
         self.experiment = experiment
@@ -90,6 +91,7 @@ class RunRecorder:
         self._meshcat = meshcat
         self._live_rate_hz = live_rate_hz
         self._live_trail_points = live_trail_points
+        self._live_lasers = live_lasers
         self._viewer: Any = None
         self._channel: Any = None
         self.live: Any = None
@@ -136,11 +138,15 @@ class RunRecorder:
                 self.event(t, ev.BATTERY,
                            percent={r: round(float(s.power(r).percent), 2) for r in powered})
 
+        lasers = tuple(r.name for r in self.world.robots
+                       if r.mobile and r.devices.laser is not None)
+        scans = self.live.offer_scans if self.live is not None and self._live_lasers else None
         return ObservedSim(
             sim, wall_clock=self._clock, pose_sampler=self.poses,
             live_offer=self.live.offer if self.live is not None else None,
             live_period_s=1.0 / self._live_rate_hz,
             samplers=((battery_period_s, sample_battery), *samplers),
+            live_scans=scans, scan_robots=lasers if scans is not None else (),
         )
 
     # --- while running ---

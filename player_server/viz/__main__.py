@@ -27,6 +27,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--web-port", type=int, default=0, help="0 = any free port")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--rate-hz", type=float, default=10.0, help="viewer updates per second")
+    parser.add_argument("--lasers", action="store_true", help="draw the robots' laser rays")
     parser.add_argument("--trails", type=int, default=0, metavar="N",
                         help="draw each robot's last N positions as a trail (0 = none)")
     args = parser.parse_args(argv)
@@ -49,6 +50,7 @@ def main(argv: list[str] | None = None) -> int:
     driver = WanderDriver(sim, np.random.default_rng(args.seed))
     layout = layout_from_world(spec)
     robots = [r.name for r in layout.robots]
+    lasers = [shape.robot for shape in layout.lasers]
     has_power = {r.name: r.devices.power is not None for r in spec.robots}
     pacer = Pacer(sim.interval_s, args.speedup, time.monotonic, time.sleep)
     stop = threading.Event()
@@ -69,6 +71,8 @@ def main(argv: list[str] | None = None) -> int:
                 if now >= next_offer:
                     next_offer = now + period
                     view.offer(sim.snapshot())
+                    if args.lasers:
+                        view.offer_scans({r: sim.laser(r).tolist() for r in lasers})
                     for r in robots:
                         charging = has_power[r] and sim.power(r).charging
                         view.set_robot(r, CHARGING if charging else IDLE)

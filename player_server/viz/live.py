@@ -112,6 +112,8 @@ class LiveView:
         self._trails: dict[str, deque[tuple[float, float]]] = {}
         self._trails_changed: set[str] = set()
         self._robot_names = {r.name for r in layout.robots}
+        self._lasers = {shape.robot: shape for shape in layout.lasers}
+        self._latest_scans: dict[str, Any] = {}
 
     # --- called by the simulation's owner (any thread) ---
 
@@ -127,6 +129,12 @@ class LiveView:
             raise ValueError(f"unknown robot state {state!r}; expected one of {scene.ROBOT_STATES}")
         with self._lock:
             self._wanted[robot] = RobotView(state, label)
+
+    def offer_scans(self, scans: Mapping[str, Any]) -> None:
+        """The newest laser ranges of some robots (drawn as rays; robots without a laser in
+        the layout are ignored). Cheap: one lock and a dict update."""
+        with self._lock:
+            self._latest_scans.update(scans)
 
     def set_battery(self, robot: str, percent: float) -> None:
         if not math.isfinite(percent):
@@ -192,6 +200,7 @@ class LiveView:
             snap, self._latest = self._latest, None
             wanted = dict(self._wanted)
             battery = dict(self._battery)
+            scans, self._latest_scans = self._latest_scans, {}
         commands: list[dict[str, Any]] = []
         if not self._scene_sent:
             commands.extend(scene.static_scene(self._layout, id_prefix="live-scene"))
@@ -209,6 +218,10 @@ class LiveView:
                 commands.extend(scene.clock_commands(self._ids, self._layout, float(t)))
         commands.extend(self._robot_commands(wanted))
         commands.extend(self._battery_commands(battery))
+        for robot, ranges in scans.items():
+            shape = self._lasers.get(robot)
+            if shape is not None:
+                commands.append(scene.laser_command(self._ids, shape, ranges))
         for robot in sorted(self._trails_changed):
             commands.append(scene.trail_command(self._ids, robot, self._trails[robot]))
         self._trails_changed.clear()

@@ -15,6 +15,7 @@ Scene tree (all under ``/murdoch``)::
     robots/<name>/name                                        name (and battery, live view)
     robots/<name>/label                                       task and target (live view)
     robots/<name>/labels/<k>                                  task labels (replay)
+    robots/<name>/laser                                       laser rays (live view, option)
     trails/<name>                                             path behind a robot (live, option)
     hud/clock                                                 simulation clock (live view)
     hud/legend/<state>, hud/legend/<state>/text               legend of robot states
@@ -59,6 +60,8 @@ OBSTACLE_COLOUR = 0x6B5B4B
 CHARGER_COLOUR = 0xF5D000
 NOSE_COLOUR = 0x111111
 TRAIL_COLOUR = 0x6A3D9A  # purple: no robot state's colour
+LASER_COLOUR = 0xE0245E  # crimson: no robot state's colour
+LASER_RAYS = 19  # rays drawn of a scan (every k-th reading)
 TRAIL_HEIGHT_M = 0.03
 
 ROBOT_HEIGHT_M = 0.24
@@ -109,6 +112,20 @@ class RobotShape:
 
 
 @dataclass(frozen=True, slots=True)
+class LaserShape:
+    """Where a robot's laser sits and what it covers (robot frame)."""
+
+    robot: str
+    x_m: float
+    y_m: float
+    yaw_rad: float
+    min_angle_rad: float
+    max_angle_rad: float
+    samples: int
+    max_range_m: float
+
+
+@dataclass(frozen=True, slots=True)
 class SceneLayout:
     """Everything drawn, with initial poses; dynamic bodies are moved by name later."""
 
@@ -125,6 +142,7 @@ class SceneLayout:
     boxes: tuple[Block, ...] = ()
     objects: tuple[Disc, ...] = ()
     robots: tuple[RobotShape, ...] = ()
+    lasers: tuple[LaserShape, ...] = ()
 
     @property
     def centre(self) -> tuple[float, float]:
@@ -472,6 +490,50 @@ def trail_command(ids: IdSource, robot: str, points: Sequence[tuple[float, float
     return set_object(f"{ROOT}/trails/{robot}", obj)
 
 
+def laser_segments(shape: LaserShape, ranges: Sequence[float],
+                   rays: int = LASER_RAYS) -> list[float]:
+    """Line-segment vertices (robot frame, x y z pairs) for `rays` evenly chosen readings of
+    one scan; a reading at or beyond the maximum range (nothing hit) is drawn to the maximum."""
+    n = len(ranges)
+    if n == 0:
+        return []
+    count = min(rays, n)
+    step = (shape.max_angle_rad - shape.min_angle_rad) / (n - 1) if n > 1 else 0.0
+    c, s = math.cos(shape.yaw_rad), math.sin(shape.yaw_rad)
+    z = ROBOT_HEIGHT_M + 0.02
+    out: list[float] = []
+    for k in range(count):
+        i = round(k * (n - 1) / (count - 1)) if count > 1 else 0
+        r = float(ranges[i])
+        if math.isnan(r) or r <= 0.0:
+            continue
+        r = min(r, shape.max_range_m)
+        a = shape.min_angle_rad + i * step
+        lx, ly = r * math.cos(a), r * math.sin(a)
+        out.extend((shape.x_m, shape.y_m, z,
+                    shape.x_m + c * lx - s * ly, shape.y_m + s * lx + c * ly, z))
+    return out
+
+
+def laser_command(ids: IdSource, shape: LaserShape, ranges: Sequence[float]) -> Command:
+    gid, mid, oid = ids.next(), ids.next(), ids.next()
+    obj = {
+        "metadata": {"version": 4.5, "type": "Object"},
+        "geometries": [{
+            "uuid": gid, "type": "BufferGeometry",
+            "data": {"attributes": {"position": {
+                "itemSize": 3, "type": "Float32Array", "array": laser_segments(shape, ranges),
+                "normalized": False,
+            }}},
+        }],
+        "materials": [{"uuid": mid, "type": "LineBasicMaterial", "color": LASER_COLOUR,
+                       "transparent": True, "opacity": 0.8}],
+        "object": {"uuid": oid, "type": "LineSegments", "geometry": gid, "material": mid,
+                   "matrix": pose_matrix(0.0, 0.0, 0.0, 0.0)},
+    }
+    return set_object(f"{robot_path(shape.robot)}/laser", obj)
+
+
 def name_text(robot: str, battery_percent: float | None = None) -> str:
     if battery_percent is None:
         return robot
@@ -539,5 +601,13 @@ def layout_from_world(spec: WorldSpec) -> SceneLayout:
                        r.body.offset_x_m)
             for r in spec.robots
             if r.mobile
+        ),
+        lasers=tuple(
+            LaserShape(r.name, r.devices.laser.pose.x, r.devices.laser.pose.y,
+                       r.devices.laser.pose.yaw, r.devices.laser.min_angle_rad,
+                       r.devices.laser.max_angle_rad, r.devices.laser.samples,
+                       r.devices.laser.max_range_m)
+            for r in spec.robots
+            if r.mobile and r.devices.laser is not None
         ),
     )

@@ -201,3 +201,41 @@ def test_trails_follow_robots_when_asked_for() -> None:
         no_trail.offer({robot: (0.2 * k, 0.0, 0.0)})
         no_trail.publish_once()
     assert not [c for c in plain.commands if "/trails/" in c["path"]]
+
+
+def test_laser_rays_from_a_scan() -> None:
+    import math
+
+    shape = scene.LaserShape("r", 0.1, 0.0, 0.0, -math.pi / 2, math.pi / 2, 181, 8.0)
+    ranges = [2.0] * 181
+    ranges[90] = float("inf")  # nothing hit straight ahead: drawn to the maximum
+    ranges[0] = float("nan")  # not a reading: not drawn
+    v = scene.laser_segments(shape, ranges)
+    segments = [v[i:i + 6] for i in range(0, len(v), 6)]
+    assert len(segments) == scene.LASER_RAYS - 1
+    starts = {tuple(s[:2]) for s in segments}
+    assert starts == {(0.1, 0.0)}
+    ends = [(round(s[3], 6), round(s[4], 6)) for s in segments]
+    assert (8.1, 0.0) in ends  # the middle ray, clipped to the laser's range
+    assert ends[-1] == (0.1, 2.0)  # the leftmost ray (+90 degrees)
+    turned = scene.LaserShape("r", 0.0, 0.0, math.pi / 2, 0.0, 0.0, 1, 8.0)
+    (_, _, _, x1, y1, _) = scene.laser_segments(turned, [1.0])
+    assert (round(x1, 6), round(y1, 6)) == (0.0, 1.0)  # a laser mounted facing left
+
+
+def test_live_view_draws_scans_of_robots_with_a_laser() -> None:
+    layout = scene.layout_from_world(load_world(world_path("longterm")))
+    with_laser = {shape.robot for shape in layout.lasers}
+    assert with_laser and with_laser < {r.name for r in layout.robots}
+    sink = RecordingSink()
+    view = LiveView(layout, sink)
+    view.publish_once()
+    sink.commands.clear()
+    robot = sorted(with_laser)[0]
+    without = sorted({r.name for r in layout.robots} - with_laser)[0]
+    view.offer_scans({robot: [1.0] * 181, without: [1.0] * 181})
+    view.publish_once()
+    lasers = [c for c in sink.commands if c["path"].endswith("/laser")]
+    assert [c["path"] for c in lasers] == [f"{scene.robot_path(robot)}/laser"]
+    assert lasers[0]["object"]["object"]["type"] == "LineSegments"
+    assert view.publish_once() == 0  # no new scan, nothing sent
