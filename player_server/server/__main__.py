@@ -82,7 +82,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         server.start()
     except OSError as exc:
-        print(f"player-server: cannot listen: {exc}", file=sys.stderr)
+        from player_server.server.listen_errors import describe_listen_error
+
+        ports = [e.requested_port for e in endpoints]
+        print(f"player-server: {describe_listen_error(exc, args.host, ports)}", file=sys.stderr)
         sim.close()
         return 1
     mode = ("pipelined lockstep" if args.pipelined else "lockstep") if args.lockstep \

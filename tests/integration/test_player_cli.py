@@ -146,3 +146,34 @@ def test_robot_and_server_options_explain_themselves() -> None:
     bad = subprocess.run([str(BIN / "murdoch-robot"), "-p", "1", "--task", "dance"],
                          capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "sentry-duty" in bad.stderr
+
+
+def test_a_port_in_use_is_named_with_a_way_out() -> None:
+    import socket
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        out = subprocess.run([str(BIN / "player-server"), "simple", "-p", str(port)],
+                             capture_output=True, text=True, timeout=60)
+    assert out.returncode == 1
+    line = out.stderr.strip().splitlines()[-1]
+    assert line == (f"player-server: cannot listen on 127.0.0.1: port {port} is already in use "
+                    "(another player-server?); give another base port with -p, or -p 0 for "
+                    "free ports")
+
+
+def test_listen_errors_read_as_one_line() -> None:
+    import errno
+
+    from player_server.server.listen_errors import describe_listen_error
+
+    busy = OSError(errno.EADDRINUSE, "Address already in use")
+    assert "port 6666 is already in use" in describe_listen_error(
+        busy, "127.0.0.1", [6665, 6666], in_use=lambda h, p: p == 6666)
+    assert "a port in 6665-6666 is already in use" in describe_listen_error(
+        busy, "127.0.0.1", [6665, 6666], in_use=lambda h, p: False)
+    denied = OSError(errno.EACCES, "Permission denied")
+    assert describe_listen_error(denied, "127.0.0.1", [80]) == (
+        "cannot listen on 127.0.0.1: Permission denied")
