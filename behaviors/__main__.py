@@ -35,7 +35,12 @@ from behaviors.events import TASK_DONE, TASK_FAILED, TASK_STOPPED, Event, EventL
 from behaviors.library import TASKS
 from behaviors.params import ParamError, parse_assignments
 from behaviors.robot import build_agent
-from player_server.client import PlayerClient, PlayerConnectionError, PlayerError
+from player_server.client import (
+    PlayerClient,
+    PlayerConnectionClosed,
+    PlayerConnectionError,
+    PlayerError,
+)
 
 log = logging.getLogger("murdoch-robot")
 PROFILE_ENV = "MURDOCH_ROBOT_PROFILE_DIR"
@@ -55,7 +60,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("-h", "--host", default="127.0.0.1", help="server host (default 127.0.0.1)")
     p.add_argument("--name", default="", help="robot name (default robot-PORT)")
     p.add_argument("--world", default="", help="world name or .toml path (chargers, camera)")
-    p.add_argument("--task", default="", choices=["", *sorted(TASKS)], help="task to run")
+    p.add_argument("--task", default=None, choices=sorted(TASKS), metavar="TASK",
+                   help="task to run at once, one of: " + ", ".join(sorted(TASKS)))
     p.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
                    help="task parameter (repeatable)")
     p.add_argument("--task-id", default="cli", help="id reported with the task's events")
@@ -169,6 +175,10 @@ def main(argv: list[str] | None = None) -> int:
     except ParamError as exc:
         print(f"murdoch-robot: {exc}", file=sys.stderr)
         code = 2
+    except PlayerConnectionClosed:
+        # the server stopped (a run ending closes every robot's connection): a normal stop
+        if not stop.is_set():
+            log.info("the server closed the connection; stopping")
     except PlayerConnectionError as exc:
         if not stop.is_set():
             print(f"murdoch-robot: {exc}", file=sys.stderr)

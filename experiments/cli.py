@@ -54,5 +54,12 @@ class LazyGroup(click.Group):
 
 @click.group(cls=LazyGroup)
 @click.version_option(package_name="murdoch")
-def main() -> None:
-    """MURDOCH: multi-robot task allocation on simulated Player robots."""
+@click.pass_context
+def main(ctx: click.Context) -> None:
+    """MURDOCH: multi-robot task allocation on simulated Player robots.
+
+    Help is --help (on the group and on every command); -h is never help."""
+    from worlds import WORLDS_DIR
+
+    # where `murdoch allocate NAME` finds bundled scenarios (murdoch.consensus_cli)
+    ctx.meta["murdoch.scenario_dirs"] = (WORLDS_DIR / "scenarios",)

@@ -58,6 +58,20 @@ COMPLETED = "completed"
 FAILED = "failed"
 UNACHIEVABLE = "unachievable"
 OUTCOMES: tuple[str, ...] = (COMPLETED, FAILED, UNACHIEVABLE)
+# a task still open when the run stopped: neither done nor failed by anyone. Written as this
+# outcome, or (older runs) as ``failed`` with a reason starting "run ended"
+OPEN_AT_END = "open_at_end"
+RUN_ENDED_REASON = "run ended"
+COUNTED_OUTCOMES: tuple[str, ...] = (*OUTCOMES, OPEN_AT_END)
+
+
+def counted_outcome(event: Mapping[str, Any]) -> str:
+    """The outcome a task_outcome event counts as: ``open_at_end`` for a task the run's end
+    cut short, else the outcome written."""
+    outcome = str(event.get("outcome", ""))
+    if outcome == FAILED and str(event.get("reason", "")).startswith(RUN_ENDED_REASON):
+        return OPEN_AT_END
+    return outcome
 
 REQUIRED_FIELDS: dict[str, tuple[str, ...]] = {
     RUN_START: ("experiment", "seed"),
@@ -97,9 +111,10 @@ def make_event(t: float, kind: str, **fields: Any) -> dict[str, Any]:
     missing = [f for f in REQUIRED_FIELDS.get(kind, ()) if f not in fields]
     if missing:
         raise EventError(f"event {kind!r} lacks field(s) {', '.join(missing)}")
-    if kind == TASK_OUTCOME and fields["outcome"] not in OUTCOMES:
+    if kind == TASK_OUTCOME and fields["outcome"] not in COUNTED_OUTCOMES:
         raise EventError(
-            f"event {kind!r}: outcome must be one of {OUTCOMES}, got {fields['outcome']!r}"
+            f"event {kind!r}: outcome must be one of {COUNTED_OUTCOMES}, "
+            f"got {fields['outcome']!r}"
         )
     return {"t": float(t), "kind": kind, **fields}
 

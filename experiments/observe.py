@@ -59,7 +59,11 @@ class ObservedSim:
         live_offer: Callable[[Any], None] | None = None,
         live_period_s: float = 0.1,
         samplers: tuple[tuple[float, Callable[[Any, float], None]], ...] = (),
+        live_scans: Callable[[dict[str, Any]], None] | None = None,
+        scan_robots: tuple[str, ...] = (),
     ) -> None:
+        """`live_scans` (with `scan_robots`) also hands the live view those robots' laser
+        ranges, copied, whenever it gets a snapshot."""
         self.sim = sim
         # (period in simulation seconds, callback(sim, t)) run on the serving thread
         self._samplers = [(period, fn, [-1.0]) for period, fn in samplers]
@@ -67,6 +71,8 @@ class ObservedSim:
         self._live = live_offer
         self._live_period = live_period_s
         self._next_live_wall = -1.0
+        self._live_scans = live_scans
+        self._scan_robots = scan_robots
         self.snapshots = 0
 
     @property
@@ -94,6 +100,9 @@ class ObservedSim:
                 self._next_live_wall = now + self._live_period
                 self.snapshots += 1
                 self._live(self.sim.snapshot())
+                if self._live_scans is not None and self._scan_robots:
+                    laser = self.sim.laser  # type: ignore[attr-defined]
+                    self._live_scans({r: laser(r).tolist() for r in self._scan_robots})
 
 
 class JsonlTail:

@@ -1,8 +1,12 @@
 """A run's plots as PNG files (matplotlib, Agg backend; no display needed).
 
-    tasks.png       cumulative tasks introduced / allocated / completed / failed / unachievable
-    battery.png     battery percent of every robot over simulation time
-    allocation.png  one row per robot: working (with task labels), charging, failed
+    tasks.png       cumulative tasks introduced / allocated / completed / failed / unachievable /
+                    open at the end
+    battery.png     battery percent of every robot over simulation time, charging shaded
+    allocation.png  one row per robot: working (with task labels where they fit), charging,
+                    down (killed or switched off); the legend lists the states that occur
+    robots.png      per robot: tasks won by kind, and the share of time idle / working /
+                    charging / down
 """
 
 from __future__ import annotations
@@ -28,7 +32,12 @@ STATE_COLOURS = {
     timeline.CHARGING: "#1fb84a",
     timeline.FAILED: "#7a7a7a",
 }
-PLOT_FILES = ("tasks.png", "battery.png", "allocation.png")
+IDLE_COLOUR = "#d6e4fa"  # a pale version of the viewer's idle blue
+STATE_LABELS = {timeline.FAILED: "down"}
+PLOT_FILES = ("tasks.png", "battery.png", "allocation.png", "robots.png")
+# task kinds in a fixed order of colours (tab10 without the state colours' look-alikes)
+KIND_COLOURS = ("#1f77b4", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22", "#d62728",
+                "#2ca02c", "#ff7f0e", "#7f7f7f")
 
 
 def _hours(t_s: float) -> float:
@@ -55,9 +64,9 @@ def plot_tasks(evs: list[Mapping[str, Any]], end_s: float) -> Figure:
             awarded.add(str(e["task"]))
             series["allocated"].append(float(e["t"]))
         elif k == ev.TASK_OUTCOME:
-            series[str(e["outcome"])].append(float(e["t"]))
+            series[ev.counted_outcome(e)].append(float(e["t"]))
     fig, ax = plt.subplots(figsize=(9, 4.5), dpi=100)
-    for name in ("introduced", "allocated", *ev.OUTCOMES):
+    for name in ("introduced", "allocated", *ev.COUNTED_OUTCOMES):
         times = series.get(name, [])
         xs = [0.0] + [t / scale for t in times] + [end_s / scale]
         ys = [0, *range(1, len(times) + 1), len(times)]
@@ -70,6 +79,18 @@ def plot_tasks(evs: list[Mapping[str, Any]], end_s: float) -> Figure:
     ax.legend(loc="upper left")
     fig.tight_layout()
     return fig
+
+
+def _value_at(xs: list[float], ys: list[float], x: float) -> float | None:
+    """The last sample at or before x (the first one if x comes earlier)."""
+    if not xs:
+        return None
+    best = ys[0]
+    for xv, yv in zip(xs, ys, strict=True):
+        if xv > x:
+            break
+        best = yv
+    return best
 
 
 def plot_battery(evs: list[Mapping[str, Any]], end_s: float) -> Figure:
@@ -85,19 +106,38 @@ def plot_battery(evs: list[Mapping[str, Any]], end_s: float) -> Figure:
     for robot in sorted(series):
         xs, ys = series[robot]
         ax.plot(xs, ys, label=robot, linewidth=1.2)
-    for e in evs:
-        if e["kind"] == ev.CHARGE_START:
-            ax.axvline(float(e["t"]) / scale, color="#1fb84a", alpha=0.15, linewidth=0.8)
+    charging = [iv for ivs in timeline.robot_intervals(evs, end_s=end_s).values() for iv in ivs
+                if iv.state == timeline.CHARGING]
+    for k, iv in enumerate(charging):
+        ax.axvspan(iv.start_s / scale, max(iv.end_s, iv.start_s + end_s * 0.002) / scale,
+                   color=STATE_COLOURS[timeline.CHARGING], alpha=0.22, linewidth=0,
+                   label="charging" if k == 0 else None)
+        xs, ys = series.get(iv.robot, ([], []))
+        y = _value_at(xs, ys, iv.start_s / scale)
+        if y is not None:
+            ax.plot([iv.start_s / scale], [y], marker="v", markersize=7,
+                    color=STATE_COLOURS[timeline.CHARGING], markeredgecolor="black",
+                    markeredgewidth=0.6, linestyle="none")
     ax.set_ylim(0, 105)
     ax.set_xlim(0, max(end_s / scale, 1e-6))
     ax.set_xlabel(_time_axis(ax, end_s))
     ax.set_ylabel("battery (%)")
-    ax.set_title("Battery of every robot (green lines: charging trips)")
+    trips = f"{len(charging)} charging trip{'s' if len(charging) != 1 else ''}"
+    ax.set_title(f"Battery of every robot ({trips}: green bands, ▼ where each began)")
     ax.grid(True, alpha=0.3)
     if series:
-        ax.legend(loc="lower left", ncol=min(6, len(series)), fontsize="small")
+        ax.legend(loc="lower left", ncol=min(7, len(series) + 1), fontsize="small")
     fig.tight_layout()
     return fig
+
+
+def _short_label(label: str) -> str:
+    """The task kind of a "<kind> <task id>" label."""
+    return label.split(" ", 1)[0]
+
+
+def _fits(text: str, width_px: float, fontsize: float, dpi: float) -> bool:
+    return len(text) * fontsize * 0.62 * dpi / 72.0 + 4.0 <= width_px
 
 
 def plot_allocation(
@@ -106,30 +146,129 @@ def plot_allocation(
     scale = _scale(end_s)
     intervals = timeline.robot_intervals(evs, robots, end_s=end_s)
     names = sorted(intervals)
-    fig, ax = plt.subplots(figsize=(10, 1.0 + 0.55 * max(1, len(names))), dpi=100)
+    dpi = 100
+    fig, ax = plt.subplots(figsize=(11, 1.3 + 0.55 * max(1, len(names))), dpi=dpi)
     span = end_s / scale
+    fig.tight_layout()
+    axes_px = ax.get_window_extent().width
+    seen: set[str] = set()
+    fontsize = 7.0
     for row, name in enumerate(names):
         for iv in intervals[name]:
             colour = STATE_COLOURS.get(iv.state)
             if colour is None:
                 continue
+            seen.add(iv.state)
             x0, w = iv.start_s / scale, (iv.end_s - iv.start_s) / scale
-            ax.broken_barh([(x0, w)], (row - 0.38, 0.76), facecolors=colour, edgecolors="none")
-            if iv.state == timeline.WORKING and span > 0 and w / span > 0.06:
-                ax.text(x0 + w / 2, row, iv.label, ha="center", va="center", fontsize=7,
-                        clip_on=True)
+            ax.broken_barh([(x0, w)], (row - 0.38, 0.76), facecolors=colour,
+                           edgecolors="white", linewidth=0.5)
+            if iv.state != timeline.WORKING or span <= 0:
+                continue
+            width_px = w / span * axes_px
+            # the whole label, else the task kind, else its first word, else nothing: labels
+            # never overlap
+            kind = _short_label(iv.label)
+            for text in (iv.label, kind, kind.split("-", 1)[0]):
+                if _fits(text, width_px, fontsize, dpi):
+                    ax.text(x0 + w / 2, row, text, ha="center", va="center",
+                            fontsize=fontsize, clip_on=True)
+                    break
     ax.set_yticks(range(len(names)))
     ax.set_yticklabels(names)
     ax.set_ylim(-0.6, len(names) - 0.4)
     ax.set_xlim(0, max(span, 1e-6))
     ax.invert_yaxis()
     ax.set_xlabel(_time_axis(ax, end_s))
-    ax.set_title("Allocation timeline per robot", loc="left")
-    labels = {timeline.FAILED: "down"}
-    ax.legend(handles=[Patch(color=c, label=labels.get(s, s)) for s, c in STATE_COLOURS.items()],
-              loc="lower right", bbox_to_anchor=(1.0, 1.0), fontsize="small", ncol=3,
-              frameon=False)
+    ax.set_title("Allocation timeline per robot (blank: idle)", loc="left")
+    handles = [Patch(color=c, label=STATE_LABELS.get(st, st))
+               for st, c in STATE_COLOURS.items() if st in seen]
+    if handles:
+        ax.legend(handles=handles, loc="lower right", bbox_to_anchor=(1.0, 1.0),
+                  fontsize="small", ncol=len(handles), frameon=False)
     ax.grid(True, axis="x", alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def robot_shares(
+    evs: list[Mapping[str, Any]], end_s: float, robots: Iterable[str] = ()
+) -> dict[str, dict[str, float]]:
+    """Each robot's share of the run (0-1) in each state: idle, working, charging, failed."""
+    shares: dict[str, dict[str, float]] = {}
+    for name, ivs in timeline.robot_intervals(evs, robots, end_s=end_s).items():
+        total = {st: 0.0 for st in timeline.STATES}
+        for iv in ivs:
+            total[iv.state] += iv.end_s - iv.start_s
+        whole = sum(total.values())
+        shares[name] = {st: (v / whole if whole > 0 else 0.0) for st, v in total.items()}
+    return shares
+
+
+def tasks_by_kind(evs: list[Mapping[str, Any]]) -> dict[str, dict[str, int]]:
+    """How many tasks of each kind each robot was awarded (a task awarded again after a
+    reallocation counts for each robot that held it)."""
+    kind_of: dict[str, str] = {}
+    counts: dict[str, dict[str, int]] = defaultdict(lambda: defaultdict(int))
+    held: set[tuple[str, str]] = set()
+    for e in evs:
+        if e["kind"] == ev.TASK_INTRODUCED:
+            kind_of[str(e["task"])] = str(e["task_kind"])
+        elif e["kind"] == ev.AWARD:
+            key = (str(e["robot"]), str(e["task"]))
+            if key not in held:
+                held.add(key)
+                counts[key[0]][kind_of.get(key[1], str(e.get("task_kind", "other")))] += 1
+    return {r: dict(c) for r, c in counts.items()}
+
+
+def plot_robots(
+    evs: list[Mapping[str, Any]], end_s: float, robots: Iterable[str] = ()
+) -> Figure:
+    shares = robot_shares(evs, end_s, robots)
+    kinds_per_robot = tasks_by_kind(evs)
+    names = sorted(set(shares) | set(kinds_per_robot))
+    kinds = sorted({k for c in kinds_per_robot.values() for k in c})
+    fig, (left, right) = plt.subplots(1, 2, figsize=(12, 1.6 + 0.5 * max(1, len(names))),
+                                      dpi=100, sharey=True)
+    ys = range(len(names))
+    base = [0.0] * len(names)
+    for k, kind in enumerate(kinds):
+        values = [kinds_per_robot.get(n, {}).get(kind, 0) for n in names]
+        left.barh(ys, values, left=base, color=KIND_COLOURS[k % len(KIND_COLOURS)],
+                  label=kind, height=0.7)
+        for y, (b, v) in enumerate(zip(base, values, strict=True)):
+            if v:
+                left.text(b + v / 2, y, str(v), ha="center", va="center", fontsize=7,
+                          color="white")
+        base = [b + v for b, v in zip(base, values, strict=True)]
+    left.set_yticks(list(ys))
+    left.set_yticklabels(names)
+    left.invert_yaxis()
+    left.xaxis.set_major_locator(MaxNLocator(integer=True))
+    left.set_xlabel("tasks won")
+    left.set_title("Tasks won", loc="left")
+    if kinds:
+        left.legend(fontsize="small", loc="lower right", bbox_to_anchor=(1.0, 1.0),
+                    ncol=min(3, len(kinds)), frameon=False)
+    left.grid(True, axis="x", alpha=0.3)
+    colours = {timeline.IDLE: IDLE_COLOUR, **STATE_COLOURS}
+    base = [0.0] * len(names)
+    for st in timeline.STATES:
+        values = [100.0 * shares.get(n, {}).get(st, 0.0) for n in names]
+        if not any(values):
+            continue  # the legend lists only the states that occur
+        right.barh(ys, values, left=base, color=colours[st], height=0.7,
+                   label=STATE_LABELS.get(st, st), edgecolor="white", linewidth=0.5)
+        for y, (b, v) in enumerate(zip(base, values, strict=True)):
+            if v >= 7:
+                right.text(b + v / 2, y, f"{v:.0f}%", ha="center", va="center", fontsize=7)
+        base = [b + v for b, v in zip(base, values, strict=True)]
+    right.set_xlim(0, 100)
+    right.set_xlabel("share of the run (%)")
+    right.set_title("Share of time", loc="left")
+    if right.get_legend_handles_labels()[0]:
+        right.legend(fontsize="small", loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=4,
+                     frameon=False)
     fig.tight_layout()
     return fig
 
@@ -137,7 +276,7 @@ def plot_allocation(
 def write_plots(
     evs: Iterable[Mapping[str, Any]], out_dir: Path, robots: Iterable[str] = ()
 ) -> list[Path]:
-    """Write the three PNGs into `out_dir`; returns their paths."""
+    """Write the PNGs of `PLOT_FILES` into `out_dir`; returns their paths."""
     evs = [e for e in evs if e["kind"] != ev.POSES]
     end_s = max((float(e["t"]) for e in evs), default=0.0)
     out_dir = Path(out_dir)
@@ -146,7 +285,7 @@ def write_plots(
     for filename, fig in zip(
         PLOT_FILES,
         (plot_tasks(evs, end_s), plot_battery(evs, end_s),
-         plot_allocation(evs, end_s, robots)),
+         plot_allocation(evs, end_s, robots), plot_robots(evs, end_s, robots)),
         strict=True,
     ):
         path = out_dir / filename

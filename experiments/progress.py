@@ -1,9 +1,10 @@
 """Progress while an experiment runs.
 
-`ProgressTracker` folds events into the figures shown (pure). `ProgressDisplay` shows them: a
-rich live table redrawn a few times a second when the output is a terminal, otherwise one plain
-line every `line_period_sim_s` of simulation time (default five simulated minutes) plus a
-final line.
+`ProgressTracker` folds events into the figures shown (pure). `ProgressDisplay` shows them: on
+a terminal a rich progress bar of simulated time with its ETA (the run's length is known) above
+a live table, redrawn a few times a second; otherwise a first plain line within a second of the
+start, then one every `line_period_sim_s` of simulation time (default five simulated minutes)
+plus a final line.
 """
 
 from __future__ import annotations
@@ -13,9 +14,11 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, TextIO
 
-from rich.console import Console
+from rich.console import Console, Group, RenderableType
 from rich.live import Live
+from rich.progress_bar import ProgressBar
 from rich.table import Table
+from rich.text import Text
 
 from experiments import events as ev
 from experiments import timeline
@@ -31,6 +34,7 @@ class Progress:
     failed: int
     unachievable: int
     reallocations: int
+    open_at_end: int
     charging: int
     failed_robots: int
     lowest_battery_percent: float | None
@@ -56,7 +60,7 @@ class ProgressTracker:
         self._sim_s = 0.0
         self._introduced = 0
         self._allocated: set[str] = set()
-        self._outcomes = {o: 0 for o in ev.OUTCOMES}
+        self._outcomes = {o: 0 for o in ev.COUNTED_OUTCOMES}
         self._reallocations = 0
         self._battery: dict[str, float] = {}
 
@@ -68,8 +72,8 @@ class ProgressTracker:
                 self._introduced += 1
             elif kind == ev.AWARD:
                 self._allocated.add(str(event["task"]))
-            elif kind == ev.TASK_OUTCOME and event["outcome"] in self._outcomes:
-                self._outcomes[event["outcome"]] += 1
+            elif kind == ev.TASK_OUTCOME and ev.counted_outcome(event) in self._outcomes:
+                self._outcomes[ev.counted_outcome(event)] += 1
             elif kind == ev.REALLOCATION:
                 self._reallocations += 1
             elif kind == ev.BATTERY:
@@ -93,19 +97,47 @@ class ProgressTracker:
                 failed=self._outcomes[ev.FAILED],
                 unachievable=self._outcomes[ev.UNACHIEVABLE],
                 reallocations=self._reallocations,
+                open_at_end=self._outcomes[ev.OPEN_AT_END],
                 charging=states.count(timeline.CHARGING),
                 failed_robots=states.count(timeline.FAILED),
                 lowest_battery_percent=min(self._battery.values()) if self._battery else None,
             )
 
 
-def format_line(p: Progress) -> str:
+def eta_s(p: Progress, duration_s: float | None) -> float | None:
+    """Wall seconds left at the pace so far (None before there is a pace)."""
+    rtf = p.real_time_factor
+    if duration_s is None or rtf is None or rtf <= 0 or p.sim_s <= 0:
+        return None
+    return max(0.0, duration_s - p.sim_s) / rtf
+
+
+def bar_text(p: Progress, duration_s: float | None) -> str:
+    """The figures beside the bar: simulated time of the total, percent and ETA."""
+    if duration_s is None or duration_s <= 0:
+        return f"sim {hms(p.sim_s)}"
+    left = eta_s(p, duration_s)
+    eta = hms(left) if left is not None else "-:--:--"
+    pct = min(100.0, 100.0 * p.sim_s / duration_s)
+    return f"sim {hms(p.sim_s)} / {hms(duration_s)}  {pct:3.0f}%  ETA {eta}"
+
+
+def make_bar(p: Progress, duration_s: float | None, width: int = 40) -> RenderableType:
+    total = duration_s if duration_s and duration_s > 0 else None
+    bar = ProgressBar(total=total, completed=min(p.sim_s, total or p.sim_s), width=width)
+    row = Table.grid(padding=(0, 1))
+    row.add_row(bar, Text(bar_text(p, duration_s)))
+    return row
+
+
+def format_line(p: Progress, duration_s: float | None = None) -> str:
     rtf = f"{p.real_time_factor:.1f}" if p.real_time_factor is not None else "-"
     battery = (
         f"{p.lowest_battery_percent:.0f}%" if p.lowest_battery_percent is not None else "-"
     )
+    sim = bar_text(p, duration_s) if duration_s else f"sim {hms(p.sim_s)}"
     return (
-        f"sim {hms(p.sim_s)} | wall {hms(p.wall_s)} | rtf {rtf} | tasks introduced "
+        f"{sim} | wall {hms(p.wall_s)} | rtf {rtf} | tasks introduced "
         f"{p.introduced} allocated {p.allocated} completed {p.completed} "
         f"unachievable {p.unachievable} failed {p.failed} | charging {p.charging} | "
         f"lowest battery {battery}"
@@ -129,6 +161,7 @@ def make_table(p: Progress, title: str = "") -> Table:
         ("tasks completed", str(p.completed)),
         ("tasks unachievable", str(p.unachievable)),
         ("tasks failed", str(p.failed)),
+        ("tasks open at end", str(p.open_at_end)),
         ("reallocations", str(p.reallocations)),
         ("robots charging", str(p.charging)),
         ("robots down", str(p.failed_robots)),
@@ -155,6 +188,8 @@ class ProgressDisplay:
         line_period_sim_s: float = 300.0,
         refresh_per_second: float = 4.0,
         title: str = "",
+        duration_s: float | None = None,
+        first_line_wall_s: float = 1.0,
     ) -> None:
         self._tracker = tracker
         self._clock = wall_clock
@@ -169,12 +204,16 @@ class ProgressDisplay:
         self._refresh = refresh_per_second
         self._lock = threading.Lock()
         self.lines_written = 0
+        self.duration_s = duration_s
+        self._first_line_wall_s = first_line_wall_s
+        self._first_line_done = False
 
     def snapshot(self) -> Progress:
         return self._tracker.progress(self._clock() - self._t0)
 
-    def _renderable(self) -> Table:
-        return make_table(self.snapshot(), self._title)
+    def _renderable(self) -> RenderableType:
+        p = self.snapshot()
+        return Group(make_bar(p, self.duration_s), make_table(p, self._title))
 
     def start(self) -> None:
         if self.terminal:
@@ -185,6 +224,12 @@ class ProgressDisplay:
                 transient=False,
             )
             self._live.start()
+        else:
+            # at once, so that a log or a pipe shows the run is alive
+            length = f" for {hms(self.duration_s)} simulated" if self.duration_s else ""
+            with self._lock:
+                self._stream.write(f"{self._title or 'run'}: started{length}\n")
+                self._stream.flush()
 
     def tick(self) -> None:
         """Write a plain line when another period of simulation time has passed."""
@@ -192,6 +237,11 @@ class ProgressDisplay:
             return
         p = self.snapshot()
         with self._lock:
+            if not self._first_line_done and p.wall_s >= self._first_line_wall_s:
+                # the first figures after about a second, whatever the simulated time
+                self._first_line_done = True
+                self._write(p)
+                return
             if p.sim_s < self._next_line_s:
                 return
             while self._next_line_s <= p.sim_s:
@@ -199,7 +249,7 @@ class ProgressDisplay:
             self._write(p)
 
     def _write(self, p: Progress) -> None:
-        self._stream.write(format_line(p) + "\n")
+        self._stream.write(format_line(p, self.duration_s) + "\n")
         self._stream.flush()
         self.lines_written += 1
 

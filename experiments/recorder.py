@@ -48,6 +48,11 @@ def read_process_memory(pid: int) -> dict[str, int] | None:
     return parse_proc_status(text) if "VmRSS:" in text else None
 
 
+def _duration_of(config: Mapping[str, Any]) -> float | None:
+    value = config.get("duration_s")
+    return float(value) if isinstance(value, int | float) and value > 0 else None
+
+
 class RunRecorder:
     def __init__(
         self,
@@ -65,6 +70,8 @@ class RunRecorder:
         record_rate_hz: float = 2.0,
         progress_period_sim_s: float = 300.0,
         live_rate_hz: float = 10.0,
+        live_trail_points: int = 0,
+        live_lasers: bool = False,
     ) -> None:
         self.world = world
         self.experiment = experiment
@@ -89,9 +96,12 @@ class RunRecorder:
         self.display = ProgressDisplay(
             self.tracker, wall_clock=wall_clock, stream=stream, terminal=terminal,
             line_period_sim_s=progress_period_sim_s, title=f"murdoch {experiment}",
+            duration_s=_duration_of(config),
         )
         self._meshcat = meshcat
         self._live_rate_hz = live_rate_hz
+        self._live_trail_points = live_trail_points
+        self._live_lasers = live_lasers
         self._viewer: Any = None
         self._channel: Any = None
         self.live: Any = None
@@ -123,7 +133,8 @@ class RunRecorder:
         self._viewer = ViewerProcess()
         self._channel = ZmqChannel(self._viewer.urls.zmq_url)
         self.live = LiveView(layout_from_world(self.world), self._channel,
-                             max_rate_hz=self._live_rate_hz)
+                             max_rate_hz=self._live_rate_hz,
+                             trail_points=self._live_trail_points)
         self.live.start()
         self.viewer_url = self._viewer.urls.web_url
         self._stream.write(f"meshcat live view: {self.viewer_url}\n")
@@ -149,11 +160,15 @@ class RunRecorder:
                 self.recording.on_step(s, t)
 
         record = ((0.0, sample_recording),) if self._record else ()
+        lasers = tuple(r.name for r in self.world.robots
+                       if r.mobile and r.devices.laser is not None)
+        scans = self.live.offer_scans if self.live is not None and self._live_lasers else None
         return ObservedSim(
             sim, wall_clock=self._clock,
             live_offer=self.live.offer if self.live is not None else None,
             live_period_s=1.0 / self._live_rate_hz,
             samplers=((battery_period_s, sample_battery), *samplers, *record),
+            live_scans=scans, scan_robots=lasers if scans is not None else (),
         )
 
     # --- while running ---
@@ -167,7 +182,10 @@ class RunRecorder:
             live = self.live
             if live is not None:
                 for robot, state in changed.items():
-                    live.set_robot(robot, state.state, state.label)
+                    live.set_robot(robot, state.state, state.view_label)
+                if e["kind"] == ev.BATTERY:
+                    for robot, percent in e["percent"].items():
+                        live.set_battery(str(robot), float(percent))
             recording = self.recording
             if recording is not None:
                 recording.event(e)
@@ -210,11 +228,11 @@ class RunRecorder:
         return self.display.snapshot()
 
     def finish(self, reason: str, *, replay: bool = True, end_t: float | None = None,
-               extra: Mapping[str, Any] | None = None) -> Report:
-        """Write run_end, close the logs, stop the viewer, build summary, plots and replay.
+               extra: Mapping[str, Any] | None = None, keep_viewer: bool = False) -> Report:
+        """Write run_end, close the logs, stop the viewer (unless `keep_viewer`: then
+        `hold_viewer` or `close_viewer` later), build summary, plots and replay.
 
-        `extra`: wall-clock facts of the run (e.g. CPU affinity results) kept beside the
-        wall time in processes.jsonl and summary.json."""
+        `extra`: wall-clock facts of the run kept beside the wall time in processes.jsonl."""
         if self._finished:
             raise RuntimeError("the run is already finished")
         self._finished = True
@@ -227,10 +245,30 @@ class RunRecorder:
             self._events.close()
             self._processes.close()
             self.display.stop()
-            self._stop_viewer()
+            if not keep_viewer:
+                self._stop_viewer()
             if self.recording is not None:
                 self.recording.close()
         return build_report(self.run, replay=replay and self._record)
+
+    def hold_viewer(self, wait: Callable[[], None]) -> None:
+        """Keep the live view up after the run (its last frame stays on screen) until `wait`
+        returns or raises KeyboardInterrupt (Ctrl-C), then stop it. `wait` is
+        `signal.pause` in the command; tests pass their own."""
+        if self.live is None:
+            return
+        self._stream.write(f"the live view stays up at {self.viewer_url}; "
+                           "press Ctrl-C to close it\n")
+        self._stream.flush()
+        try:
+            wait()
+        except KeyboardInterrupt:
+            pass
+        finally:
+            self._stop_viewer()
+
+    def close_viewer(self) -> None:
+        self._stop_viewer()
 
     def _stop_viewer(self) -> None:
         errors: list[BaseException] = []

@@ -29,6 +29,7 @@ import umsgpack
 
 from experiments import events as ev
 from experiments import timeline
+from experiments.rundir import write_text_atomic
 from player_server.viz import scene
 
 Key = tuple[float, float, float, float]  # t_s, x_m, y_m, yaw_rad
@@ -280,8 +281,6 @@ def write_replay(
     )
     html = render_html(commands, title=title, speed=info["speed"])
     out = Path(out)
-    tmp = out.with_suffix(".html.tmp")
-    tmp.write_text(html, encoding="utf-8")
-    tmp.replace(out)
+    write_text_atomic(out, html)
     return ReplayInfo(out, len(html.encode("utf-8")), info["keyframes"], info["bodies"],
                       info["duration_s"], info["speed"])

@@ -28,6 +28,8 @@ class Report:
     plots: tuple[Path, ...]
     replay: Path | None
     malformed_lines: int
+    # what could not be written (a full disk), one line each; summary.json comes first
+    problems: tuple[str, ...] = ()
 
 
 def world_of(run: rd.RunDir) -> Any | None:
@@ -65,20 +67,31 @@ def build_report(run: rd.RunDir, *, replay: bool = True) -> Report:
     spec = world_of(run)
     robots = tuple(r.name for r in spec.robots) if spec is not None else ()
     run.write_summary(summary)
-    plots = tuple(write_plots(events, run.plots, robots))
+    problems: list[str] = []
+    plots: tuple[Path, ...] = ()
+    try:
+        plots = tuple(write_plots(events, run.plots, robots))
+    except OSError as exc:
+        problems.append(f"plots not written to {run.plots}: {exc.strerror or exc}")
     replay_path: Path | None = None
-    if replay:
-        if spec is None:
-            log.warning("%s: no world in config.json; replay.html not built", run.root)
-        else:
-            from experiments.replay import write_replay
-            from player_server.viz.scene import layout_from_world
+    if replay and not problems:
+        try:
+            replay_path = _write_replay(run, spec, events)
+        except OSError as exc:
+            problems.append(f"replay not written to {run.replay}: {exc.strerror or exc}")
+    return Report(run, summary, plots, replay_path, stats.malformed, tuple(problems))
 
-            if not run.recording.is_file():
-                log.warning("%s: no %s; replay.html not built", run.root, rd.RECORDING)
-            else:
-                info = write_replay(run.replay, layout_from_world(spec),
-                                    recorded_poses(run.recording), events,
-                                    title=f"{run.root.name}")
-                replay_path = info.path
-    return Report(run, summary, plots, replay_path, stats.malformed)
+
+def _write_replay(run: rd.RunDir, spec: Any, events: list[dict[str, Any]]) -> Path | None:
+    if spec is None:
+        log.warning("%s: no world in config.json; replay.html not built", run.root)
+        return None
+    if not run.recording.is_file():
+        log.warning("%s: no %s; replay.html not built", run.root, rd.RECORDING)
+        return None
+    from experiments.replay import write_replay
+    from player_server.viz.scene import layout_from_world
+
+    info = write_replay(run.replay, layout_from_world(spec), recorded_poses(run.recording),
+                        events, title=f"{run.root.name}")
+    return info.path

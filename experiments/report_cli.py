@@ -16,6 +16,7 @@ import click
 @click.option("--json", "as_json", is_flag=True, help="Print the whole summary as JSON.")
 def report(run_dir: Path, replay: bool, as_json: bool) -> None:
     """Rebuild RUN_DIR's summary.json and plots from its events.jsonl."""
+    from experiments.end_report import summary_lines
     from experiments.report import build_report
     from experiments.rundir import open_run_dir
 
@@ -29,19 +30,9 @@ def report(run_dir: Path, replay: bool, as_json: bool) -> None:
     if as_json:
         click.echo(json.dumps(s, indent=2, sort_keys=True))
         return
-    tasks = s["tasks"]
-    rtf = s["real_time_factor"]
     click.echo(f"run        {run.root}")
-    click.echo(f"sim time   {s['sim_time_s']:.0f} s   real-time factor "
-               f"{rtf if rtf is not None else '-'}")
-    click.echo(f"tasks      introduced {tasks['introduced']}  executed {tasks['executed']}  "
-               f"failed {tasks['failed']}  unachievable {tasks['unachievable']}  "
-               f"reallocations {tasks['reallocations']}")
-    click.echo(f"charging   {s['charging_trips']} trips   robot failures {s['robot_failures']}")
-    click.echo(f"messages   {s['messages']['total']} ({s['messages']['total_bytes']} bytes)")
-    inv = s["invariant_terminal_states"]
-    click.echo(f"invariant  every task ends in exactly one terminal state: "
-               f"{'yes' if inv['holds'] else 'NO'}")
+    for line in summary_lines(s):
+        click.echo(line)
     if result.malformed_lines:
         click.echo(f"warning    {result.malformed_lines} malformed event line(s) skipped")
     click.echo(f"wrote      {run.summary}")
@@ -49,3 +40,7 @@ def report(run_dir: Path, replay: bool, as_json: bool) -> None:
         click.echo(f"wrote      {p}")
     if result.replay is not None:
         click.echo(f"wrote      {result.replay}")
+    for problem in result.problems:
+        click.echo(f"error: {problem}", err=True)
+    if result.problems:
+        raise SystemExit(1)

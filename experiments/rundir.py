@@ -90,11 +90,21 @@ class RunDir:
         _write_json(self.summary, summary)
 
 
-def _write_json(path: Path, data: Any) -> None:
+def write_text_atomic(path: Path, text: str) -> None:
+    """Write `text` to ``<path>.tmp`` and rename it over `path`: readers see the old file or
+    the whole new one. On failure (a full disk) the temporary file is removed and the error
+    raised."""
     tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(data, indent=2, sort_keys=True, allow_nan=False) + "\n",
-                   encoding="utf-8")
-    tmp.replace(path)
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        tmp.replace(path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def _write_json(path: Path, data: Any) -> None:
+    write_text_atomic(path, json.dumps(data, indent=2, sort_keys=True, allow_nan=False) + "\n")
 
 
 def create_run_dir(out: Path, experiment: str, started: datetime) -> RunDir:

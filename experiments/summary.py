@@ -2,7 +2,8 @@
 
 `summarize(events)` returns a JSON-ready dict; `murdoch report` writes it to summary.json.
 `terminal_state_problems(events)` lists tasks that did not end in exactly one of completed /
-failed / unachievable (the run's central invariant).
+failed / unachievable / open at the end (the run's central invariant). A task the run's end
+cut short counts as ``open_at_end``, not as failed (`events.counted_outcome`).
 """
 
 from __future__ import annotations
@@ -55,7 +56,7 @@ def summarize(events: Iterable[Mapping[str, Any]],
     evs = list(events)
     wall_records = list(process_records)
     kinds = Counter(str(e["kind"]) for e in evs)
-    outcomes = Counter(str(e["outcome"]) for e in evs if e["kind"] == ev.TASK_OUTCOME)
+    outcomes = Counter(ev.counted_outcome(e) for e in evs if e["kind"] == ev.TASK_OUTCOME)
     task_kind_of: dict[str, str] = {}
     for e in evs:
         if e["kind"] == ev.TASK_INTRODUCED:
@@ -101,7 +102,7 @@ def summarize(events: Iterable[Mapping[str, Any]],
         if e["kind"] == ev.TASK_INTRODUCED:
             by_task_kind[str(e["task_kind"])]["introduced"] += 1
         elif e["kind"] == ev.TASK_OUTCOME:
-            by_task_kind[task_kind_of.get(str(e["task"]), "unknown")][str(e["outcome"])] += 1
+            by_task_kind[task_kind_of.get(str(e["task"]), "unknown")][ev.counted_outcome(e)] += 1
 
     # processes: peak and first/last resident memory
     processes: dict[str, dict[str, Any]] = {}
@@ -162,6 +163,7 @@ def summarize(events: Iterable[Mapping[str, Any]],
             "executed": outcomes[ev.COMPLETED],
             "failed": outcomes[ev.FAILED],
             "unachievable": outcomes[ev.UNACHIEVABLE],
+            "open_at_end": outcomes[ev.OPEN_AT_END],
             "reallocations": kinds[ev.REALLOCATION],
             "by_kind": {k: dict(sorted(v.items())) for k, v in sorted(by_task_kind.items())},
         },

@@ -1,9 +1,9 @@
 """What each robot was doing, derived from events: states for the viewer, intervals for plots.
 
-A robot is ``failed`` (its process is down), else ``charging``, else ``working`` (it holds a
-task it was awarded), else ``idle``. `RobotStateTracker.apply` folds one event at a time and
-returns the robots whose state or label changed, so the live view and the batch functions
-share the same rules.
+A robot is ``failed`` (down: its process was killed or it was switched off), else
+``charging``, else ``working`` (it holds a task it was awarded), else ``idle``.
+`RobotStateTracker.apply` folds one event at a time and returns the robots whose state or label
+changed, so the live view and the batch functions share the same rules.
 """
 
 from __future__ import annotations
@@ -21,11 +21,25 @@ FAILED = "failed"
 STATES: tuple[str, ...] = (IDLE, WORKING, CHARGING, FAILED)
 
 
+# a killed robot and a switched-off one are down alike until restarted / switched on
+_DOWN = frozenset((ev.ROBOT_FAILURE, ev.ROBOT_SWITCH_OFF))
+_UP = frozenset((ev.ROBOT_RESTART, ev.ROBOT_SWITCH_ON))
+
+
 @dataclass(frozen=True, slots=True)
 class RobotState:
     state: str
     label: str  # "" unless working: "<task kind> <task id>"
     task: str | None = None
+    target: str = ""  # what the task is about: "red object", "blue box", "spot (1.0, 2.0)"
+
+    @property
+    def view_label(self) -> str:
+        """The task and its target, for the live view: "cleanup: blue box"."""
+        if not self.label:
+            return ""
+        kind = self.label.split(" ", 1)[0]
+        return f"{kind}: {self.target}" if self.target else self.label
 
 
 @dataclass(frozen=True, slots=True)
@@ -49,6 +63,7 @@ class _Robot:
 class RobotStateTracker:
     robots: dict[str, _Robot] = field(default_factory=dict)
     task_kinds: dict[str, str] = field(default_factory=dict)
+    task_targets: dict[str, str] = field(default_factory=dict)
 
     def add_robot(self, robot: str) -> None:
         self.robots.setdefault(robot, _Robot())
@@ -60,7 +75,8 @@ class RobotStateTracker:
         if r.charging:
             return RobotState(CHARGING, "")
         if r.task is not None:
-            return RobotState(WORKING, self.label(r.task), r.task)
+            return RobotState(WORKING, self.label(r.task), r.task,
+                              self.task_targets.get(r.task, ""))
         return RobotState(IDLE, "")
 
     def label(self, task: str) -> str:
@@ -76,6 +92,11 @@ class RobotStateTracker:
         touched: list[str] = []
         if kind == ev.TASK_INTRODUCED:
             self.task_kinds[str(event["task"])] = str(event["task_kind"])
+            params = event.get("params")
+            if isinstance(params, Mapping):
+                target = target_text(str(event["task_kind"]), params)
+                if target:
+                    self.task_targets[str(event["task"])] = target
         elif kind == ev.AWARD:
             task, robot = str(event["task"]), str(event["robot"])
             if "task_kind" in event:
@@ -91,11 +112,11 @@ class RobotStateTracker:
             self.add_robot(robot)
             self.robots[robot].charging = kind == ev.CHARGE_START
             touched.append(robot)
-        elif kind in (ev.ROBOT_FAILURE, ev.ROBOT_RESTART):
+        elif kind in _DOWN or kind in _UP:
             robot = str(event["robot"])
             self.add_robot(robot)
             r = self.robots[robot]
-            r.failed = kind == ev.ROBOT_FAILURE
+            r.failed = kind in _DOWN
             r.task = None
             r.charging = False
             touched.append(robot)
@@ -108,6 +129,29 @@ class RobotStateTracker:
                 r.task = None
                 released.append(name)
         return released
+
+
+def target_text(task_kind: str, params: Mapping[str, Any]) -> str:
+    """What a task is about, from its parameters: the object to track or watch, the box to
+    clean up, the spot to guard."""
+    colour = params.get("colour")
+    if task_kind == "cleanup":
+        return f"{colour} box" if colour else "a box"
+    if task_kind in ("object-tracking", "monitor-object", "sentry-duty"):
+        what = f"{colour} object" if colour else ""
+        if "x" in params and "y" in params:
+            try:
+                spot = f"spot ({float(params['x']):.1f}, {float(params['y']):.1f})"
+            except (TypeError, ValueError):
+                spot = ""
+            return f"{what} at {spot}".strip() if what and spot else what or spot
+        return what
+    if "x" in params and "y" in params:
+        try:
+            return f"({float(params['x']):.1f}, {float(params['y']):.1f})"
+        except (TypeError, ValueError):
+            return ""
+    return ""
 
 
 def robot_intervals(

@@ -16,9 +16,24 @@ from murdoch.consensus.refine import RefineOptions
 from murdoch.consensus.scenario import ScenarioError, load_scenario
 from murdoch.consensus.sync_runner import allocate as run_allocation
 
+# the `murdoch` group puts the directories of bundled scenarios here (the composition root
+# knows where they are; this package does not)
+SCENARIO_DIRS_KEY = "murdoch.scenario_dirs"
+
+
+def _scenario_path(text: str) -> Path:
+    from murdoch.consensus_table import resolve_scenario
+
+    ctx = click.get_current_context()
+    dirs = ctx.find_root().meta.get(SCENARIO_DIRS_KEY, ())
+    try:
+        return resolve_scenario(text, dirs)
+    except LookupError as exc:
+        raise click.BadParameter(str(exc), param_hint="SCENARIO") from exc
+
 
 @click.command()
-@click.argument("scenario", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("scenario", metavar="SCENARIO")
 @click.option("--algorithm", type=click.Choice(["cbba", "cbga"]), default="cbba",
               show_default=True)
 @click.option("--task-quitting/--no-task-quitting", default=True, show_default=True,
@@ -36,21 +51,37 @@ from murdoch.consensus.sync_runner import allocate as run_allocation
                    "consensus (closer to the optimum, more messages; see docs/consensus.md).")
 @click.option("--refine-seed", type=int, default=0, show_default=True,
               help="With --refine: the seed that orders equal proposals.")
-def allocate(scenario: Path, algorithm: str, task_quitting: bool, team_reward: bool,
-             max_rounds: int, engine: str, refine: bool, refine_seed: int) -> None:
-    """Run CBBA or CBGA on SCENARIO (JSON) in synchronous rounds; print the result as JSON."""
+@click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
+def allocate(scenario: str, algorithm: str, task_quitting: bool, team_reward: bool,
+             max_rounds: int, engine: str, refine: bool, refine_seed: int,
+             as_json: bool) -> None:
+    """Run CBBA or CBGA on SCENARIO in synchronous rounds and print the allocation.
+
+    SCENARIO is a JSON file or the name of a bundled scenario (consensus-small,
+    consensus-groups, consensus-equipment)."""
+    from murdoch.consensus_table import COMPILE_NOTE, format_allocation, kernel_cache_warm
+
+    path = _scenario_path(scenario)
     try:
-        sc = load_scenario(scenario)
+        sc = load_scenario(path)
     except ScenarioError as exc:
         raise click.ClickException(str(exc)) from exc
+    if engine == "compiled" and not kernel_cache_warm(algorithm):
+        click.echo(COMPILE_NOTE.format(algorithm=algorithm.upper()), err=True)
     try:
         result = run_allocation(sc, algorithm,  # type: ignore[arg-type]
                                 CbgaOptions(task_quitting, team_reward), max_rounds,
                                 compiled=engine == "compiled",
                                 refine=RefineOptions(seed=refine_seed) if refine else False)
     except ValueError as exc:
-        raise click.ClickException(f"{scenario}: {exc}") from exc
-    click.echo(json.dumps(result.to_json(), indent=2))
+        raise click.ClickException(f"{path}: {exc}") from exc
+    if as_json:
+        click.echo(json.dumps(result.to_json(), indent=2))
+        return
+    engine_used = result.extra.get("engine", engine)
+    title = (f"{algorithm.upper()} on {path.name}: {len(sc.agents)} agents, {len(sc.tasks)} "
+             f"tasks ({engine_used} engine)")
+    click.echo(format_allocation(result.to_json(), title=title))
 
 
 @click.command()

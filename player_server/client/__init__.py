@@ -5,6 +5,7 @@ Depends only on ``player_server.protocol`` (and the standard library).
 
 from player_server.client.connection import PlayerClient
 from player_server.client.errors import (
+    PlayerConnectionClosed,
     PlayerConnectionError,
     PlayerError,
     PlayerNack,
@@ -39,6 +40,7 @@ __all__ = [
     "LaserProxy",
     "OpaqueProxy",
     "PlayerClient",
+    "PlayerConnectionClosed",
     "PlayerConnectionError",
     "PlayerError",
     "PlayerNack",

@@ -33,7 +33,12 @@ from collections import deque
 from collections.abc import Callable
 from typing import Any, TypeVar
 
-from player_server.client.errors import PlayerConnectionError, PlayerNack, PlayerTimeout
+from player_server.client.errors import (
+    PlayerConnectionClosed,
+    PlayerConnectionError,
+    PlayerNack,
+    PlayerTimeout,
+)
 from player_server.client.framing import FrameBuffer, decode_frame
 from player_server.client.proxy import Proxy
 from player_server.protocol import constants as c
@@ -178,6 +183,9 @@ class PlayerClient:
                 self._pending.clear()
             try:
                 sock.sendall(wire)
+            except (ConnectionResetError, BrokenPipeError) as exc:
+                self.close()
+                raise PlayerConnectionClosed("the server closed the connection") from exc
             except OSError as exc:
                 self.close()
                 raise PlayerConnectionError(f"send failed: {exc}") from exc
@@ -260,12 +268,15 @@ class PlayerClient:
                 n = frames.receive(sock)
             except (BlockingIOError, TimeoutError, InterruptedError):
                 continue  # a slice ended: check the deadline and wait again
+            except ConnectionResetError as exc:
+                self.close()
+                raise PlayerConnectionClosed("the server closed the connection") from exc
             except OSError as exc:
                 self.close()
                 raise PlayerConnectionError(f"receive failed: {exc}") from exc
             if not n:
                 self.close()
-                raise PlayerConnectionError("the server closed the connection")
+                raise PlayerConnectionClosed("the server closed the connection")
             return
 
     def _deadline(self, timeout_s: float | None, default: float) -> float | None:

@@ -15,6 +15,11 @@ class PlayerConnectionError(PlayerError):
     """Connecting failed, or the connection broke."""
 
 
+class PlayerConnectionClosed(PlayerConnectionError):
+    """The server ended the connection: an orderly close, or a reset (a server that stops
+    closes sockets with unread data in them, which the peer sees as a reset)."""
+
+
 class PlayerTimeout(PlayerError):
     """No answer from the server in time."""
 

@@ -9,10 +9,12 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import sys
+import time
+from collections.abc import Callable
 from typing import Any
 
 from player_server.client.connection import PlayerClient
-from player_server.client.errors import PlayerError
+from player_server.client.errors import PlayerConnectionError, PlayerError
 from player_server.client.proxies import PROXIES
 from player_server.client.proxy import Proxy
 from player_server.protocol.constants import DEFAULT_PORT, interface_name
@@ -72,10 +74,28 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-c", dest="count", type=int, default=0,
                    help="stop after this many prints (default 0 = forever)")
     p.add_argument("-t", dest="timeout", type=float, default=10.0,
-                   help="seconds to wait for data (default %(default)s)")
+                   help="seconds to wait for the server to listen and for data "
+                        "(default %(default)s)")
     p.add_argument("interface", choices=sorted(k for k in PROXIES if k != "simulation"),
                    help="interface name")
     return p
+
+
+def connect_when_up(client: PlayerClient, timeout_s: float, period_s: float = 0.2,
+                    clock: Callable[[], float] = time.monotonic,
+                    sleep: Callable[[float], None] = time.sleep) -> None:
+    """Connect, retrying while nothing listens on the port yet (a server still starting, as
+    in ``player-server simple & player-print -p 6665 laser``) until `timeout_s` has passed."""
+    deadline = clock() + timeout_s
+    while True:
+        try:
+            client.connect()
+            return
+        except PlayerConnectionError as exc:
+            refused = isinstance(exc.__cause__, ConnectionRefusedError)
+            if not refused or clock() + period_s > deadline:
+                raise
+        sleep(period_s)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -83,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
     client = PlayerClient(args.host, args.port, timeout_s=args.timeout,
                           read_timeout_s=args.timeout, lockstep=False)
     try:
-        client.connect()
+        connect_when_up(client, args.timeout)
         proxy = client.subscribe(PROXIES[args.interface], args.index)
         printed = 0
         while args.count <= 0 or printed < args.count:

@@ -17,16 +17,18 @@ from player_server.server.runner import PlayerServer
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="player-server",
+        prog="player-server", add_help=False,
         description="Serve the robots of a world over the Player 3.x protocol "
                     "(one port per robot, starting at the base port).")
+    p.add_argument("--help", action="help", help="show this help and exit")
     p.add_argument("world", nargs="?", help="world file (.toml) or the name of a bundled world")
     p.add_argument("--replay", metavar="RUN.mcap", default=None,
                    help="serve a run recording (run.mcap or its run directory) instead of a "
                         "world: the recorded robots, commands ignored")
     p.add_argument("-p", "--port", type=int, default=DEFAULT_PORT,
                    help="base port (default %(default)s; 0 = ephemeral ports)")
-    p.add_argument("--host", default="127.0.0.1", help="address to bind (default %(default)s)")
+    p.add_argument("-h", "--host", default="127.0.0.1",
+                   help="address to bind (default %(default)s)")
     p.add_argument("--speedup", type=float, default=None,
                    help="simulated seconds per wall second, 0 = as fast as possible "
                         "(default: 1, real time; with --lockstep 0, the clients set the pace)")
@@ -56,7 +58,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="disconnect a client that leaves a message incomplete for S seconds "
                         "(default %(default)s; 0 = never)")
     p.add_argument("--seed", type=int, default=None, help="simulation seed (default: world's)")
-    p.add_argument("--fidelity", choices=("fast", "render"), default=None)
+    p.add_argument("--fidelity", choices=("fast", "render"), default=None,
+                   help="sensing: fast (2-D ray casts, geometric blobs) or render (PyBullet "
+                        "rays, rendered images); default: the world's")
     p.add_argument("--quit-time", type=float, default=None, metavar="S",
                    help="stop at this simulation time (default: the world's; 0 = never)")
     p.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors")
@@ -132,7 +136,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         server.start()
     except OSError as exc:
-        print(f"player-server: cannot listen: {exc}", file=sys.stderr)
+        from player_server.server.listen_errors import describe_listen_error
+
+        ports = [e.requested_port for e in endpoints]
+        print(f"player-server: {describe_listen_error(exc, args.host, ports)}", file=sys.stderr)
         sim.close()
         return 1
     mode = ("pipelined lockstep" if args.pipelined else "lockstep") if args.lockstep \

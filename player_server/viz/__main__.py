@@ -5,13 +5,16 @@
 
 Starts the loopback-only viewer, prints its URL, and steps the simulation with every robot
 wandering (the simulator's demo driver); robots on a charging pad show as charging. Stops at
-the end of the simulated time or on Ctrl-C.
+the end of the simulated time, on Ctrl-C or on SIGTERM, and takes its viewer process with it
+(the viewer also exits by itself if this process is killed).
 """
 
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
+import threading
 import time
 
 
@@ -24,6 +27,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--web-port", type=int, default=0, help="0 = any free port")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--rate-hz", type=float, default=10.0, help="viewer updates per second")
+    parser.add_argument("--lasers", action="store_true", help="draw the robots' laser rays")
+    parser.add_argument("--trails", type=int, default=0, metavar="N",
+                        help="draw each robot's last N positions as a trail (0 = none)")
     args = parser.parse_args(argv)
 
     from pathlib import Path
@@ -44,23 +50,29 @@ def main(argv: list[str] | None = None) -> int:
     driver = WanderDriver(sim, np.random.default_rng(args.seed))
     layout = layout_from_world(spec)
     robots = [r.name for r in layout.robots]
+    lasers = [shape.robot for shape in layout.lasers]
     has_power = {r.name: r.devices.power is not None for r in spec.robots}
     pacer = Pacer(sim.interval_s, args.speedup, time.monotonic, time.sleep)
+    stop = threading.Event()
+    # SIGTERM stops like Ctrl-C: the viewer process is stopped on the way out
+    signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
     with ViewerProcess(web_port=args.web_port) as viewer:
         channel = ZmqChannel(viewer.urls.zmq_url)
-        view = LiveView(layout, channel, max_rate_hz=args.rate_hz)
+        view = LiveView(layout, channel, max_rate_hz=args.rate_hz, trail_points=args.trails)
         print(f"meshcat live view: {viewer.urls.web_url}", flush=True)
         view.start()
         next_offer = 0.0
         period = 1.0 / args.rate_hz
         try:
-            while sim.time_s < args.sim_seconds:
+            while sim.time_s < args.sim_seconds and not stop.is_set():
                 driver.tick()
                 pacer.wait(sim.tick)
                 now = time.monotonic()
                 if now >= next_offer:
                     next_offer = now + period
                     view.offer(sim.snapshot())
+                    if args.lasers:
+                        view.offer_scans({r: sim.laser(r).tolist() for r in lasers})
                     for r in robots:
                         charging = has_power[r] and sim.power(r).charging
                         view.set_robot(r, CHARGING if charging else IDLE)

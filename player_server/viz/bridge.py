@@ -14,11 +14,14 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import os
+import signal
 import sys
 import warnings
 from typing import Any
 
 import tornado.httpserver
+import tornado.ioloop
 import tornado.netutil
 import tornado.web
 import zmq
@@ -87,12 +90,32 @@ class LoopbackBridge(ZMQWebSocketBridge):
         return sock, stream, endpoint
 
 
+def watch_parent(parent_pid: int, period_s: float = 0.5) -> tornado.ioloop.PeriodicCallback:
+    """Stop the bridge's loop once `parent_pid` is no longer this process's parent (it died,
+    however it died, and the process was re-parented): an orphaned viewer would hold its ports
+    for ever."""
+
+    def check() -> None:
+        if os.getppid() != parent_pid:
+            tornado.ioloop.IOLoop.current().stop()
+
+    callback = tornado.ioloop.PeriodicCallback(check, period_s * 1000.0)
+    callback.start()
+    return callback
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="meshcat viewer server on 127.0.0.1 only")
     parser.add_argument("--web-port", type=int, default=0, help="0 = any free port")
     parser.add_argument("--zmq-port", type=int, default=0, help="0 = any free port")
+    parser.add_argument("--parent-pid", type=int, default=0,
+                        help="exit when this process (the owner) is gone (0 = never)")
     args = parser.parse_args(argv)
     bridge = LoopbackBridge(web_port=args.web_port, zmq_port=args.zmq_port)
+    if args.parent_pid:
+        watch_parent(args.parent_pid)
+    # SIGTERM ends the loop like Ctrl-C, so the sockets are closed on the way out
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
     sys.stdout.write(f"zmq_url={bridge.zmq_url}\nweb_url={bridge.web_url}\n")
     sys.stdout.flush()
     with contextlib.suppress(KeyboardInterrupt):

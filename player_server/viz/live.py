@@ -3,8 +3,10 @@
 The simulation never waits for the viewer. Its owner hands over the newest snapshot with
 `LiveView.offer` (one lock and one assignment; older, unsent snapshots are simply replaced) or
 gives the view a `source` callable that the view's own thread polls. Robot states and task
-labels arrive through `set_robot`. The view's thread wakes at most `max_rate_hz` times a
-second, sends only what changed, and keeps running (with back-off) while no viewer answers.
+labels arrive through `set_robot`, battery levels through `set_battery`. The scene carries a
+legend of the robot states, each robot's name (with its battery once known) and the simulation
+clock of the newest snapshot. The view's thread wakes at most `max_rate_hz` times a second,
+sends only what changed, and keeps running (with back-off) while no viewer answers.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from __future__ import annotations
 import logging
 import math
 import threading
+from collections import deque
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -71,7 +74,11 @@ class LiveView:
         source: Callable[[], Any] | None = None,
         move_epsilon_m: float = 0.002,
         retry_period_s: float = 1.0,
+        trail_points: int = 0,
+        trail_step_m: float = 0.1,
     ) -> None:
+        """`trail_points` > 0 draws a trail behind each robot: its last that many positions,
+        `trail_step_m` apart."""
         if max_rate_hz <= 0:
             raise ValueError("max_rate_hz must be positive")
         self._layout = layout
@@ -84,12 +91,15 @@ class LiveView:
         self._lock = threading.Lock()
         self._latest: Any = None
         self._wanted: dict[str, RobotView] = {}
+        self._battery: dict[str, float] = {}
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._error: BaseException | None = None
         # state of the viewer as last sent; owned by the view's thread
         self._sent_poses: dict[str, Pose] = {}
         self._sent_robots: dict[str, RobotView] = {}
+        self._sent_battery: dict[str, int] = {}
+        self._sent_clock = ""
         self._scene_sent = False
         self._ids = scene.IdSource("live")
         self._frames = 0
@@ -97,6 +107,13 @@ class LiveView:
         self._offered = 0
         self._replaced = 0
         self._viewer_errors = 0
+        self._trail_points = max(0, int(trail_points))
+        self._trail_step_m = trail_step_m
+        self._trails: dict[str, deque[tuple[float, float]]] = {}
+        self._trails_changed: set[str] = set()
+        self._robot_names = {r.name for r in layout.robots}
+        self._lasers = {shape.robot: shape for shape in layout.lasers}
+        self._latest_scans: dict[str, Any] = {}
 
     # --- called by the simulation's owner (any thread) ---
 
@@ -112,6 +129,18 @@ class LiveView:
             raise ValueError(f"unknown robot state {state!r}; expected one of {scene.ROBOT_STATES}")
         with self._lock:
             self._wanted[robot] = RobotView(state, label)
+
+    def offer_scans(self, scans: Mapping[str, Any]) -> None:
+        """The newest laser ranges of some robots (drawn as rays; robots without a laser in
+        the layout are ignored). Cheap: one lock and a dict update."""
+        with self._lock:
+            self._latest_scans.update(scans)
+
+    def set_battery(self, robot: str, percent: float) -> None:
+        if not math.isfinite(percent):
+            raise ValueError(f"battery of {robot} is not a number: {percent!r}")
+        with self._lock:
+            self._battery[robot] = float(percent)
 
     def stats(self) -> LiveStats:
         with self._lock:
@@ -170,14 +199,32 @@ class LiveView:
         with self._lock:
             snap, self._latest = self._latest, None
             wanted = dict(self._wanted)
+            battery = dict(self._battery)
+            scans, self._latest_scans = self._latest_scans, {}
         commands: list[dict[str, Any]] = []
         if not self._scene_sent:
             commands.extend(scene.static_scene(self._layout, id_prefix="live-scene"))
+            commands.extend(scene.legend_commands(self._ids, self._layout))
+            commands.extend(scene.clock_commands(self._ids, self._layout, 0.0))
+            self._sent_clock = scene.clock_text(0.0)
             self._sent_poses.clear()
             self._sent_robots = {r.name: RobotView() for r in self._layout.robots}
+            self._sent_battery.clear()
         if snap is not None:
             commands.extend(self._pose_commands(body_poses(snap)))
+            t = getattr(snap, "time_s", None)
+            if t is not None and scene.clock_text(float(t)) != self._sent_clock:
+                self._sent_clock = scene.clock_text(float(t))
+                commands.extend(scene.clock_commands(self._ids, self._layout, float(t)))
         commands.extend(self._robot_commands(wanted))
+        commands.extend(self._battery_commands(battery))
+        for robot, ranges in scans.items():
+            shape = self._lasers.get(robot)
+            if shape is not None:
+                commands.append(scene.laser_command(self._ids, shape, ranges))
+        for robot in sorted(self._trails_changed):
+            commands.append(scene.trail_command(self._ids, robot, self._trails[robot]))
+        self._trails_changed.clear()
         for cmd in commands:
             self._sink.send(cmd)
         self._scene_sent = True
@@ -198,7 +245,23 @@ class LiveView:
             ):
                 continue
             self._sent_poses[name] = (x, y, yaw)
+            if self._trail_points and name in self._robot_names:
+                trail = self._trails.setdefault(name, deque(maxlen=self._trail_points))
+                if not trail or math.hypot(x - trail[-1][0], y - trail[-1][1]) >= (
+                        self._trail_step_m):
+                    trail.append((x, y))
+                    if len(trail) >= 2:
+                        self._trails_changed.add(name)
             yield scene.set_transform(path, scene.pose_matrix(x, y, 0.0, yaw))
+
+    def _battery_commands(self, battery: Mapping[str, float]) -> Iterable[dict[str, Any]]:
+        for robot, percent in battery.items():
+            if robot not in self._sent_robots:
+                continue
+            shown = round(percent)
+            if self._sent_battery.get(robot) != shown:
+                self._sent_battery[robot] = shown
+                yield from scene.name_change(self._ids, robot, percent)
 
     def _robot_commands(self, wanted: Mapping[str, RobotView]) -> Iterable[dict[str, Any]]:
         for robot, view in wanted.items():

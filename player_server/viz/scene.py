@@ -12,8 +12,16 @@ Scene tree (all under ``/murdoch``)::
     robots/<name>/body/<state>                                one coloured body per state,
                                                               exactly one visible
     robots/<name>/nose                                        heading marker
-    robots/<name>/label                                       task label (live view)
+    robots/<name>/name                                        name (and battery, live view)
+    robots/<name>/label                                       task and target (live view)
     robots/<name>/labels/<k>                                  task labels (replay)
+    robots/<name>/laser                                       laser rays (live view, option)
+    trails/<name>                                             path behind a robot (live, option)
+    hud/clock                                                 simulation clock (live view)
+    hud/legend/<state>, hud/legend/<state>/text               legend of robot states
+
+Boxes and objects keep their world colour unless it could be mistaken for a robot state's
+colour (`display_colour`): then the viewer draws a paler version of it.
 
 Robot states and their colours are fixed here (`STATE_COLOURS`) so that the live view, the
 replay and the tests agree on them.
@@ -21,6 +29,7 @@ replay and the tests agree on them.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -50,10 +59,19 @@ WALL_COLOUR = 0x4A4A52
 OBSTACLE_COLOUR = 0x6B5B4B
 CHARGER_COLOUR = 0xF5D000
 NOSE_COLOUR = 0x111111
+TRAIL_COLOUR = 0x6A3D9A  # purple: no robot state's colour
+LASER_COLOUR = 0xE0245E  # crimson: no robot state's colour
+LASER_RAYS = 19  # rays drawn of a scan (every k-th reading)
+TRAIL_HEIGHT_M = 0.03
 
 ROBOT_HEIGHT_M = 0.24
-LABEL_HEIGHT_M = 0.75
-LABEL_SCALE_M = 2.0
+LABEL_HEIGHT_M = 1.6
+LABEL_SCALE_M = 3.0
+NAME_HEIGHT_M = 0.55
+NAME_SCALE_M = 2.0
+LEGEND_LABELS = {IDLE: "idle", WORKING: "working", CHARGING: "charging", FAILED: "down"}
+# how far (RGB, 0-255 per channel) a box or object colour stays from every robot state colour
+STATE_COLOUR_MARGIN = 110.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -94,6 +112,20 @@ class RobotShape:
 
 
 @dataclass(frozen=True, slots=True)
+class LaserShape:
+    """Where a robot's laser sits and what it covers (robot frame)."""
+
+    robot: str
+    x_m: float
+    y_m: float
+    yaw_rad: float
+    min_angle_rad: float
+    max_angle_rad: float
+    samples: int
+    max_range_m: float
+
+
+@dataclass(frozen=True, slots=True)
 class SceneLayout:
     """Everything drawn, with initial poses; dynamic bodies are moved by name later."""
 
@@ -110,6 +142,7 @@ class SceneLayout:
     boxes: tuple[Block, ...] = ()
     objects: tuple[Disc, ...] = ()
     robots: tuple[RobotShape, ...] = ()
+    lasers: tuple[LaserShape, ...] = ()
 
     @property
     def centre(self) -> tuple[float, float]:
@@ -225,10 +258,30 @@ def delete(path: str) -> Command:
     return {"type": "delete", "path": path}
 
 
-def label_object(ids: IdSource, text: str) -> dict[str, Any]:
+def colour_distance(a: int, b: int) -> float:
+    ra, ga, ba = (a >> 16) & 0xFF, (a >> 8) & 0xFF, a & 0xFF
+    rb, gb, bb = (b >> 16) & 0xFF, (b >> 8) & 0xFF, b & 0xFF
+    return math.sqrt((ra - rb) ** 2 + (ga - gb) ** 2 + (ba - bb) ** 2)
+
+
+def display_colour(colour: int) -> int:
+    """The colour a box or object is drawn in: its own, or, when that is close to a robot
+    state's colour, mixed towards white until it is `STATE_COLOUR_MARGIN` away from all."""
+    c = colour
+    for _ in range(8):
+        if min(colour_distance(c, sc) for sc in STATE_COLOURS.values()) >= STATE_COLOUR_MARGIN:
+            return c
+        r, g, b = (c >> 16) & 0xFF, (c >> 8) & 0xFF, c & 0xFF
+        r, g, b = (int(v + (255 - v) * 0.35) for v in (r, g, b))
+        c = (r << 16) | (g << 8) | b
+    return c
+
+
+def label_object(ids: IdSource, text: str, *, scale_m: float = LABEL_SCALE_M,
+                 height_m: float = LABEL_HEIGHT_M) -> dict[str, Any]:
     """A camera-facing sprite showing `text` (drawn by the viewer on a canvas)."""
     tid, mid, oid = ids.next(), ids.next(), ids.next()
-    s = LABEL_SCALE_M
+    s = scale_m
     return {
         "metadata": {"version": 4.5, "type": "Object"},
         "geometries": [],
@@ -243,7 +296,7 @@ def label_object(ids: IdSource, text: str) -> dict[str, Any]:
             "uuid": oid,
             "type": "Sprite",
             "material": mid,
-            "matrix": [s, 0, 0, 0, 0, s, 0, 0, 0, 0, s, 0, 0, 0, LABEL_HEIGHT_M, 1],
+            "matrix": [s, 0, 0, 0, 0, s, 0, 0, 0, 0, s, 0, 0, 0, height_m, 1],
         },
     }
 
@@ -303,7 +356,8 @@ def static_scene(layout: SceneLayout, *, id_prefix: str = "s") -> list[Command]:
         # the box's own matrix lifts it so that its pose frame sits on the floor
         lift = pose_matrix(0.0, 0.0, b.size_z_m / 2, 0.0)
         geom = _box_geometry(b.size_x_m, b.size_y_m, b.size_z_m)
-        cmds.append(set_object(f"{path}/shape", _mesh(ids, geom, b.colour, matrix=lift)))
+        colour = display_colour(b.colour)
+        cmds.append(set_object(f"{path}/shape", _mesh(ids, geom, colour, matrix=lift)))
         cmds.append(set_transform(path, pose_matrix(b.x_m, b.y_m, 0.0, b.yaw_rad)))
     for group, discs in (("objects", layout.objects), ("markers", layout.markers)):
         for o in discs:
@@ -319,7 +373,7 @@ def _upright_disc(ids: IdSource, path: str, o: Disc) -> list[Command]:
     lift[14] = o.height_m / 2
     geom = _cylinder_geometry(o.radius_m, o.height_m)
     return [
-        set_object(f"{path}/shape", _mesh(ids, geom, o.colour, matrix=lift)),
+        set_object(f"{path}/shape", _mesh(ids, geom, display_colour(o.colour), matrix=lift)),
         set_transform(path, pose_matrix(o.x_m, o.y_m, 0.0, 0.0)),
     ]
 
@@ -336,6 +390,7 @@ def robot_commands(ids: IdSource, r: RobotShape) -> list[Command]:
     nose = pose_matrix(r.offset_x_m + r.length_m * 0.3, 0.0, ROBOT_HEIGHT_M + 0.01, 0.0)
     nose_geom = _box_geometry(r.length_m * 0.3, r.width_m * 0.25, 0.02)
     cmds.append(set_object(f"{path}/nose", _mesh(ids, nose_geom, NOSE_COLOUR, matrix=nose)))
+    cmds.extend(name_change(ids, r.name, None))
     cmds.append(set_transform(path, pose_matrix(r.x_m, r.y_m, 0.0, r.yaw_rad)))
     return cmds
 
@@ -350,6 +405,146 @@ def state_change(robot: str, old: str | None, new: str) -> list[Command]:
     ]
     cmds.append(set_property(f"{robot_path(robot)}/body/{new}", "visible", True))
     return cmds
+
+
+def hud_scale_m(layout: SceneLayout) -> float:
+    """Sprites of the clock and legend grow with the arena, so they stay readable."""
+    return max(2.0, layout.extent_m / 7.0)
+
+
+def clock_text(time_s: float) -> str:
+    s = int(max(0.0, time_s))
+    return f"sim {s // 3600}:{(s % 3600) // 60:02d}:{s % 60:02d}"
+
+
+def clock_commands(ids: IdSource, layout: SceneLayout, time_s: float) -> list[Command]:
+    """The simulation clock, above the north-west corner of the arena."""
+    scale = hud_scale_m(layout) * 1.5
+    path = f"{ROOT}/hud/clock"
+    return [
+        set_object(path, label_object(ids, clock_text(time_s), scale_m=scale, height_m=0.0)),
+        set_transform(path, pose_matrix(layout.x_min_m + scale * 0.5,
+                                        layout.y_max_m + scale * 0.35, 0.5, 0.0)),
+    ]
+
+
+def legend_commands(ids: IdSource, layout: SceneLayout) -> list[Command]:
+    """A swatch of each robot state's colour with its name, in a row south of the arena."""
+    scale = hud_scale_m(layout)
+    cmds: list[Command] = []
+    step = (layout.x_max_m - layout.x_min_m) / len(ROBOT_STATES)
+    y = layout.y_min_m - scale * 0.35
+    for k, state in enumerate(ROBOT_STATES):
+        path = f"{ROOT}/hud/legend/{state}"
+        x = layout.x_min_m + step * (k + 0.2)
+        size = scale * 0.18
+        swatch = _mesh(ids, _box_geometry(size, size, 0.05), STATE_COLOURS[state], lit=False)
+        cmds.append(set_object(f"{path}/swatch", swatch))
+        text = label_object(ids, LEGEND_LABELS[state], scale_m=scale * 0.8, height_m=0.0)
+        cmds.append(set_object(f"{path}/text", text))
+        cmds.append(set_transform(f"{path}/text", pose_matrix(scale * 0.45, 0.0, 0.1, 0.0)))
+        cmds.append(set_transform(path, pose_matrix(x, y, 0.05, 0.0)))
+    return cmds
+
+
+TRAIL_WIDTH_M = 0.07
+
+
+def trail_triangles(points: Sequence[tuple[float, float]],
+                    width_m: float = TRAIL_WIDTH_M) -> list[float]:
+    """A flat ribbon through `points` as triangle vertices (x, y, z, ...): two per segment
+    (WebGL draws lines one pixel wide whatever their width, too thin to see)."""
+    out: list[float] = []
+    h = width_m / 2.0
+    z = TRAIL_HEIGHT_M
+    for (x0, y0), (x1, y1) in itertools.pairwise(points):
+        dx, dy = x1 - x0, y1 - y0
+        length = math.hypot(dx, dy)
+        if length == 0.0:
+            continue
+        nx, ny = -dy / length * h, dx / length * h
+        a, b = (x0 + nx, y0 + ny), (x0 - nx, y0 - ny)
+        c, d = (x1 + nx, y1 + ny), (x1 - nx, y1 - ny)
+        for vx, vy in (a, b, c, c, b, d):
+            out.extend((float(vx), float(vy), z))
+    return out
+
+
+def trail_command(ids: IdSource, robot: str, points: Sequence[tuple[float, float]]) -> Command:
+    """A ribbon through `points` (x, y) just above the floor: where the robot has been."""
+    gid, mid, oid = ids.next(), ids.next(), ids.next()
+    obj = {
+        "metadata": {"version": 4.5, "type": "Object"},
+        "geometries": [{
+            "uuid": gid, "type": "BufferGeometry",
+            "data": {"attributes": {"position": {
+                "itemSize": 3, "type": "Float32Array", "array": trail_triangles(points),
+                "normalized": False,
+            }}},
+        }],
+        "materials": [{"uuid": mid, "type": "MeshBasicMaterial", "color": TRAIL_COLOUR,
+                       "side": 2}],
+        "object": {"uuid": oid, "type": "Mesh", "geometry": gid, "material": mid,
+                   "matrix": pose_matrix(0.0, 0.0, 0.0, 0.0)},
+    }
+    return set_object(f"{ROOT}/trails/{robot}", obj)
+
+
+def laser_segments(shape: LaserShape, ranges: Sequence[float],
+                   rays: int = LASER_RAYS) -> list[float]:
+    """Line-segment vertices (robot frame, x y z pairs) for `rays` evenly chosen readings of
+    one scan; a reading at or beyond the maximum range (nothing hit) is drawn to the maximum."""
+    n = len(ranges)
+    if n == 0:
+        return []
+    count = min(rays, n)
+    step = (shape.max_angle_rad - shape.min_angle_rad) / (n - 1) if n > 1 else 0.0
+    c, s = math.cos(shape.yaw_rad), math.sin(shape.yaw_rad)
+    z = ROBOT_HEIGHT_M + 0.02
+    out: list[float] = []
+    for k in range(count):
+        i = round(k * (n - 1) / (count - 1)) if count > 1 else 0
+        r = float(ranges[i])
+        if math.isnan(r) or r <= 0.0:
+            continue
+        r = min(r, shape.max_range_m)
+        a = shape.min_angle_rad + i * step
+        lx, ly = r * math.cos(a), r * math.sin(a)
+        out.extend((shape.x_m, shape.y_m, z,
+                    shape.x_m + c * lx - s * ly, shape.y_m + s * lx + c * ly, z))
+    return out
+
+
+def laser_command(ids: IdSource, shape: LaserShape, ranges: Sequence[float]) -> Command:
+    gid, mid, oid = ids.next(), ids.next(), ids.next()
+    obj = {
+        "metadata": {"version": 4.5, "type": "Object"},
+        "geometries": [{
+            "uuid": gid, "type": "BufferGeometry",
+            "data": {"attributes": {"position": {
+                "itemSize": 3, "type": "Float32Array", "array": laser_segments(shape, ranges),
+                "normalized": False,
+            }}},
+        }],
+        "materials": [{"uuid": mid, "type": "LineBasicMaterial", "color": LASER_COLOUR,
+                       "transparent": True, "opacity": 0.8}],
+        "object": {"uuid": oid, "type": "LineSegments", "geometry": gid, "material": mid,
+                   "matrix": pose_matrix(0.0, 0.0, 0.0, 0.0)},
+    }
+    return set_object(f"{robot_path(shape.robot)}/laser", obj)
+
+
+def name_text(robot: str, battery_percent: float | None = None) -> str:
+    if battery_percent is None:
+        return robot
+    return f"{robot} {battery_percent:.0f}%"
+
+
+def name_change(ids: IdSource, robot: str, battery_percent: float | None) -> list[Command]:
+    """The robot's name sprite, with its battery level once one is known."""
+    text = name_text(robot, battery_percent)
+    return [set_object(f"{robot_path(robot)}/name",
+                       label_object(ids, text, scale_m=NAME_SCALE_M, height_m=NAME_HEIGHT_M))]
 
 
 def label_change(ids: IdSource, robot: str, text: str) -> list[Command]:
@@ -406,5 +601,13 @@ def layout_from_world(spec: WorldSpec) -> SceneLayout:
                        r.body.offset_x_m)
             for r in spec.robots
             if r.mobile
+        ),
+        lasers=tuple(
+            LaserShape(r.name, r.devices.laser.pose.x, r.devices.laser.pose.y,
+                       r.devices.laser.pose.yaw, r.devices.laser.min_angle_rad,
+                       r.devices.laser.max_angle_rad, r.devices.laser.samples,
+                       r.devices.laser.max_range_m)
+            for r in spec.robots
+            if r.mobile and r.devices.laser is not None
         ),
     )

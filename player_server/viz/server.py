@@ -8,6 +8,7 @@ a dead or stuck viewer can never block the caller for long.
 from __future__ import annotations
 
 import logging
+import os
 import selectors
 import subprocess
 import sys
@@ -42,8 +43,10 @@ class ViewerProcess:
         start_timeout_s: float = 60.0,
         python: str = sys.executable,
     ) -> None:
+        # the bridge exits by itself when this process is gone, however it ended
         args = [python, "-u", "-m", "player_server.viz.bridge",
-                "--web-port", str(web_port), "--zmq-port", str(zmq_port)]
+                "--web-port", str(web_port), "--zmq-port", str(zmq_port),
+                "--parent-pid", str(os.getpid())]
         self._proc = subprocess.Popen(
             args,
             stdout=subprocess.PIPE,

@@ -100,3 +100,68 @@ def test_recorded_run_with_live_view(tmp_path: Path) -> None:
         assert (run.plots / name).is_file()
     with pytest.raises(RuntimeError, match="already finished"):
         rec.finish("completed")
+
+
+def test_the_live_view_can_stay_up_after_the_run_until_ctrl_c(tmp_path: Path) -> None:
+    spec = load_world(world_path("simple"))
+    out = io.StringIO()
+    rec = RunRecorder(
+        tmp_path / "runs", "simple", {"seed": 5, "world": "simple", "duration_s": 60.0},
+        world=spec, started=datetime(2026, 5, 6, 7, 8, 9), wall_clock=time.monotonic,
+        stream=out, terminal=False, meshcat=True,
+    )
+    rec.start()
+    viewer = rec._viewer
+    rec.finish("completed", replay=False, keep_viewer=True)
+    assert viewer.alive()  # the last frame stays on screen
+    waited = []
+
+    def ctrl_c() -> None:
+        waited.append(viewer.alive())
+        raise KeyboardInterrupt
+
+    rec.hold_viewer(ctrl_c)
+    assert waited == [True]
+    assert not viewer.alive()
+    assert f"the live view stays up at {rec.viewer_url}; press Ctrl-C to close it" in out.getvalue()
+
+
+def test_the_live_view_shows_laser_rays_and_trails_when_asked(tmp_path: Path) -> None:
+    from sibling import load_sibling
+
+    from player_server.viz import scene
+
+    scene_commands = load_sibling(__file__, "test_viz_live.py")._scene_commands
+    spec = load_world(world_path("simple"))
+    robot = spec.robots[0].name
+    rec = RunRecorder(
+        tmp_path / "runs", "simple", {"seed": 5, "world": "simple"}, world=spec,
+        started=datetime(2026, 5, 6, 7, 8, 9), wall_clock=time.monotonic, stream=io.StringIO(),
+        terminal=False, meshcat=True, live_rate_hz=50.0, live_trail_points=100,
+        live_lasers=True,
+    )
+    sim = Simulation(spec, seed=5)
+    try:
+        rec.start()
+        observed = rec.observe(sim)
+        sim.set_velocity(robot, 0.4, 0.0)
+        deadline = time.monotonic() + 60
+        while sim.get_pose(robot)[0] < 0.6 and time.monotonic() < deadline:
+            observed.step()
+        time.sleep(0.05)  # the next step hands over a snapshot (the live period has passed)
+        observed.step()
+        target = rec.live.stats().frames + 3  # ... and the view has sent it
+        while rec.live.stats().frames < target and time.monotonic() < deadline:
+            time.sleep(0.01)
+        viewer_url = rec._viewer.urls.zmq_url
+        rec.live.stop()  # the view's last frame is in the viewer; read it back
+        cmds = scene_commands(viewer_url)
+        rec.live = None  # already stopped
+        rec.finish("completed", replay=False)
+    finally:
+        sim.close()
+    paths = {c["path"]: c for c in cmds if c["type"] == "set_object"}
+    laser = paths[f"{scene.robot_path(robot)}/laser"]["object"]
+    verts = laser["geometries"][0]["data"]["attributes"]["position"]["array"]
+    assert len(verts) == 6 * scene.LASER_RAYS
+    assert f"{scene.ROOT}/trails/{robot}" in paths

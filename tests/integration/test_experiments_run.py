@@ -76,6 +76,11 @@ def test_short_longterm_run_with_a_killed_winner(
     assert [e["robot"] for e in events if e["kind"] == ev.ROBOT_RESTART] == [victim]
     assert summary["processes"]["runner"]["peak_rss_bytes"] > 0
     assert "sim 0:02:00" in proc.stdout  # the final progress line
+    assert (run / "plots" / "robots.png").is_file()
+    # a normal stop is not a connection failure in any robot's log
+    for log in (run / "logs").glob("robot-*.log"):
+        text = log.read_text(errors="replace")
+        assert "receive failed" not in text and "Connection reset" not in text, log.name
 
 
 def test_the_run_is_recorded_in_run_mcap(

@@ -7,6 +7,7 @@ import sys
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
+from pathlib import Path
 
 import pytest
 
@@ -79,3 +80,100 @@ def test_player_print_help_and_connection_error() -> None:
     assert out.returncode == 0 and "-h HOST" in out.stdout
     out = player_print("-p", "1", "-t", "1", "sonar")
     assert out.returncode == 1 and "cannot connect" in out.stderr
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def test_player_print_waits_for_a_server_still_starting() -> None:
+    """`player-server simple & player-print -p 6665 laser` works as typed: the client retries
+    while nothing listens yet, within its -t timeout."""
+    port = _free_port()
+    printer = subprocess.Popen(
+        [sys.executable, "-m", "player_server.client.print_tool", "-p", str(port), "-t", "60",
+         "-c", "1", "laser"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    server = None
+    try:
+        time.sleep(0.5)  # not needed for correctness: gives the client a refusal or two first
+        server = subprocess.Popen(
+            [sys.executable, "-m", "player_server.server", "simple", "-p", str(port), "-q"],
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        out, err = printer.communicate(timeout=90)
+        assert printer.returncode == 0, err
+        assert out.startswith("#laser(6:0)")
+    finally:
+        for proc in (printer, server):
+            if proc is not None and proc.poll() is None:
+                proc.kill()
+                proc.wait(10)
+
+
+BIN = Path(sys.executable).parent
+
+
+@pytest.mark.parametrize("command", ["player-server", "player-print", "murdoch-robot", "murdoch"])
+def test_help_is_double_dash_help_everywhere(command: str) -> None:
+    out = subprocess.run([str(BIN / command), "--help"], capture_output=True, text=True,
+                         timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert "--help" in out.stdout
+    if command == "murdoch":
+        refused = subprocess.run([str(BIN / command), "-h"], capture_output=True, text=True,
+                                 timeout=60)
+        assert refused.returncode == 2
+        assert "No such option '-h'" in refused.stderr
+        assert "Try 'murdoch --help' for help" in refused.stderr
+    else:
+        # -h takes a HOST: Player's habit
+        assert "-h HOST" in out.stdout
+        bare = subprocess.run([str(BIN / command), "-h"], capture_output=True, text=True,
+                              timeout=60)
+        assert bare.returncode == 2 and "expected one argument" in bare.stderr
+
+
+def test_robot_and_server_options_explain_themselves() -> None:
+    robot = subprocess.run([str(BIN / "murdoch-robot"), "--help"], capture_output=True,
+                           text=True, timeout=60).stdout
+    assert "sentry-duty" in robot and "{," not in robot and "''" not in robot
+    server = subprocess.run([str(BIN / "player-server"), "--help"], capture_output=True,
+                            text=True, timeout=60).stdout
+    assert "--fidelity {fast,render}" in server and "render (PyBullet" in " ".join(server.split())
+    bad = subprocess.run([str(BIN / "murdoch-robot"), "-p", "1", "--task", "dance"],
+                         capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and "sentry-duty" in bad.stderr
+
+
+def test_a_port_in_use_is_named_with_a_way_out() -> None:
+    import socket
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        out = subprocess.run([str(BIN / "player-server"), "simple", "-p", str(port)],
+                             capture_output=True, text=True, timeout=60)
+    assert out.returncode == 1
+    line = out.stderr.strip().splitlines()[-1]
+    assert line == (f"player-server: cannot listen on 127.0.0.1: port {port} is already in use "
+                    "(another player-server?); give another base port with -p, or -p 0 for "
+                    "free ports")
+
+
+def test_listen_errors_read_as_one_line() -> None:
+    import errno
+
+    from player_server.server.listen_errors import describe_listen_error
+
+    busy = OSError(errno.EADDRINUSE, "Address already in use")
+    assert "port 6666 is already in use" in describe_listen_error(
+        busy, "127.0.0.1", [6665, 6666], in_use=lambda h, p: p == 6666)
+    assert "a port in 6665-6666 is already in use" in describe_listen_error(
+        busy, "127.0.0.1", [6665, 6666], in_use=lambda h, p: False)
+    denied = OSError(errno.EACCES, "Permission denied")
+    assert describe_listen_error(denied, "127.0.0.1", [80]) == (
+        "cannot listen on 127.0.0.1: Permission denied")

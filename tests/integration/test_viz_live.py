@@ -180,3 +180,94 @@ def test_channel_times_out_without_a_viewer() -> None:
         channel.close()
         rep.close()
         ctx.term()
+
+
+def test_live_scene_tree_has_legend_names_and_clock() -> None:
+    """What the viewer holds (meshcat's own scene tree, as any browser would load it)."""
+    layout = scene.layout_from_world(load_world(world_path("longterm")))
+
+    class Snap:
+        time_s = 754.0
+        bodies = ()
+
+    with ViewerProcess() as viewer:
+        channel = ZmqChannel(viewer.urls.zmq_url, timeout_s=5.0)
+        view = LiveView(layout, channel, max_rate_hz=50.0)
+        try:
+            view.start()
+            view.offer(Snap())
+            view.set_battery("p2", 64.0)
+            view.set_robot("p2", scene.WORKING, "cleanup: red box")
+            deadline = time.monotonic() + 20.0
+            while view.stats().frames < 3 and time.monotonic() < deadline:
+                time.sleep(0.05)
+        finally:
+            view.stop()
+            channel.close()
+        cmds = _scene_commands(viewer.urls.zmq_url)
+    texts = {c["path"]: c["object"]["textures"][0]["text"] for c in cmds
+             if c["type"] == "set_object" and c["object"].get("textures")}
+    assert texts[f"{scene.ROOT}/hud/clock"] == "sim 0:12:34"
+    assert [texts[f"{scene.ROOT}/hud/legend/{s}/text"] for s in scene.ROBOT_STATES] == [
+        "idle", "working", "charging", "down"]
+    names = {r.name: texts[f"{scene.robot_path(r.name)}/name"] for r in layout.robots}
+    assert names["p2"] == "p2 64%" and names["p1"] == "p1"
+    assert texts[f"{scene.robot_path('p2')}/label"] == "cleanup: red box"
+
+
+@pytest.mark.browser
+def test_live_view_in_headless_chromium_shows_the_legend(tmp_path: Path) -> None:
+    """A real browser on the live view's page: the screenshot shows every state colour (the
+    legend's swatches; no robot is charging or down) and is kept next to the test's files."""
+    import shutil
+    import subprocess
+
+    import cv2
+    import numpy as np
+
+    exe = next((shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome")
+                if shutil.which(n)), None)
+    if exe is None:
+        if os.environ.get("CI", "").lower() == "true":
+            pytest.fail("headless Chromium is required under CI but was not found")
+        pytest.skip("headless Chromium not installed (apt-get install chromium)")
+    layout = scene.layout_from_world(load_world(world_path("longterm")))
+    png = tmp_path / "live.png"
+    with ViewerProcess() as viewer:
+        channel = ZmqChannel(viewer.urls.zmq_url, timeout_s=5.0)
+        view = LiveView(layout, channel, max_rate_hz=20.0, trail_points=50)
+        try:
+            view.start()
+            view.set_robot("p2", scene.WORKING, "cleanup: red box")
+            for k in range(30):  # p1 drives east: a trail behind it
+                view.offer({"p1": (-4.0 + 0.25 * k, 2.0, 0.0)})
+                target = view.stats().frames + 1
+                deadline = time.monotonic() + 20.0
+                while view.stats().frames < target and time.monotonic() < deadline:
+                    time.sleep(0.01)
+            deadline = time.monotonic() + 20.0
+            while view.stats().frames < 3 and time.monotonic() < deadline:
+                time.sleep(0.05)
+            cmd = [exe, "--headless", "--no-sandbox", "--disable-gpu",
+                   "--enable-unsafe-swiftshader", "--disable-quic", "--no-first-run",
+                   "--disable-background-networking", "--disable-component-update",
+                   "--disable-sync", "--disable-extensions",
+                   f"--user-data-dir={tmp_path / 'profile'}", f"--screenshot={png}",
+                   "--window-size=1024,768", "--hide-scrollbars",
+                   "--virtual-time-budget=5000", viewer.urls.web_url]
+            proc = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                  timeout=120)
+            assert proc.returncode == 0
+        finally:
+            view.stop()
+            channel.close()
+    img = cv2.imread(str(png), cv2.IMREAD_COLOR)
+    assert img is not None
+    rgb = img[:, :, ::-1].astype(int)
+    for state, colour in scene.STATE_COLOURS.items():
+        want = np.array([(colour >> 16) & 0xFF, (colour >> 8) & 0xFF, colour & 0xFF])
+        count = int((np.abs(rgb - want).max(axis=2) <= 8).sum())
+        assert count > 20, f"no {state} colour in the live view's screenshot"
+    trail = np.array([(scene.TRAIL_COLOUR >> 16) & 0xFF, (scene.TRAIL_COLOUR >> 8) & 0xFF,
+                      scene.TRAIL_COLOUR & 0xFF])
+    assert int((np.abs(rgb - trail).max(axis=2) <= 12).sum()) > 20, "no trail drawn"

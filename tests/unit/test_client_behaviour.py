@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import socket
+import struct
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -13,6 +14,7 @@ import pytest
 from player_server.client import (
     LaserProxy,
     PlayerClient,
+    PlayerConnectionClosed,
     PlayerConnectionError,
     PlayerNack,
     PlayerTimeout,
@@ -226,3 +228,32 @@ def test_proxies_keep_typed_latest_values() -> None:
     assert (pos.x, pos.y, pos.yaw, pos.stall) == (0.0, 0.0, 0.0, False)
     pos._on_data(1, am.Position2dData(Pose2d(1, 2, 3), Pose2d(0.5, 0, 0.1), 1), 1.0)
     assert (pos.x, pos.y, pos.yaw, pos.vx, pos.vyaw, pos.stall) == (1, 2, 3, 0.5, 0.1, True)
+
+
+def test_server_resetting_the_connection_is_a_close_not_a_failure() -> None:
+    """A server that stops closes sockets with unread bytes in them, which the client sees as
+    a reset (ECONNRESET): that is the server closing, reported as `PlayerConnectionClosed`."""
+    unread = threading.Event()
+
+    def script(p: Peer) -> None:
+        p.answer_handshake()
+        unread.wait(10)  # the client's next request stays unread in this socket
+        p.sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+
+    with peer(script) as (port, errors), PlayerClient("127.0.0.1", port) as cl:
+        cl.send_encoded(b"\0" * 64)  # bytes the peer never reads
+        unread.set()
+        with pytest.raises(PlayerConnectionClosed) as info:
+            cl.request(4, 0, 1, timeout_s=10)
+        assert "Errno" not in str(info.value)
+        assert str(info.value) == "the server closed the connection"
+    assert not errors
+
+
+def test_orderly_close_is_also_a_close() -> None:
+    def script(p: Peer) -> None:
+        p.answer_handshake()
+
+    with peer(script) as (port, _), PlayerClient("127.0.0.1", port) as cl, \
+            pytest.raises(PlayerConnectionClosed):
+        cl.request(4, 0, 1, timeout_s=10)

@@ -252,9 +252,9 @@ def test_command_line_engines_agree() -> None:
     out = {}
     for engine in ("compiled", "agents"):
         res = runner.invoke(allocate_command, [str(scenario), "--algorithm", "cbga",
-                                               "--engine", engine])
+                                               "--engine", engine, "--json"])
         assert res.exit_code == 0, res.output
-        out[engine] = json.loads(res.output)
+        out[engine] = json.loads(res.stdout)
     assert out["compiled"] == out["agents"]
     assert out["compiled"]["conflict_free"]
 

@@ -127,17 +127,22 @@ def test_progress_figures_and_plain_lines() -> None:
     wall = [0.0]
     out = io.StringIO()
     display = ProgressDisplay(tracker, wall_clock=lambda: wall[0], stream=out, terminal=False,
-                              line_period_sim_s=300.0)
+                              line_period_sim_s=300.0, title="murdoch longterm")
     display.start()
+    assert out.getvalue() == "murdoch longterm: started\n"  # at once
     for e in run_events()[:16]:  # up to the second battery sample, p1 charging
         tracker.apply(e)
+    wall[0] = 0.5
+    display.tick()
+    assert len(out.getvalue().splitlines()) == 1
     wall[0] = 2.0
     p = display.snapshot()
     assert (p.introduced, p.allocated, p.completed, p.unachievable) == (2, 2, 1, 0)
     assert p.charging == 1 and p.failed_robots == 1 and p.lowest_battery_percent == 20.0
     assert p.real_time_factor == pytest.approx(3.0)
+    display.tick()  # a second has passed: the first figures
     display.tick()
-    assert out.getvalue() == ""  # not yet five simulated minutes
+    assert len(out.getvalue().splitlines()) == 2  # not yet five simulated minutes
     tracker.advance(301.0)
     display.tick()
     display.tick()
@@ -145,10 +150,27 @@ def test_progress_figures_and_plain_lines() -> None:
     display.tick()
     last = display.stop()
     lines = out.getvalue().splitlines()
-    assert len(lines) == 3
-    assert lines[0].startswith("sim 0:05:01 | wall 0:00:02 | rtf 150.5 | tasks introduced 2")
-    assert "charging 1 | lowest battery 20%" in lines[0]
+    assert len(lines) == 5
+    assert lines[1].startswith("sim 0:00:06 | wall 0:00:02 | rtf 3.0 | tasks introduced 2")
+    assert lines[2].startswith("sim 0:05:01 | wall 0:00:02 | rtf 150.5 | tasks introduced 2")
+    assert "charging 1 | lowest battery 20%" in lines[2]
     assert lines[-1] == format_line(last)
+
+
+def test_progress_lines_show_the_eta_when_the_length_is_known() -> None:
+    tracker = ProgressTracker()
+    wall = [0.0]
+    out = io.StringIO()
+    display = ProgressDisplay(tracker, wall_clock=lambda: wall[0], stream=out, terminal=False,
+                              duration_s=1800.0, title="murdoch longterm")
+    display.start()
+    assert out.getvalue() == "murdoch longterm: started for 0:30:00 simulated\n"
+    tracker.advance(600.0)
+    wall[0] = 20.0  # 30x real time: 1200 s left take 40 s
+    display.tick()
+    line = out.getvalue().splitlines()[1]
+    assert line.startswith("sim 0:10:00 / 0:30:00   33%  ETA 0:00:40 | wall 0:00:20")
+    display.stop()
 
 
 def test_progress_live_table_on_a_terminal() -> None:
@@ -165,6 +187,20 @@ def test_progress_live_table_on_a_terminal() -> None:
     assert "tasks introduced" in text and "lowest battery" in text and "20%" in text
 
 
+def test_progress_bar_with_eta_on_a_terminal() -> None:
+    tracker = ProgressTracker()
+    wall = [0.0]
+    out = io.StringIO()
+    display = ProgressDisplay(tracker, wall_clock=lambda: wall[0], stream=out, terminal=True,
+                              refresh_per_second=20, duration_s=600.0)
+    with display:
+        tracker.advance(300.0)
+        wall[0] = 10.0
+    text = out.getvalue()
+    assert "sim 0:05:00 / 0:10:00   50%  ETA 0:00:10" in text
+    assert "━" in text  # the bar itself
+
+
 def test_plots_are_written(tmp_path: Path) -> None:
     paths = write_plots(run_events(), tmp_path / "plots", robots=("p1", "p2", "p3", "p4"))
     assert [p.name for p in paths] == list(PLOT_FILES)
@@ -176,3 +212,31 @@ def test_plots_are_written(tmp_path: Path) -> None:
 def test_plots_of_an_empty_run(tmp_path: Path) -> None:
     paths = write_plots([], tmp_path, robots=("p1",))
     assert all(p.stat().st_size > 1000 for p in paths)
+
+
+def test_tasks_open_when_the_run_ends_are_open_at_end_not_failed() -> None:
+    evs = [
+        E(0.0, ev.RUN_START, experiment="longterm", seed=1),
+        E(1.0, ev.TASK_INTRODUCED, task="t1", task_kind="sentry-duty"),
+        E(1.0, ev.TASK_INTRODUCED, task="t2", task_kind="cleanup"),
+        E(1.0, ev.TASK_INTRODUCED, task="t3", task_kind="cleanup"),
+        E(1.0, ev.TASK_INTRODUCED, task="t4", task_kind="cleanup"),
+        E(2.0, ev.AWARD, task="t1", robot="p1"),
+        E(5.0, ev.TASK_OUTCOME, task="t2", outcome=ev.FAILED, reason="robot stuck"),
+        E(9.0, ev.TASK_OUTCOME, task="t1", robot="p1", outcome=ev.FAILED, reason="run ended"),
+        E(9.0, ev.TASK_OUTCOME, task="t3", outcome=ev.FAILED,
+          reason="run ended: box at the goal"),
+        E(9.0, ev.TASK_OUTCOME, task="t4", outcome=ev.OPEN_AT_END, reason="run ended"),
+        E(9.0, ev.RUN_END, wall_s=1.0, reason="completed"),
+    ]
+    s = summarize(evs)
+    assert s["tasks"]["failed"] == 1
+    assert s["tasks"]["open_at_end"] == 3
+    assert s["tasks"]["by_kind"]["cleanup"] == {"failed": 1, "introduced": 3, "open_at_end": 2}
+    assert s["invariant_terminal_states"]["holds"]
+    tracker = ProgressTracker(("p1",))
+    for e in evs:
+        tracker.apply(e)
+    p = tracker.progress(1.0)
+    assert p.failed == 1
+    assert ev.counted_outcome({"outcome": "completed", "reason": "run ended"}) == "completed"

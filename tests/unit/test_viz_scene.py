@@ -89,7 +89,9 @@ def test_live_view_sends_only_what_changed() -> None:
     sink = RecordingSink()
     view = LiveView(layout, sink)
     first = view.publish_once()
-    assert first == len(scene.static_scene(layout))
+    hud = scene.IdSource("x")
+    assert first == (len(scene.static_scene(layout)) + len(scene.legend_commands(hud, layout))
+                     + len(scene.clock_commands(hud, layout, 0.0)))
     assert view.publish_once() == 0  # nothing new
     view.offer({robot: (1.0, 1.0, 0.0)})
     view.offer({robot: (1.0, 2.0, 0.0)})  # replaces the unsent one
@@ -123,3 +125,117 @@ def test_body_poses_accepts_snapshot_shapes() -> None:
         bodies = (Body(),)
 
     assert body_poses(Snap2()) == {"b": (3.0, 4.0, 0.0)}
+
+
+def test_live_scene_has_a_legend_names_a_clock_and_batteries() -> None:
+    layout = scene.layout_from_world(load_world(world_path("longterm")))
+    sink = RecordingSink()
+    view = LiveView(layout, sink)
+    view.publish_once()
+    objects = {c["path"]: c for c in sink.commands if c["type"] == "set_object"}
+
+    def text(path: str) -> str:
+        return objects[path]["object"]["textures"][0]["text"]
+
+    for state in scene.ROBOT_STATES:
+        assert text(f"{scene.ROOT}/hud/legend/{state}/text") == scene.LEGEND_LABELS[state]
+        swatch = objects[f"{scene.ROOT}/hud/legend/{state}/swatch"]["object"]
+        assert swatch["materials"][0]["color"] == scene.STATE_COLOURS[state]
+    for r in layout.robots:
+        assert text(f"{scene.robot_path(r.name)}/name") == r.name
+    assert text(f"{scene.ROOT}/hud/clock") == "sim 0:00:00"
+
+    class Snap:
+        time_s = 3725.4
+        bodies = ()
+
+    sink.commands.clear()
+    view.offer(Snap())
+    view.set_battery("p1", 83.4)
+    view.set_robot("p1", scene.WORKING, "cleanup: red box")
+    view.publish_once()
+    texts = {c["path"]: c["object"]["textures"][0]["text"] for c in sink.commands
+             if c["type"] == "set_object" and c["object"].get("textures")}
+    assert texts[f"{scene.ROOT}/hud/clock"] == "sim 1:02:05"
+    assert texts[f"{scene.robot_path('p1')}/name"] == "p1 83%"
+    assert texts[f"{scene.robot_path('p1')}/label"] == "cleanup: red box"
+    view.set_battery("p1", 83.2)  # the same when rounded: nothing sent
+    view.offer(Snap())
+    assert view.publish_once() == 0
+
+
+def test_boxes_and_objects_never_look_like_a_robot_state() -> None:
+    for world in ("simple", "boxpush", "longterm"):
+        layout = scene.layout_from_world(load_world(world_path(world)))
+        for thing in (*layout.boxes, *layout.objects):
+            shown = scene.display_colour(thing.colour)
+            for state, colour in scene.STATE_COLOURS.items():
+                assert scene.colour_distance(shown, colour) >= scene.STATE_COLOUR_MARGIN, (
+                    world, thing.name, state)
+    assert scene.display_colour(0xFFFFFF) == 0xFFFFFF  # far from every state: unchanged
+    green = scene.display_colour(0x1FB84A)  # the charging colour itself gets paler
+    assert green != 0x1FB84A
+
+
+def test_trails_follow_robots_when_asked_for() -> None:
+    layout = scene.layout_from_world(load_world(world_path("simple")))
+    robot = layout.robots[0].name
+    sink = RecordingSink()
+    view = LiveView(layout, sink, trail_points=3, trail_step_m=0.1)
+    view.publish_once()
+    for k in range(6):
+        view.offer({robot: (0.2 * k, 0.0, 0.0)})
+        sink.commands.clear()
+        view.publish_once()
+    trails = [c for c in sink.commands if c["path"] == f"{scene.ROOT}/trails/{robot}"]
+    (trail,) = trails
+    verts = trail["object"]["geometries"][0]["data"]["attributes"]["position"]["array"]
+    xs = sorted(set(round(x, 6) for x in verts[0::3]))
+    assert xs == pytest.approx([0.6, 0.8, 1.0])  # a ribbon through the last three positions
+    assert len(verts) == 2 * 6 * 3  # two segments of two triangles
+    assert trail["object"]["materials"][0]["color"] == scene.TRAIL_COLOUR
+    assert scene.TRAIL_COLOUR not in scene.STATE_COLOURS.values()
+    plain = RecordingSink()
+    no_trail = LiveView(layout, plain)
+    for k in range(3):
+        no_trail.offer({robot: (0.2 * k, 0.0, 0.0)})
+        no_trail.publish_once()
+    assert not [c for c in plain.commands if "/trails/" in c["path"]]
+
+
+def test_laser_rays_from_a_scan() -> None:
+    import math
+
+    shape = scene.LaserShape("r", 0.1, 0.0, 0.0, -math.pi / 2, math.pi / 2, 181, 8.0)
+    ranges = [2.0] * 181
+    ranges[90] = float("inf")  # nothing hit straight ahead: drawn to the maximum
+    ranges[0] = float("nan")  # not a reading: not drawn
+    v = scene.laser_segments(shape, ranges)
+    segments = [v[i:i + 6] for i in range(0, len(v), 6)]
+    assert len(segments) == scene.LASER_RAYS - 1
+    starts = {tuple(s[:2]) for s in segments}
+    assert starts == {(0.1, 0.0)}
+    ends = [(round(s[3], 6), round(s[4], 6)) for s in segments]
+    assert (8.1, 0.0) in ends  # the middle ray, clipped to the laser's range
+    assert ends[-1] == (0.1, 2.0)  # the leftmost ray (+90 degrees)
+    turned = scene.LaserShape("r", 0.0, 0.0, math.pi / 2, 0.0, 0.0, 1, 8.0)
+    (_, _, _, x1, y1, _) = scene.laser_segments(turned, [1.0])
+    assert (round(x1, 6), round(y1, 6)) == (0.0, 1.0)  # a laser mounted facing left
+
+
+def test_live_view_draws_scans_of_robots_with_a_laser() -> None:
+    layout = scene.layout_from_world(load_world(world_path("longterm")))
+    with_laser = {shape.robot for shape in layout.lasers}
+    assert with_laser and with_laser < {r.name for r in layout.robots}
+    sink = RecordingSink()
+    view = LiveView(layout, sink)
+    view.publish_once()
+    sink.commands.clear()
+    robot = sorted(with_laser)[0]
+    without = sorted({r.name for r in layout.robots} - with_laser)[0]
+    view.offer_scans({robot: [1.0] * 181, without: [1.0] * 181})
+    view.publish_once()
+    lasers = [c for c in sink.commands if c["path"].endswith("/laser")]
+    assert [c["path"] for c in lasers] == [f"{scene.robot_path(robot)}/laser"]
+    assert lasers[0]["object"]["object"]["type"] == "LineSegments"
+    assert view.publish_once() == 0  # no new scan, nothing sent

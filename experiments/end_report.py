@@ -1,0 +1,94 @@
+"""The block printed when a run ends (and by `murdoch report`): what happened, where the
+files are, and what to try next. Pure: lists of lines from a summary and paths."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from experiments.progress import hms
+
+
+def summary_lines(s: Mapping[str, Any]) -> list[str]:
+    """The summary's headline figures, one labelled line each."""
+    tasks = s["tasks"]
+    rtf = s.get("real_time_factor")
+    wall = s.get("wall_time_s")
+    lines = [
+        f"sim time   {hms(float(s['sim_time_s']))} simulated"
+        + (f" in {hms(float(wall))} wall, real-time factor {rtf}" if wall is not None else ""),
+        f"tasks      introduced {tasks['introduced']}  executed {tasks['executed']}  "
+        f"failed {tasks['failed']}  unachievable {tasks['unachievable']}  "
+        f"open at end {tasks.get('open_at_end', 0)}  reallocations {tasks['reallocations']}",
+        f"charging   {s['charging_trips']} trips   robot failures {s['robot_failures']}"
+        f"   restarts {s.get('robot_restarts', 0)}",
+        f"messages   {s['messages']['total']} ({s['messages']['total_bytes']} bytes)",
+    ]
+    goal = s.get("goal")
+    if goal:
+        if goal.get("reached"):
+            lines.append(f"goal       reached at {goal['reached_t_s']} s "
+                         f"(box {goal['box_distance_m']} m from the goal)")
+        elif goal.get("unachievable"):
+            lines.append(f"goal       unachievable: {goal.get('unachievable_reason')}")
+        else:
+            lines.append("goal       not reached")
+    inv = s["invariant_terminal_states"]
+    lines.append("invariant  every task ends in exactly one terminal state: "
+                 f"{'yes' if inv['holds'] else 'NO'}")
+    return lines
+
+
+def next_steps(experiment: str, run_root: Path) -> list[str]:
+    """Commands worth trying after a run of `experiment`."""
+    steps = [f"murdoch report {run_root}            # rebuild summary and plots"]
+    if experiment == "boxpush":
+        steps += [
+            "murdoch run boxpush --until 10m --switch-off p1@40s --switch-on p1@150s",
+            "murdoch run boxpush --meshcat           # watch it live in the browser",
+        ]
+    else:
+        steps += [
+            "murdoch run longterm --until 1h --kill p3@30m --restart p3@45m",
+            "murdoch run longterm --until 20m --meshcat   # watch it live in the browser",
+            "murdoch run boxpush --until 10m        # the paper's box-pushing task",
+        ]
+    steps.append("murdoch allocate consensus-small       # CBBA on a bundled scenario")
+    return steps
+
+
+def end_of_run_lines(
+    *,
+    experiment: str,
+    reason: str,
+    run_root: Path,
+    summary: Mapping[str, Any],
+    plots: Sequence[Path],
+    replay: Path | None,
+    problems: Sequence[str] = (),
+) -> list[str]:
+    """The whole block: a headline (``interrupted`` on Ctrl-C), the summary, the files, the
+    problems met writing them, and what to try next."""
+    sim = hms(float(summary["sim_time_s"]))
+    if reason == "interrupted":
+        head = f"interrupted at {sim} simulated; what was recorded so far:"
+    elif reason == "completed":
+        head = f"{experiment} finished: {sim} simulated"
+    else:
+        head = f"{experiment} stopped ({reason}) at {sim} simulated"
+    lines = [head, *("  " + line for line in summary_lines(summary)), "files"]
+    root = Path(run_root)
+    lines.append(f"  run directory  {root}")
+    lines.append(f"  summary        {root / 'summary.json'}")
+    if replay is not None:
+        lines.append(f"  replay         {replay}   (open it in a browser)")
+    for p in plots:
+        lines.append(f"  plot           {p}")
+    lines.append(f"  recording      {root / 'events.jsonl'}, {root / 'poses.jsonl'}")
+    lines.append(f"  logs           {root / 'logs'}")
+    for problem in problems:
+        lines.append(f"error: {problem}")
+    lines.append("next")
+    lines.extend(f"  {step}" for step in next_steps(experiment, root))
+    return lines

@@ -1,0 +1,120 @@
+"""The README's commands work as written.
+
+Every fenced ``sh`` block of README.md runs, in order, in a scratch directory holding the
+checkout's ``.venv`` (activated by the block's own ``source .venv/bin/activate`` or, for the
+blocks after it, by the environment) and ``worlds``. An HTML comment just before a block
+adjusts it for the test: ``<!-- readme-test: skip (why) -->`` leaves it out;
+``<!-- readme-test: replace OLD => NEW -->`` shortens a command. ``$FREE_PORT`` is a port
+nothing listens on.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import socket
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+README = REPO / "README.md"
+
+pytestmark = pytest.mark.timeout(900)
+
+_FENCE = re.compile(r"^```(\S*)\s*$")
+_DIRECTIVE = re.compile(r"^<!--\s*readme-test:\s*(.*?)\s*-->\s*$")
+
+
+@dataclass(frozen=True)
+class Block:
+    line: int
+    text: str
+    skip: str | None
+    replacements: tuple[tuple[str, str], ...]
+
+    def script(self) -> str:
+        text = self.text
+        for old, new in self.replacements:
+            if old not in text:
+                raise AssertionError(f"README line {self.line}: {old!r} is not in the block")
+            text = text.replace(old, new)
+        return text
+
+
+def sh_blocks(markdown: str) -> list[Block]:
+    """The fenced sh blocks with the directives just above each."""
+    lines = markdown.splitlines()
+    blocks: list[Block] = []
+    pending: list[str] = []
+    i = 0
+    while i < len(lines):
+        m = _FENCE.match(lines[i])
+        directive = _DIRECTIVE.match(lines[i])
+        if directive:
+            pending.append(directive.group(1))
+        elif m:
+            lang, start = m.group(1), i
+            i += 1
+            body = []
+            while i < len(lines) and not lines[i].startswith("```"):
+                body.append(lines[i])
+                i += 1
+            if lang == "sh":
+                skip = next((d[4:].strip() or "skipped" for d in pending
+                             if d.startswith("skip")), None)
+                reps = []
+                for d in pending:
+                    if d.startswith("replace "):
+                        old, sep, new = d[len("replace "):].partition(" => ")
+                        assert sep, f"README line {start}: bad directive {d!r}"
+                        reps.append((old, new))
+                blocks.append(Block(start + 1, "\n".join(body) + "\n", skip, tuple(reps)))
+            pending = []
+        elif lines[i].strip():
+            pending = []  # a directive belongs to the block right below it
+        i += 1
+    return blocks
+
+
+def test_directives_are_parsed() -> None:
+    md = ("<!-- readme-test: skip (slow) -->\n```sh\nmake run\n```\n\ntext\n"
+          "<!-- readme-test: replace 1h => 1m -->\n```sh\nmurdoch run x --until 1h\n```\n"
+          "```text\nnot run\n```\n")
+    blocks = sh_blocks(md)
+    assert [b.skip for b in blocks] == ["(slow)", None]
+    assert blocks[1].script() == "murdoch run x --until 1m\n"
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def test_every_readme_command_block_runs(tmp_path: Path) -> None:
+    venv = Path(sys.executable).parent.parent
+    blocks = sh_blocks(README.read_text(encoding="utf-8"))
+    assert len([b for b in blocks if b.skip is None]) >= 6
+    work = tmp_path / "clone"
+    work.mkdir()
+    (work / ".venv").symlink_to(venv)
+    (work / "worlds").symlink_to(REPO / "worlds")
+    env = dict(os.environ)
+    env["PATH"] = f"{venv / 'bin'}{os.pathsep}{env.get('PATH', '')}"
+    env["VIRTUAL_ENV"] = str(venv)
+    env.pop("PYTHONPATH", None)
+    for block in blocks:
+        if block.skip is not None:
+            continue
+        env["FREE_PORT"] = str(_free_port())
+        script = "set -e\n" + block.script()
+        proc = subprocess.run(["bash", "-c", script], cwd=work, env=env, capture_output=True,
+                              text=True, timeout=600, stdin=subprocess.DEVNULL)
+        assert proc.returncode == 0, (
+            f"README block at line {block.line} failed ({proc.returncode}):\n{script}\n"
+            f"--- stdout\n{proc.stdout[-3000:]}\n--- stderr\n{proc.stderr[-3000:]}")
+        assert "Traceback" not in proc.stderr, proc.stderr[-3000:]
