@@ -79,6 +79,11 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--lockstep-bus", action="store_true",
                    help="lockstep run: act on MURDOCH datagrams at tick boundaries in tick order "
                         "(needs the server's team clock device, opaque:0)")
+    p.add_argument("--request-timeout", type=float, default=5.0, metavar="S",
+                   help="give up on a request to the server after S wall seconds (default 5)")
+    p.add_argument("--read-timeout", type=float, default=60.0, metavar="S",
+                   help="give up waiting for a data round after S wall seconds (default 60; a "
+                        "lockstep run, whose pace is set by the slowest robot, passes more)")
     p.add_argument("--instance", default="",
                    help="this process's MURDOCH instance label (default: drawn at random; a run "
                         "numbers each start of a robot 0, 1, ...)")
@@ -134,7 +139,8 @@ def main(argv: list[str] | None = None) -> int:
         events.add_sink(on_event)
 
     battery = None if args.no_battery else BatteryPolicy(args.battery_low, args.battery_resume)
-    client = PlayerClient(args.host, args.port, lockstep=True if args.lockstep_bus else None)
+    client = PlayerClient(args.host, args.port, lockstep=True if args.lockstep_bus else None,
+                          timeout_s=args.request_timeout, read_timeout_s=args.read_timeout)
     code = 0
     auction_log: IO[str] | None = None
     transport = link = None

@@ -112,7 +112,7 @@ class PlayerRobotIO:
         camera_fov_rad: float = math.radians(60.0),
         subscribe_images: bool = False,
         odometry_offset: FrameOffset | None = None,
-        request_timeout_s: float = 5.0,
+        request_timeout_s: float | None = None,
     ) -> None:
         self.client = client
         self.camera_fov_rad = camera_fov_rad

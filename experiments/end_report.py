@@ -85,7 +85,10 @@ def end_of_run_lines(
         lines.append(f"  replay         {replay}   (open it in a browser)")
     for p in plots:
         lines.append(f"  plot           {p}")
-    lines.append(f"  recording      {root / 'events.jsonl'}, {root / 'poses.jsonl'}")
+    lines.append(f"  events         {root / 'events.jsonl'}   (what simulation time decided)")
+    if (root / "run.mcap").is_file():
+        lines.append(f"  recording      {root / 'run.mcap'}   (open it in Foxglove; "
+                     f"murdoch record-info {root})")
     lines.append(f"  logs           {root / 'logs'}")
     for problem in problems:
         lines.append(f"error: {problem}")

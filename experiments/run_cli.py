@@ -34,6 +34,7 @@ log = logging.getLogger("murdoch.run")
 
 EXPERIMENT_WORLDS = {"longterm": "longterm", "boxpush": "boxpush"}
 KEY_ENV = "MURDOCH_TEAM_KEY"
+DEFAULT_DURATION_S = 600.0
 STALL_LIMIT_S = 180.0
 EPOCH_ENV = "MURDOCH_RUN_EPOCH"
 _DURATION_RE = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*([smh]?)\s*$")
@@ -118,9 +119,11 @@ def _stop_robot(rp: RobotProcess, *, kill: bool = False, timeout_s: float = 5.0)
 @click.command()
 @click.argument("experiment", type=click.Choice(sorted(EXPERIMENT_WORLDS)))
 @click.option("--sim-hours", type=float, default=None, help="Simulated hours to run.")
-@click.option("--until", "until", default=None, help="Simulated duration, e.g. 90m, 2h.")
-@click.option("--speedup", type=float, default=0.0, show_default=True,
-              help="Simulated seconds per wall second; 0 = as fast as possible (lockstep).")
+@click.option("--until", "until", default=None, show_default="10m",
+              help="Simulated duration, e.g. 90m, 2h.")
+@click.option("--speedup", type=float, default=None, show_default="0, or 10 with --meshcat",
+              help="Simulated seconds per wall second; 0 = as fast as possible (lockstep: the "
+                   "run repeats exactly); above 0 paced by the wall clock.")
 @click.option("--seed", type=int, default=1, show_default=True)
 @click.option("--meshcat", is_flag=True, help="Serve the live 3-D view on 127.0.0.1.")
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("runs"),
@@ -159,27 +162,39 @@ def _stop_robot(rp: RobotProcess, *, kill: bool = False, timeout_s: float = 5.0)
               help="Samples per simulated second of poses and sensors in run.mcap.")
 @click.option("--no-record", is_flag=True,
               help="Write no run.mcap (and so no replay.html).")
-def run(experiment: str, sim_hours: float | None, until: str | None, speedup: float, seed: int,
+@click.option("--trails", type=click.IntRange(0, 5000), default=0, show_default=True,
+              help="--meshcat: draw a trail of each robot's last N positions.")
+@click.option("--lasers", is_flag=True, help="--meshcat: draw the robots' laser rays.")
+def run(experiment: str, sim_hours: float | None, until: str | None, speedup: float | None,
+        seed: int,
         meshcat: bool, out: Path, world: str | None, task_interval: float,
         kills: tuple[str, ...], restarts: tuple[str, ...], switch_offs: tuple[str, ...],
         switch_ons: tuple[str, ...], goal_radius: float | None, no_replay: bool,
         pipelined: bool, robot_nice: int, key: str | None, pin_cpus: bool,
-        record_rate: float, no_record: bool) -> None:
+        record_rate: float, no_record: bool, trails: int, lasers: bool) -> None:
     """Run EXPERIMENT end to end and leave a run directory behind."""
+    from experiments.run_checks import RunSetupError, check_out_dir, effective_speedup
+
     if sim_hours is not None and until is not None:
         raise click.UsageError("give --sim-hours or --until, not both")
     duration_s = (sim_hours * 3600.0 if sim_hours is not None
-                  else parse_duration_s(until) if until is not None else 600.0)
-    code = run_experiment(
-        experiment=experiment, duration_s=duration_s, speedup=speedup, seed=seed,
-        meshcat=meshcat, out=out, world_name=world or EXPERIMENT_WORLDS[experiment],
-        task_interval_s=task_interval, kills=[parse_at(k) for k in kills],
-        restarts=[parse_at(r) for r in restarts], replay=not no_replay,
-        switch_offs=[parse_at(r) for r in switch_offs],
-        switch_ons=[parse_at(r) for r in switch_ons], goal_radius_m=goal_radius,
-        pipelined=pipelined, robot_nice=robot_nice, pin_cpus=pin_cpus, key=key,
-        record=not no_record, record_rate_hz=record_rate,
-    )
+                  else parse_duration_s(until) if until is not None else DEFAULT_DURATION_S)
+    try:
+        check_out_dir(out)
+        code = run_experiment(
+            experiment=experiment, duration_s=duration_s,
+            speedup=effective_speedup(speedup, meshcat), seed=seed,
+            meshcat=meshcat, out=out, world_name=world or EXPERIMENT_WORLDS[experiment],
+            task_interval_s=task_interval, kills=[parse_at(k) for k in kills],
+            restarts=[parse_at(r) for r in restarts], replay=not no_replay,
+            switch_offs=[parse_at(r) for r in switch_offs],
+            switch_ons=[parse_at(r) for r in switch_ons], goal_radius_m=goal_radius,
+            pipelined=pipelined, robot_nice=robot_nice, pin_cpus=pin_cpus, key=key,
+            record=not no_record, record_rate_hz=record_rate, trails=trails, lasers=lasers,
+        )
+    except RunSetupError as exc:
+        click.echo(f"murdoch run: {exc}", err=True)
+        sys.exit(exc.exit_code)
     sys.exit(code)
 
 
@@ -282,12 +297,20 @@ def run_experiment(
     switch_offs: list[tuple[str, float]] | None = None,
     switch_ons: list[tuple[str, float]] | None = None, goal_radius_m: float | None = None,
     pipelined: bool = True, robot_nice: int = 0, pin_cpus: bool = False,
-    key: str | None = None, record: bool = True, record_rate_hz: float = 2.0,
+    key: str | None = None, trails: int = 0, lasers: bool = False, record: bool = True,
+    record_rate_hz: float = 2.0,
 ) -> int:
     from experiments import boxpush as bp
     from experiments import events as ev
+    from experiments.end_report import end_of_run_lines
     from experiments.observe import JsonlTail
     from experiments.recorder import RunRecorder
+    from experiments.run_checks import (
+        RunSetupError,
+        check_schedule,
+        describe_os_error,
+        load_run_world,
+    )
     from experiments.run_loop import Fault, RunLoop
     from experiments.summary import terminal_state_problems
     from experiments.task_source import boxpush_task, longterm_tasks
@@ -302,11 +325,9 @@ def run_experiment(
     from player_server.server.core import CoreConfig
     from player_server.server.runner import PlayerServer
     from player_server.sim import Simulation
-    from worlds import load_world, world_path
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    wpath = Path(world_name)
-    spec = load_world(wpath if wpath.suffix == ".toml" else world_path(world_name))
+    spec = load_run_world(world_name)
     lockstep = speedup == 0
     switch_offs, switch_ons = list(switch_offs or ()), list(switch_ons or ())
     names = [r.name for r in spec.robots]
@@ -318,8 +339,10 @@ def run_experiment(
     if (switch_offs or switch_ons) and experiment != "boxpush":
         raise click.UsageError("--switch-off/--switch-on are for the boxpush experiment")
     if not any(r.mobile for r in spec.robots):
-        raise click.UsageError(f"world {spec.source}: no mobile robot can take part in "
-                               f"{experiment} (every robot lacks position2d)")
+        raise RunSetupError(f"world {spec.source}: no mobile robot can take part in "
+                            f"{experiment} (every robot lacks position2d)")
+    check_schedule(robots=names, duration_s=duration_s, kills=kills, restarts=restarts,
+                   switch_offs=switch_offs, switch_ons=switch_ons, world=world_name)
     goal_watch = actions = None
     if experiment == "boxpush":
         goal_watch = bp.GoalWatch(bp.box_goal(spec), goal_radius_m or bp.GOAL_RADIUS_M,
@@ -348,9 +371,14 @@ def run_experiment(
             "switch_ons": [f"{r}@{t:g}s" for r, t in switch_ons],
             "goal_radius_m": goal_watch.radius_m,
         })
-    rec = RunRecorder(out, experiment, config, world=spec, started=datetime.now(),
-                      wall_clock=time.monotonic, stream=sys.stdout, meshcat=meshcat,
-                      record=record, record_rate_hz=record_rate_hz)
+    try:
+        rec = RunRecorder(out, experiment, config, world=spec, started=datetime.now(),
+                          wall_clock=time.monotonic, stream=sys.stdout, meshcat=meshcat,
+                          record=record, record_rate_hz=record_rate_hz,
+                          live_trail_points=trails, live_lasers=lasers)
+    except OSError as exc:
+        raise RunSetupError(describe_os_error(
+            exc, f"--out {out}: cannot create the run directory")) from exc
     click.echo(f"run directory: {rec.run.root}")
     sim = Simulation(spec, seed=seed)
     endpoints = world_endpoints(spec, sim, 0)
@@ -383,7 +411,12 @@ def run_experiment(
                 str(mcast_port), "--seed", str(seed), "--instance", str(start),
                 "--events", str(rec.run.logs / f"{name}.events.jsonl"),
                 "--auction-log", str(rec.run.logs / f"{name}.auction.jsonl")]
-        return [*args, "--lockstep-bus"] if lockstep else args
+        if not lockstep:
+            return args
+        # in lockstep a robot waits for the slowest of the team (one starting up on a
+        # loaded machine, say): the runner's own stall limit ends a run that truly hangs
+        return [*args, "--lockstep-bus", "--request-timeout", "120",
+                "--read-timeout", str(int(STALL_LIMIT_S * 4))]
 
     supervisor = RobotSupervisor(robot_args, lambda n: rec.run.log_file(f"robot-{n}"), env,
                                  robot_nice)
@@ -483,6 +516,10 @@ def run_experiment(
         # an end not decided at a tick boundary (interrupted, failed): close what is open
         loop.close_open_tasks(loop.state.last_t)
         monitor.close()
+    except OSError as exc:  # e.g. the disk filled up under the run directory
+        click.echo(f"murdoch run: {describe_os_error(exc, f'writing {rec.run.root}')}",
+                   err=True)
+        reason = "error"
     except Exception:
         log.exception("the run failed")
         reason = "error"
@@ -503,19 +540,23 @@ def run_experiment(
         sim.close()
         if split is not None and own_cpus is not None:
             pin_current_thread(own_cpus)  # the report may use every CPU again
-    report = rec.finish(reason, replay=replay, end_t=loop.state.last_t)
+    keep_viewer = meshcat and reason == "completed"
+    report = rec.finish(reason, replay=replay, end_t=loop.state.last_t,
+                        keep_viewer=keep_viewer)
     problems = terminal_state_problems(ev.read_events(rec.run.events))
     s = report.summary
     if loop.state.goal_outcome == "reached" and goal_watch is not None:
         click.echo(f"goal reached at {goal_watch.reached_at_s:.1f} s simulated: "
                    f"box {goal_watch.distance_m:.2f} m from the goal")
-    click.echo(
-        f"done: {s['sim_time_s']:.0f} s simulated in {s['wall_time_s']} s "
-        f"(rtf {s['real_time_factor']}); tasks executed {s['tasks']['executed']}, "
-        f"unachievable {s['tasks']['unachievable']}, failed {s['tasks']['failed']}, "
-        f"charging trips {s['charging_trips']}; events sha256 {str(s['events_sha256'])[:16]}; "
-        f"{rec.run.root}"
-    )
+    for line in end_of_run_lines(experiment=experiment, reason=reason, run_root=rec.run.root,
+                                 summary=s, plots=report.plots, replay=report.replay,
+                                 problems=report.problems):
+        click.echo(line)
+    click.echo(f"events sha256 {s['events_sha256']} (a lockstep run with the same world, seed "
+               f"and options writes the same events.jsonl)" if lockstep
+               else f"events sha256 {s['events_sha256']}")
+    if keep_viewer:
+        rec.hold_viewer(signal.pause)
     if any(problems.values()):
         click.echo(f"invariant broken: {problems}", err=True)
         return 3

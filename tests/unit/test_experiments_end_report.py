@@ -23,8 +23,10 @@ def _summary() -> dict:
     ])
 
 
-def test_the_block_names_every_file_and_what_to_try_next() -> None:
-    root = Path("runs/longterm-20260101-000000")
+def test_the_block_names_every_file_and_what_to_try_next(tmp_path: Path) -> None:
+    root = tmp_path / "runs" / "longterm-20260101-000000"
+    root.mkdir(parents=True)
+    (root / "run.mcap").write_bytes(b"")
     plots = [root / "plots" / "tasks.png", root / "plots" / "battery.png"]
     lines = end_of_run_lines(experiment="longterm", reason="completed", run_root=root,
                              summary=_summary(), plots=plots, replay=root / "replay.html")
@@ -34,7 +36,7 @@ def test_the_block_names_every_file_and_what_to_try_next() -> None:
     assert f"replay         {root / 'replay.html'}" in text
     for p in plots:
         assert str(p) in text
-    assert str(root / "events.jsonl") in text and str(root / "poses.jsonl") in text
+    assert str(root / "events.jsonl") in text and str(root / "run.mcap") in text
     assert lines.index("next") > lines.index("files")
     assert "murdoch run longterm --until 1h --kill p3@30m --restart p3@45m" in text
 
