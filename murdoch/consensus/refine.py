@@ -87,6 +87,7 @@ class PlanScorer:
         self.p = p
         self.groups = bool((p.required > 1).any())
         self._paths: dict[tuple[int, tuple[int, ...]], float] = {}
+        self._plans: dict[Plan, float] = {}  # joint scores of plans with group tasks
 
     def path_value(self, i: int, path: tuple[int, ...]) -> float:
         key = (i, path)
@@ -125,10 +126,14 @@ class PlanScorer:
                 count[j] += 1
         if any(c and c != p.required[j] for j, c in enumerate(count)):
             return -math.inf
-        ev = evaluate_plan(p, [list(q) for q in plan])
-        if not all(ev.completed[j] for j, c in enumerate(count) if c):
-            return -math.inf
-        return ev.total_score
+        v = self._plans.get(plan)
+        if v is None:
+            ev = evaluate_plan(p, [list(q) for q in plan])
+            v = ev.total_score
+            if not all(ev.completed[j] for j, c in enumerate(count) if c):
+                v = -math.inf
+            self._plans[plan] = v
+        return v
 
 
 def canonical_plan(p: Problem, paths: Sequence[Sequence[int]]) -> Plan:
@@ -535,6 +540,11 @@ def refine_allocation(scenario: Scenario, plain: AllocationResult,
     p = build_problem(scenario)
     neighbours = scenario.neighbours()
     extra = dict(plain.extra)
+    engine = extra.get("engine", "agents")
+    note = ("the improvement phase (--refine) runs in Python on top of the compiled engine's "
+            "result" if engine == "compiled" else
+            "the improvement phase (--refine) runs in Python after the agents' run")
+    extra["engine_note"] = f"{extra['engine_note']}; {note}" if extra.get("engine_note") else note
     ids = {t.id: j for j, t in enumerate(scenario.tasks)}
     paths = [[ids[t] for t in plain.assignment.get(a.id, [])] for a in scenario.agents]
     if not strongly_connected(neighbours):
