@@ -50,7 +50,13 @@ def allocate(scenario: Path, algorithm: str, task_quitting: bool, team_reward: b
                                 refine=RefineOptions(seed=refine_seed) if refine else False)
     except ValueError as exc:
         raise click.ClickException(f"{scenario}: {exc}") from exc
-    click.echo(json.dumps(result.to_json(), indent=2))
+    out = result.to_json()
+    if refine:
+        # the improvement phase's share of the communication, and where it ran
+        for key in ("refine", "engine", "engine_note"):
+            if key in result.extra:
+                out[key] = result.extra[key]
+    click.echo(json.dumps(out, indent=2))
 
 
 @click.command()

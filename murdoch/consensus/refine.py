@@ -40,6 +40,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from murdoch.consensus.joint_score import joint_score
 from murdoch.consensus.pair_replan import PairReplan
 from murdoch.consensus.scenario import Scenario
 from murdoch.consensus.scoring import Problem, build_problem, evaluate_plan, path_starts
@@ -128,9 +129,8 @@ class PlanScorer:
             return -math.inf
         v = self._plans.get(plan)
         if v is None:
-            ev = evaluate_plan(p, [list(q) for q in plan])
-            v = ev.total_score
-            if not all(ev.completed[j] for j, c in enumerate(count) if c):
+            v, completed = joint_score(p, plan)
+            if not all(completed[j] for j, c in enumerate(count) if c):
                 v = -math.inf
             self._plans[plan] = v
         return v

@@ -72,3 +72,6 @@ def test_allocate_refine_prints_a_result_at_least_as_good(worlds_dir: Path) -> N
     assert outs[1]["total_score"] >= outs[0]["total_score"] - 1e-9
     assert outs[1]["conflict_free"] is True
     assert outs[1]["messages"] >= outs[0]["messages"]
+    assert "refine" not in outs[0] and "engine_note" not in outs[0]
+    assert outs[1]["refine"]["messages"] == outs[1]["messages"] - outs[0]["messages"]
+    assert "runs in Python" in outs[1]["engine_note"]

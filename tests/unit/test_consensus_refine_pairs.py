@@ -76,3 +76,26 @@ def test_engine_note_says_where_the_phase_runs(algorithm: str, compiled: bool,
     assert r.extra["engine"] == ("compiled" if compiled else "agents")
     if not compiled:
         assert r.extra["engine_note"].startswith("not requested; ")
+
+
+def test_joint_score_equals_evaluate_plan() -> None:
+    from murdoch.consensus.joint_score import joint_score
+    from murdoch.consensus.scoring import build_problem, evaluate_plan
+
+    checked = 0
+    for k in range(60):
+        rng = np.random.default_rng([33, k])
+        s = small_problem(rng, int(rng.integers(2, 5)), int(rng.integers(3, 9)),
+                          SHAPES[k % len(SHAPES)], groups=bool(k % 2))
+        p = build_problem(s)
+        for _ in range(20):
+            paths = [[] for _ in range(p.n_agents)]
+            for j in rng.permutation(p.n_tasks).tolist():
+                for i in rng.permutation(p.n_agents)[: int(rng.integers(0, 3))].tolist():
+                    paths[i].append(j)
+            ev = evaluate_plan(p, paths)
+            total, completed = joint_score(p, paths)
+            assert total == pytest.approx(ev.total_score, rel=1e-12, abs=1e-9)
+            assert tuple(completed) == ev.completed
+            checked += sum(completed)
+    assert checked > 100
