@@ -75,13 +75,21 @@ def allocate(scenario: str, algorithm: str, task_quitting: bool, team_reward: bo
                                 refine=RefineOptions(seed=refine_seed) if refine else False)
     except ValueError as exc:
         raise click.ClickException(f"{path}: {exc}") from exc
+    out = result.to_json()
+    if refine:
+        # the improvement phase's share of the communication, and where it ran
+        for key in ("refine", "engine", "engine_note"):
+            if key in result.extra:
+                out[key] = result.extra[key]
     if as_json:
-        click.echo(json.dumps(result.to_json(), indent=2))
+        click.echo(json.dumps(out, indent=2))
         return
     engine_used = result.extra.get("engine", engine)
     title = (f"{algorithm.upper()} on {path.name}: {len(sc.agents)} agents, {len(sc.tasks)} "
              f"tasks ({engine_used} engine)")
-    click.echo(format_allocation(result.to_json(), title=title))
+    click.echo(format_allocation(out, title=title))
+    if refine and "engine_note" in result.extra:
+        click.echo(f"note: {result.extra['engine_note']}")
 
 
 @click.command()

@@ -26,11 +26,19 @@ from typing import ClassVar
 
 import numpy as np
 
+from murdoch.consensus.async_refine import RefineChunk, receive_chunk, refine_chunks
 from murdoch.consensus.cbba import CbbaAgent
 from murdoch.consensus.cbga import CbgaAgent, CbgaOptions
 from murdoch.consensus.messages import ConsensusMessage
+from murdoch.consensus.refine import (
+    PlanScorer,
+    RefineAgent,
+    RefineOptions,
+    make_refine_agent,
+    seeded_rank,
+)
 from murdoch.consensus.scenario import Scenario
-from murdoch.consensus.scoring import build_problem
+from murdoch.consensus.scoring import build_problem, evaluate_plan
 from murdoch.consensus.sync_runner import AllocationResult, build_result, graph_diameter
 from murdoch.transport import Transport
 from murdoch.wire import Codec, Envelope
@@ -58,7 +66,8 @@ class ConsensusChunk:
     starts: tuple[tuple[int, int, float], ...] = ()
 
 
-CONSENSUS_CODEC = Codec([ConsensusChunk])
+CONSENSUS_CODEC = Codec([ConsensusChunk, RefineChunk])
+_KINDS = (ConsensusChunk.KIND, RefineChunk.KIND)
 
 
 def _entry_size(entry: tuple[int, int, float]) -> int:
@@ -111,11 +120,22 @@ Agent = CbbaAgent | CbgaAgent
 
 
 class ConsensusNode:
-    """One agent on one transport endpoint."""
+    """One agent on one transport endpoint.
+
+    With `refine`, once the node's consensus state has not changed for `settle_periods`
+    of its periods (and no quit is pending) it starts the improvement phase
+    (`async_refine.py`) from its path and publishes only refine state from then on."""
 
     def __init__(self, agent: Agent, transport: Transport, session: str,
-                 neighbours: frozenset[int] | None, clock: Callable[[], float]) -> None:
+                 neighbours: frozenset[int] | None, clock: Callable[[], float],
+                 refine: RefineOptions | None = None, settle_periods: int = 9) -> None:
         self.agent = agent
+        self.refine = refine
+        self.settle_periods = settle_periods
+        self.refiner: RefineAgent | None = None
+        self.refused = 0
+        self._quiet = 0
+        self._refine_inbox: list[RefineChunk] = []
         self.transport = transport
         self.session = session
         self.subject = SUBJECT_PREFIX + session
@@ -128,6 +148,10 @@ class ConsensusNode:
 
     def _on_envelope(self, env: Envelope) -> None:
         msg = env.message
+        if isinstance(msg, RefineChunk) and msg.session == self.session:
+            if self.refine is not None:
+                self._refine_inbox.append(msg)
+            return
         if not isinstance(msg, ConsensusChunk) or msg.session != self.session:
             return
         self._inbox.append(msg)
@@ -136,7 +160,73 @@ class ConsensusNode:
         return self.agent.state_key()
 
     def step(self) -> bool:
-        """One period: merge, release, quit, build, publish. True if the state changed."""
+        """One period: merge, release, quit, build, publish (or, once refining, one period
+        of the improvement phase). True if the state changed."""
+        if self.refiner is not None:
+            return self._refine_step()
+        changed = self._consensus_step()
+        self._quiet = 0 if changed else self._quiet + 1
+        if (self.refine is not None and self._quiet >= self.settle_periods
+                and not self.pending_quit()):
+            self._start_refine()
+            return True
+        return changed
+
+    def _start_refine(self) -> None:
+        assert self.refine is not None
+        a = self.agent
+        n = a.problem.n_agents
+        rank = seeded_rank(n, self.refine.seed)
+        self.refiner = make_refine_agent(PlanScorer(a.problem), a.index, rank,
+                                         tuple(a.path), self.refine)
+        self._refine_inbox.clear()  # older chunks: their senders send them again
+        self._publish_refine()
+
+    def _publish_refine(self) -> None:
+        assert self.refiner is not None
+        for chunk in refine_chunks(self.refiner, self.session, self.agent.index):
+            self.transport.publish({self.subject}, chunk)
+
+    def _refine_step(self) -> bool:
+        r = self.refiner
+        assert r is not None
+        self.iteration += 1
+        self._inbox.clear()
+        inbox, self._refine_inbox = self._refine_inbox, []
+        before = (r.step, r.done, r.plan)
+        for c in inbox:
+            if c.sender == self.agent.index:
+                continue
+            if self.neighbours is not None and c.sender not in self.neighbours:
+                self.ignored += 1
+                continue
+            if not receive_chunk(r, c):
+                self.refused += 1
+                if self.refused == 1 or self.refused % 100 == 0:
+                    log.warning("consensus %s: refused %d malformed refine chunk(s), last "
+                                "from agent %s", self.session, self.refused, c.sender)
+        r.advance()
+        self._publish_refine()
+        return (r.step, r.done, r.plan) != before
+
+    def pending_refine(self) -> bool:
+        return self.refine is not None and (self.refiner is None or not self.refiner.done)
+
+    def final_path(self) -> list[int]:
+        """The node's path: the refined plan's when the phase has finished."""
+        r = self.refiner
+        if r is not None and r.done and r.plan is not None:
+            return list(r.plan[self.agent.index])
+        return list(self.agent.path)
+
+    def winners_view(self) -> list[frozenset[int]]:
+        r = self.refiner
+        if r is not None and r.done and r.plan is not None:
+            ev = evaluate_plan(self.agent.problem, [list(q) for q in r.plan])
+            return [frozenset(g) for g in ev.group]
+        return self.agent.winners_view()
+
+    def _consensus_step(self) -> bool:
         a = self.agent
         self.iteration += 1
         now = self.clock()
@@ -209,17 +299,17 @@ class ConsensusSwarm:
                 last_change = period
             else:
                 quiet += 1
-            if quiet >= quiet_needed and not any(n.pending_quit() for n in self.nodes):
+            if quiet >= quiet_needed and not any(n.pending_quit() or n.pending_refine()
+                                                 for n in self.nodes):
                 break
             self.advance()
-        converged = quiet >= quiet_needed
-        datagrams = sum(n.transport.counters.sent(ConsensusChunk.KIND) for n in self.nodes)
+        converged = quiet >= quiet_needed and not any(n.pending_refine() for n in self.nodes)
+        datagrams = sum(n.transport.counters.sent(k) for n in self.nodes for k in _KINDS)
         nbytes = sum(c.sent_bytes for n in self.nodes
-                     for k, c in n.transport.counters.kinds.items()
-                     if k == ConsensusChunk.KIND)
+                     for k, c in n.transport.counters.kinds.items() if k in _KINDS)
         problem = self.nodes[0].agent.problem
-        paths = [list(n.agent.path) for n in self.nodes]
-        views = [n.agent.winners_view() for n in self.nodes]
+        paths = [n.final_path() for n in self.nodes]
+        views = [n.winners_view() for n in self.nodes]
         result = build_result(self.algorithm, problem, paths, views, active, neighbours,
                               converged, last_change, datagrams, nbytes, period)
         return SwarmOutcome(result, period, datagrams, nbytes)
@@ -250,29 +340,39 @@ def make_agent(problem_scenario: Scenario, algorithm: str, index: int,
     raise ValueError(f"unknown algorithm {algorithm!r} (expected 'cbba' or 'cbga')")
 
 
+def settle_periods_for(scenario: Scenario) -> int:
+    """Quiet periods after which a node takes its consensus state as settled (the same
+    number `ConsensusSwarm` waits for by default)."""
+    nbrs = scenario.neighbours()
+    return 3 * (graph_diameter(nbrs, [True] * len(nbrs)) + 2)
+
+
 def make_nodes(scenario: Scenario, algorithm: str, options: CbgaOptions | None,
                transports: Sequence[Transport], clock: Callable[[], float],
-               session: str) -> list[ConsensusNode]:
+               session: str, refine: RefineOptions | None = None) -> list[ConsensusNode]:
+    """One node per agent; with `refine` each runs the improvement phase once settled."""
     nbrs = scenario.neighbours()
+    settle = settle_periods_for(scenario)
     return [ConsensusNode(make_agent(scenario, algorithm, i, options), t, session,
-                          frozenset(nbrs[i]), clock)
+                          frozenset(nbrs[i]), clock, refine, settle)
             for i, t in enumerate(transports)]
 
 
 def run_on_memory_bus(scenario: Scenario, algorithm: str, rng: random.Random,
                       loss: float = 0.0, options: CbgaOptions | None = None,
                       period_s: float = 0.05, max_delay_s: float = 0.0,
-                      max_periods: int = 2000, quiet_periods: int | None = None
-                      ) -> SwarmOutcome:
+                      max_periods: int = 2000, quiet_periods: int | None = None,
+                      refine: RefineOptions | None = None) -> SwarmOutcome:
     """Run a scenario on a fresh in-memory bus with seeded loss (and delay up to
-    `max_delay_s`, which reorders datagrams)."""
+    `max_delay_s`, which reorders datagrams); with `refine`, followed by the improvement
+    phase."""
     from murdoch.memory_bus import MemoryBus, NetworkFaults
 
     clock = ManualClock()
     bus = MemoryBus(clock, rng, NetworkFaults(loss=loss, delay_s=(0.0, max_delay_s)))
     transports = [bus.endpoint(a.id, CONSENSUS_CODEC) for a in scenario.agents]
     nodes = make_nodes(scenario, algorithm, options, transports, clock,
-                       session_name(scenario.name))
+                       session_name(scenario.name), refine)
 
     def advance() -> None:
         clock.advance(period_s)

@@ -191,24 +191,48 @@ def solve_exact(scenario: Scenario | Problem, node_limit: int = 2_000_000) -> Ex
     for bound, cands in choices:
         if bound <= best_score + _TOL:
             break
-        rest = [0.0] * (n + 1)  # best relaxed score of agents i.. (disjointness ignored)
-        for i in range(n - 1, -1, -1):
-            rest[i] = rest[i + 1] + cands[i][0].score
+        best_sets = [sorted(_best_per_mask(c).values(), key=lambda s: -s.score)
+                     for c in cands]
+        memo: dict[tuple[int, int], float] = {}
+
+        def rest(i: int, used: int, best_sets: list[list[_Seq]] = best_sets,
+                 memo: dict[tuple[int, int], float] = memo) -> float:
+            """Best agent-alone sum of agents i.. whose single-agent tasks avoid `used`
+            (a bound of what they add to any plan)."""
+            if i == n:
+                return 0.0
+            key = (i, used)
+            v = memo.get(key)
+            if v is None:
+                v = -math.inf
+                for s in best_sets[i]:
+                    if s.score + rest(i + 1, 0) <= v:
+                        break
+                    single = s.mask & ~group_mask
+                    if used & single:
+                        continue
+                    v = max(v, s.score + rest(i + 1, used | single))
+                memo[key] = v
+            return v
+
         chosen: list[tuple[int, ...]] = []
 
         def search(i: int, used: int, partial: float, cands: list[list[_Seq]] = cands,
-                   rest: list[float] = rest, chosen: list[tuple[int, ...]] = chosen) -> None:
+                   rest=rest, chosen: list[tuple[int, ...]] = chosen) -> None:
             nonlocal best_score, best_paths, nodes
             if i == n:
                 total = evaluate_plan(p, [list(q) for q in chosen]).total_score
                 if total > best_score + _TOL:
                     best_score, best_paths = total, list(chosen)
                 return
+            loose = rest(i + 1, used)
             for s in cands[i]:
-                if partial + s.score + rest[i + 1] <= best_score + _TOL:
+                if partial + s.score + loose <= best_score + _TOL:
                     break  # sorted by score: no later path does better
                 single = s.mask & ~group_mask
                 if used & single:
+                    continue
+                if partial + s.score + rest(i + 1, used | single) <= best_score + _TOL:
                     continue
                 nodes += 1
                 if nodes > node_limit:

@@ -40,9 +40,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from murdoch.consensus.joint_score import joint_score
+from murdoch.consensus.pair_replan import PairReplan
 from murdoch.consensus.scenario import Scenario
 from murdoch.consensus.scoring import Problem, build_problem, evaluate_plan, path_starts
-from murdoch.consensus.sync_runner import AllocationResult, build_result
+from murdoch.consensus.sync_runner import AllocationResult, build_result, graph_diameter
 
 Plan = tuple[tuple[int, ...], ...]
 _HEADER_BYTES = 15
@@ -51,10 +53,17 @@ _GAIN_TOL = 1e-7
 
 @dataclass(frozen=True)
 class RefineOptions:
-    """`seed` orders equal proposals; `max_steps` bounds the proposal steps."""
+    """`seed` orders equal proposals; `max_steps` bounds the proposal steps; `pairs` adds
+    the two-agent re-plan (`pair_replan.py`) to each agent's moves. `budget` bounds the
+    phase's rounds by that fraction of the plain run's communication rounds (`comm_steps`,
+    which every agent of a synchronous run knows), but allows at least `min_rounds`; None
+    lifts the bound (then only `max_steps` applies)."""
 
     seed: int = 0
     max_steps: int = 50
+    pairs: bool = True
+    budget: float | None = 0.5
+    min_rounds: int = 3
 
 
 @dataclass(frozen=True)
@@ -79,6 +88,7 @@ class PlanScorer:
         self.p = p
         self.groups = bool((p.required > 1).any())
         self._paths: dict[tuple[int, tuple[int, ...]], float] = {}
+        self._plans: dict[Plan, float] = {}  # joint scores of plans with group tasks
 
     def path_value(self, i: int, path: tuple[int, ...]) -> float:
         key = (i, path)
@@ -117,10 +127,13 @@ class PlanScorer:
                 count[j] += 1
         if any(c and c != p.required[j] for j, c in enumerate(count)):
             return -math.inf
-        ev = evaluate_plan(p, [list(q) for q in plan])
-        if not all(ev.completed[j] for j, c in enumerate(count) if c):
-            return -math.inf
-        return ev.total_score
+        v = self._plans.get(plan)
+        if v is None:
+            v, completed = joint_score(p, plan)
+            if not all(completed[j] for j, c in enumerate(count) if c):
+                v = -math.inf
+            self._plans[plan] = v
+        return v
 
 
 def canonical_plan(p: Problem, paths: Sequence[Sequence[int]]) -> Plan:
@@ -144,10 +157,11 @@ def _without(path: tuple[int, ...], j: int) -> tuple[int, ...]:
 class MoveSearch:
     """One agent's search for its best proposal on the agreed plan."""
 
-    def __init__(self, scorer: PlanScorer, agent: int) -> None:
+    def __init__(self, scorer: PlanScorer, agent: int, pair: PairReplan | None = None) -> None:
         self.s = scorer
         self.p = scorer.p
         self.i = agent
+        self.pair = pair
 
     def _best_insert(self, plan: Plan, changes: dict[int, tuple[int, ...]], k: int, j: int
                      ) -> tuple[float, dict[int, tuple[int, ...]]]:
@@ -213,6 +227,11 @@ class MoveSearch:
         # move one of my own tasks elsewhere in my path
         for l in mine:
             consider(*self._best_insert(plan, {i: _without(mine, l)}, i, l))
+        if self.pair is not None:
+            self.pair.prepare(plan, base)
+            for k in range(p.n_agents):
+                if k != i:
+                    self.pair.moves(plan, holders, k, consider)
         if best_c is None:
             return None
         changed = tuple(sorted((k, q) for k, q in best_c.items() if q != plan[k]))
@@ -335,6 +354,8 @@ class RefineAgent:
     moves: int = 0
     entries: dict[int, object] = field(default_factory=dict)
     previous: tuple[int, dict[int, object]] | None = None
+    pair: PairReplan | None = None
+    resend: bool = True  # False when every agent hears every other directly
 
     def __post_init__(self) -> None:
         self.entries = {self.index: self.own_path}
@@ -363,13 +384,19 @@ class RefineAgent:
         for k, e in entries.items():
             self.entries.setdefault(k, e)
 
+    def _keep_previous(self) -> None:
+        """Keep the completed step to send once more (for neighbours still missing
+        entries of it); on a complete graph every agent completes a step in the same round."""
+        self.previous = (self.step, dict(self.entries)) if self.resend else None
+
     def advance(self) -> bool:
         """Act on a complete step; True when this agent moved to the next step."""
         n = self.scorer.p.n_agents
         if self.done or len(self.entries) < n:
             return False
         if self.step == 0:
-            self.plan = tuple(tuple(self.entries[k]) for k in range(n))  # type: ignore[arg-type]
+            paths = [tuple(self.entries[k]) for k in range(n)]  # type: ignore[arg-type]
+            self.plan = canonical_plan(self.scorer.p, paths)
             proposals: list[Proposal] = []
         else:
             proposals = [e for e in self.entries.values() if isinstance(e, Proposal)]
@@ -377,20 +404,45 @@ class RefineAgent:
         if self.step > 0:
             if not proposals:
                 self.done = True
-                self.previous = (self.step, dict(self.entries))
+                self._keep_previous()
                 self.entries = {}
                 return True
             else:
                 self.plan, moved = select(self.scorer, self.plan, proposals, self.rank)
                 self.moves += moved
-        self.previous = (self.step, dict(self.entries))
+        self._keep_previous()
         self.step += 1
         if self.step > self.max_steps:
             self.done = True
             self.entries = {}
             return True
-        self.entries = {self.index: MoveSearch(self.scorer, self.index).best(self.plan)}
+        self.entries = {self.index: MoveSearch(self.scorer, self.index,
+                                                   self.pair).best(self.plan)}
         return True
+
+
+def make_refine_agent(scorer: PlanScorer, index: int, rank: Sequence[int],
+                      own_path: tuple[int, ...], options: RefineOptions,
+                      max_steps: int | None = None, resend: bool = True) -> RefineAgent:
+    """Agent `index`'s part of the phase, starting from its own (canonical) path."""
+    pair = PairReplan(scorer, index) if options.pairs else None
+    steps = options.max_steps if max_steps is None else max_steps
+    return RefineAgent(scorer, index, rank, own_path, steps, pair=pair, resend=resend)
+
+
+def complete_graph(neighbours: Sequence[Sequence[int]]) -> bool:
+    """Whether every agent hears every other directly."""
+    n = len(neighbours)
+    return all(set(ks) >= set(range(n)) - {i} for i, ks in enumerate(neighbours))
+
+
+def step_limit(options: RefineOptions, plain_rounds: int, diameter: int) -> int:
+    """Proposal steps allowed by the round budget: a step takes at most `diameter` rounds,
+    and the paths (step 0) take one step."""
+    if options.budget is None:
+        return options.max_steps
+    rounds = max(options.min_rounds, math.floor(options.budget * plain_rounds))
+    return max(1, min(options.max_steps, rounds // max(1, diameter) - 1))
 
 
 def _entries_size(step: int, entries: dict[int, object]) -> int:
@@ -427,14 +479,16 @@ class RefineOutcome:
 
 def run_refinement(p: Problem, paths: Sequence[Sequence[int]],
                    neighbours: Sequence[Sequence[int]], options: RefineOptions,
-                   max_rounds: int = 1000) -> RefineOutcome:
+                   max_rounds: int = 1000, max_steps: int | None = None) -> RefineOutcome:
     """Run the improvement phase in synchronous rounds over the communication graph (every
     agent sends to its out-neighbours each round until it has finished)."""
     n = p.n_agents
     scorer = PlanScorer(p)
     start = canonical_plan(p, paths)
     rank = seeded_rank(n, options.seed)
-    agents = [RefineAgent(scorer, i, rank, start[i], options.max_steps) for i in range(n)]
+    resend = not complete_graph(neighbours)
+    agents = [make_refine_agent(scorer, i, rank, start[i], options, max_steps, resend)
+              for i in range(n)]
     rounds = messages = nbytes = 0
     while not all(a.done and a.previous is None for a in agents) and rounds < max_rounds:
         rounds += 1
@@ -486,13 +540,20 @@ def refine_allocation(scenario: Scenario, plain: AllocationResult,
     p = build_problem(scenario)
     neighbours = scenario.neighbours()
     extra = dict(plain.extra)
+    engine = extra.get("engine", "agents")
+    note = ("the improvement phase (--refine) runs in Python on top of the compiled engine's "
+            "result" if engine == "compiled" else
+            "the improvement phase (--refine) runs in Python after the agents' run")
+    extra["engine_note"] = f"{extra['engine_note']}; {note}" if extra.get("engine_note") else note
     ids = {t.id: j for j, t in enumerate(scenario.tasks)}
     paths = [[ids[t] for t in plain.assignment.get(a.id, [])] for a in scenario.agents]
     if not strongly_connected(neighbours):
         extra["refine"] = {"skipped": "the communication graph is not strongly connected: "
                                       "agents cannot agree on one plan"}
         return replace(plain, extra=extra)
-    out = run_refinement(p, paths, neighbours, options)
+    diameter = graph_diameter(neighbours, [True] * p.n_agents)
+    limit = step_limit(options, plain.comm_steps, diameter)
+    out = run_refinement(p, paths, neighbours, options, max_steps=limit)
     plan = [list(q) for q in out.plan]
     views = [[frozenset(g) for g in evaluate_plan(p, plan).group]] * p.n_agents
     res = build_result(plain.algorithm, p, plan, views, [True] * p.n_agents, neighbours,

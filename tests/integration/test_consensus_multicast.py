@@ -55,3 +55,42 @@ def test_cbga_over_loopback_multicast() -> None:
     assert r.converged and r.conflict_free and r.agreed
     assert out.periods < 400
     assert sum(len(v) for v in r.assignment.values()) > 0
+
+
+@pytest.mark.timeout(120)
+def test_cbga_with_refine_over_loopback_multicast() -> None:
+    from murdoch.consensus import allocate
+    from murdoch.consensus.refine import RefineOptions
+    from murdoch.consensus.small_problems import small_problem
+
+    config = _free_config()
+    s = small_problem(np.random.default_rng([41, 0, 1]), 3, 7, "uniform-loose", groups=True)
+    try:
+        transports = [MulticastTransport(a.id, time.monotonic, config, CONSENSUS_CODEC)
+                      for a in s.agents]
+    except OSError as exc:
+        pytest.skip(f"UDP multicast on loopback is not available: {exc}")
+    nodes = make_nodes(s, "cbga", CbgaOptions(), transports, time.monotonic, "mrefine",
+                       refine=RefineOptions(seed=1))
+    period_s = 0.02
+
+    def deliver() -> None:
+        deadline = time.monotonic() + period_s
+        while time.monotonic() < deadline:
+            for t in transports:
+                t.poll(0.002)
+
+    try:
+        out = ConsensusSwarm(s, "cbga", nodes, deliver, lambda: None).run(max_periods=600)
+    finally:
+        for n in nodes:
+            n.close()
+        for t in transports:
+            t.close()
+    r = out.result
+    if out.datagrams and not any(t.counters.received() for t in transports):
+        pytest.skip("multicast datagrams are not looped back on this machine")
+    assert r.converged and r.conflict_free and r.agreed and not r.incomplete
+    assert all(n.refiner is not None and n.refiner.done for n in nodes)
+    assert r.total_score >= allocate(s, "cbga", CbgaOptions()).total_score - 1e-6
+    assert any(t.counters.sent("consensus-refine") for t in transports)

@@ -68,10 +68,13 @@ def test_allocate_refine_prints_a_result_at_least_as_good(worlds_dir: Path) -> N
     for extra in ([], ["--refine", "--refine-seed", "3"]):
         r = CliRunner().invoke(main, ["allocate", str(f), "--json", *extra])
         assert r.exit_code == 0, r.output
-        outs.append(json.loads(r.output))
+        outs.append(json.loads(r.stdout))
     assert outs[1]["total_score"] >= outs[0]["total_score"] - 1e-9
     assert outs[1]["conflict_free"] is True
     assert outs[1]["messages"] >= outs[0]["messages"]
+    assert "refine" not in outs[0] and "engine_note" not in outs[0]
+    assert outs[1]["refine"]["messages"] == outs[1]["messages"] - outs[0]["messages"]
+    assert "runs in Python" in outs[1]["engine_note"]
 
 
 def test_allocate_prints_a_table_and_takes_bundled_names() -> None:
