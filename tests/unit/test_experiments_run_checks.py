@@ -114,6 +114,12 @@ def test_a_full_disk_keeps_a_valid_summary_and_leaves_no_temporary_file(
         w.write(1.0, ev.TASK_INTRODUCED, task="t1", task_kind="sentry-duty")
         w.write(9.0, ev.TASK_OUTCOME, task="t1", outcome=ev.FAILED, reason="run ended")
         w.write(9.0, ev.RUN_END, wall_s=1.0, reason="completed")
+    from mcap.writer import Writer  # an empty recording: replay.html is built from it
+
+    with run.recording.open("wb") as f:
+        recording = Writer(f)
+        recording.start()
+        recording.finish()
     real_write = pathlib.Path.write_text
 
     def write_until_full(self: Path, data: str, *args: object, **kw: object) -> int:
