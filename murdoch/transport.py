@@ -389,12 +389,24 @@ class EndpointCore:
                 if key is not None and not is_signed(datagram):
                     raise WireError("auth_failed", "datagram carries no tag")
                 header = codec.parse_header(datagram)
-                kind = header.kind
                 ticks = self.ticks
                 if ticks is not None:
                     self._check_tick(header, ticks)
                     if self.inbox is not None:
                         return self._hold(datagram, header, key)
+            except WireError as exc:
+                self._dropped(exc)
+                return 0
+        return self._deliver(datagram, header, key)
+
+    def _deliver(self, datagram: bytes, header: Any, key: TeamKey | None) -> int:
+        """Match, then (for datagrams someone listens to) authenticate with `key` (None:
+        done already), decode, count and hand to the subscriptions."""
+        size = len(datagram)
+        codec = self.codec
+        kind = header.kind
+        with self._lock:
+            try:
                 keys = self._matches.get(header.subjects)
                 if keys is None:
                     keys = self.match(header.subjects)
@@ -416,7 +428,7 @@ class EndpointCore:
                 else:
                     body = codec.decode_body(datagram, header)
                     tap(Frame(kind, header.sender, header.seq, header.subjects, body,
-                              header.instance), size)
+                              header.instance, header.tick, header.epoch), size)
                     if not keys:
                         if not codec.knows(kind):
                             raise WireError("unknown_kind", f"kind {kind!r}")
@@ -445,7 +457,6 @@ class EndpointCore:
             if not sub.closed:
                 sub._deliver(envelope)
         return len(targets)
-
 
     def _dropped(self, exc: WireError) -> None:
         """Count a refused datagram and say so in the log, once per reason per 10 s of the
@@ -502,42 +513,8 @@ class EndpointCore:
             items = self.inbox.release(through_tick, table)
         delivered = 0
         for item in items:
-            delivered += self._dispatch_held(item.header, item.data)
+            delivered += self._deliver(item.data, item.header, None)  # authenticated on hold
         return delivered
-
-    def _dispatch_held(self, header: Any, datagram: bytes) -> int:
-        codec = self.codec
-        size = len(datagram)
-        kind = header.kind
-        with self._lock:
-            try:
-                keys = self.match(header.subjects)
-                tap = self.frame_tap
-                if not codec.knows(kind) and tap is None:
-                    raise WireError("unknown_kind", f"kind {kind!r}")
-                if tap is not None:
-                    body = codec.decode_body(datagram, header)
-                    tap(Frame(kind, header.sender, header.seq, header.subjects, body,
-                              header.instance, header.tick, header.epoch), size)
-                if not keys:
-                    if not codec.knows(kind):
-                        raise WireError("unknown_kind", f"kind {kind!r}")
-                    self.counters.count_received(kind, size)
-                    self.counters.count_dropped("unmatched")
-                    return 0
-                message = codec.decode_message(datagram, header)
-            except WireError as exc:
-                self._dropped(exc)
-                return 0
-            self.counters.count_received(kind, size)
-            envelope = Envelope(header.sender, header.seq, header.subjects, message, size,
-                                self.clock(), header.instance, header.tick)
-            targets = [self._subs[k] for k in keys]
-        for sub in targets:
-            if not sub.closed:
-                sub._deliver(envelope)
-        return len(targets)
-
 
 class EndpointBacked:
     """What every transport exposes straight from its `EndpointCore`: identity, counters
