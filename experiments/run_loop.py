@@ -36,6 +36,8 @@ from experiments.task_source import PlannedTask
 log = logging.getLogger("murdoch.run")
 
 PATIENCE_S = 300.0
+DEATH_CHECK_TICKS = 10
+"""How often (in ticks) the runner looks for robot processes that died by themselves."""
 BOXPUSH_LINGER_S = 3.0
 """After the box's fate is decided, the run goes on this long for the last reports."""
 
@@ -162,7 +164,8 @@ class RunLoop:
         else:
             self.transport.poll(0.0)
         self._drain_robots()
-        self._deaths(now)
+        if tick % DEATH_CHECK_TICKS == 0:
+            self._deaths(now)
         self._faults(now)
         self._introduce(now)
         self._referee(now)
