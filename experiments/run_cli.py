@@ -356,7 +356,7 @@ def run_experiment(
     secret = key or os.environ.get(KEY_ENV) or secrets.token_hex(16)
     epoch = secrets.token_hex(4)
     config = {
-        "experiment": experiment, "seed": seed, "world": str(spec.source),
+        "experiment": experiment, "seed": seed, "world": world_name,
         "duration_s": duration_s, "speedup": speedup, "lockstep": lockstep,
         "task_interval_s": task_interval_s,
         "pipelined": lockstep and pipelined, "robot_nice": robot_nice,

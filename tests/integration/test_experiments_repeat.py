@@ -32,8 +32,8 @@ LONGTERM = ["run", "longterm", "--until", "150s", "--task-interval", "25", "--se
             "--kill", "busy@45s", "--restart", "busy@90s", "--no-replay"]
 
 GOLDEN = {
-    "boxpush": "38a2fd137a99547853117854444ed2c9aa6600006b3c1c170a8623b65a4abd34",
-    "longterm": "4335cd33dbffa9533a69fe4b7eb9f15fc11055c379ee381da9267a8510605f6c",
+    "boxpush": "fde96133d7150c8c79ec6b519d3cecdb32fc43d535b36fc393f5b75bd14b26fd",
+    "longterm": "3d74bd9f5193611dc831cea424be48ac1d96aa0f26f05ead6a26dce2c6edf195",
 }
 """sha256 of events.jsonl for each run."""
 OUTCOMES = {
