@@ -79,8 +79,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--lockstep-bus", action="store_true",
                    help="lockstep run: act on MURDOCH datagrams at tick boundaries in tick order "
                         "(needs the server's team clock device, opaque:0)")
-    p.add_argument("--request-timeout", type=float, default=5.0, metavar="S",
-                   help="give up on a request to the server after S wall seconds (default 5)")
+    p.add_argument("--request-timeout", type=float, default=60.0, metavar="S",
+                   help="give up on a request to the server after S wall seconds (default 60: "
+                        "a server may be compiling its sensing kernels on first use)")
     p.add_argument("--read-timeout", type=float, default=60.0, metavar="S",
                    help="give up waiting for a data round after S wall seconds (default 60; a "
                         "lockstep run, whose pace is set by the slowest robot, passes more)")
