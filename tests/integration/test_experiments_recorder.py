@@ -152,7 +152,8 @@ def test_the_live_view_shows_laser_rays_and_trails_when_asked(tmp_path: Path) ->
         observed.step()
         target = rec.live.stats().frames + 3  # ... and the view has sent it
         while rec.live.stats().frames < target and time.monotonic() < deadline:
-            time.sleep(0.01)
+            time.sleep(0.03)  # past the live period: each step hands over a snapshot
+            observed.step()
         viewer_url = rec._viewer.urls.zmq_url
         rec.live.stop()  # the view's last frame is in the viewer; read it back
         cmds = scene_commands(viewer_url)
