@@ -168,7 +168,11 @@ class RawClient:
         raise AssertionError(f"no reply to {interf}:{subtype} in {limit} messages")
 
     def drain(self, seconds: float = 0.05) -> int:
-        """Read and drop whatever arrives for a short while (at most 100 reads); bytes read."""
+        """Read and drop whatever arrives for a short while (at most 100 reads); bytes read.
+
+        The socket's timeout (or non-blocking mode) is restored afterwards.
+        """
+        before = self.sock.gettimeout()
         self.sock.settimeout(seconds)
         n = 0
         try:
@@ -180,7 +184,7 @@ class RawClient:
         except (TimeoutError, BlockingIOError):
             pass
         finally:
-            self.sock.settimeout(10.0)
+            self.sock.settimeout(before)
         return n
 
     def closed_by_server(self, timeout_s: float = 20.0) -> bool:
