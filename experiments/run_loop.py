@@ -149,8 +149,8 @@ class RunLoop:
         self.busy_killed: list[str] = []
         # boxpush: which end each pusher pushes now and pushed before; switch-ons waiting
         self.task_kind: dict[str, str] = {}
-        self.push_holder: dict[str, str] = {}
-        self.push_task: dict[str, str] = {}
+        self.push_holder: dict[str, tuple[str, str]] = {}  # robot -> (end, task)
+        self.push_task: dict[str, str] = {}  # task -> robot
         self.pushed: set[str] = set()
         self.ends_before: dict[str, Counter[str]] = defaultdict(Counter)
         self.worked_end: dict[str, str] = {}
@@ -334,9 +334,9 @@ class RunLoop:
     def _pending_switch_ons(self, now: float) -> None:
         for name, asked_at in sorted(self.pending_on.items()):
             old_end = self.worked_end.get(name, "left")
-            others = [r for r, end in self.push_holder.items()
+            others = [r for r in self.push_holder
                       if r != name and r not in self.switched_off]
-            ready = any(self.push_holder[r] == old_end for r in others)
+            ready = any(self.push_holder[r][0] == old_end for r in others)
             waited_out = now >= asked_at + bp.SWITCH_ON_WAIT_S - 1e-9
             if ready or waited_out or not self._pushers_left(name):
                 del self.pending_on[name]
@@ -368,7 +368,7 @@ class RunLoop:
         end = bp.PUSH_ENDS.get(self.task_kind.get(task_id, ""))
         if end is None:
             return
-        self.push_holder[robot] = end
+        self.push_holder[robot] = (end, task_id)
         self.push_task[task_id] = robot
         self.pushed.add(robot)
         if robot not in self.switched_off:
@@ -376,7 +376,7 @@ class RunLoop:
 
     def _push_over(self, task_id: str) -> None:
         robot = self.push_task.pop(task_id, None)
-        if robot is not None and robot in self.push_holder:
+        if robot is not None and self.push_holder.get(robot, ("", ""))[1] == task_id:
             del self.push_holder[robot]
 
     # -- tasks and the referee ---------------------------------------------------------------

@@ -31,8 +31,8 @@ LONGTERM = ["run", "longterm", "--until", "150s", "--task-interval", "25", "--se
             "--kill", "busy@45s", "--restart", "busy@90s", "--no-replay"]
 
 GOLDEN = {
-    "boxpush": "38a2fd137a995478a0b6d1d76d3a8e5b7f8d1f1f0b8b1c8f3d6d4b1b7d0a0f11",
-    "longterm": "0000000000000000000000000000000000000000000000000000000000000000",
+    "boxpush": "410be479d20b5787343f99df35beba1c33974d60677601cf5de6bd5b7507b7c3",
+    "longterm": "b6498449060e95f535792569ba49b4c5ce467926dc9139bad6917bcda29332d5",
 }
 
 
