@@ -95,7 +95,7 @@ def plot_battery(evs: list[Mapping[str, Any]], end_s: float) -> Figure:
     ax.set_xlim(0, max(end_s / scale, 1e-6))
     ax.set_xlabel(_time_axis(ax, end_s))
     ax.set_ylabel("battery (%)")
-    ax.set_title("Battery of every robot (green lines: charging trips)")
+    ax.set_title("Battery of every robot (green lines: charge starts)")
     ax.grid(True, alpha=0.3)
     if series:
         ax.legend(loc="lower left", ncol=min(6, len(series)), fontsize="small")

@@ -37,7 +37,20 @@ def report(run_dir: Path, replay: bool, as_json: bool) -> None:
     click.echo(f"tasks      introduced {tasks['introduced']}  executed {tasks['executed']}  "
                f"failed {tasks['failed']}  unachievable {tasks['unachievable']}  "
                f"reallocations {tasks['reallocations']}")
-    click.echo(f"charging   {s['charging_trips']} trips   robot failures {s['robot_failures']}")
+    waits = s["waits_s"]
+    click.echo(f"no bid     first auction of {tasks['first_attempt_unallocatable']} task(s) "
+               f"(allocated after backoff {tasks['then_allocated']}, unachievable after "
+               f"backoff {tasks['unachievable_after_backoff']})")
+    if waits["count"]:
+        click.echo(f"waits      introduction to award: median {waits['median']:g} s, "
+                   f"p95 {waits['p95']:g} s, max {waits['max']:g} s")
+    click.echo(f"charging   {s['charging_trips']} completed trips ({s['charging_starts']} "
+               f"charge starts)   robot failures {s['robot_failures']}")
+    goal = s.get("goal")
+    if goal is not None and goal["pushes"]["role_swap"] is not None:
+        swap = goal["pushes"]["role_swap"]
+        click.echo(f"role swap  {swap['robot']}: {swap['end_before']} end before, "
+                   f"{swap['end_after']} end after: {'yes' if swap['swapped'] else 'NO'}")
     click.echo(f"messages   {s['messages']['total']} ({s['messages']['total_bytes']} bytes)")
     inv = s["invariant_terminal_states"]
     click.echo(f"invariant  every task ends in exactly one terminal state: "

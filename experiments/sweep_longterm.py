@@ -36,7 +36,8 @@ COLUMNS = (
     "task_interval_s", "offered_per_h", "seed", "sim_time_s", "introduced", "executed",
     "executed_per_3h", "failed", "first_attempt_unallocatable", "then_allocated",
     "unachievable_after_backoff", "wait_mean_s", "wait_median_s", "wait_p95_s",
-    "never_awarded", "charging_trips", "reallocations", "wall_time_s", "exit_code",
+    "never_awarded", "charging_trips", "reallocations", "robot_failures", "wall_time_s",
+    "exit_code",
     "events_sha256", "run_dir",
 )
 
@@ -71,6 +72,7 @@ def row_of(job: Job, summary: Mapping[str, Any] | None, exit_code: int,
         wait_mean_s=waits.get("mean"), wait_median_s=waits.get("median"),
         wait_p95_s=waits.get("p95"), never_awarded=waits.get("never_awarded"),
         charging_trips=summary["charging_trips"], reallocations=tasks["reallocations"],
+        robot_failures=summary["robot_failures"],
         wall_time_s=summary.get("wall_time_s"), events_sha256=summary.get("events_sha256"),
     )
     return row
@@ -287,6 +289,13 @@ def sweep_longterm(intervals: str, seeds: str, until: str, jobs: int, out: Path,
         click.echo(f"{target:g} executed tasks per 3 h at about {rate:g} tasks offered per hour "
                    f"(a mean task interval of about {3600.0 / rate:.0f} s)")
     click.echo(f"wrote {out / 'sweep.csv'}, {plot}")
+    broken = [r for r in rows if r["robot_failures"]]
+    if broken:
+        # no failures are scheduled here: a robot that exited (e.g. timed out waiting for an
+        # overloaded machine) makes its run a different experiment
+        click.echo("warning: robot processes exited by themselves in "
+                   + ", ".join(f"{Job(r['task_interval_s'], r['seed']).label()} "
+                               f"({r['robot_failures']})" for r in broken), err=True)
     failed = [r for r in rows if r["exit_code"] != 0]
     if failed:
         click.echo(f"error: {len(failed)} run(s) did not end cleanly: "

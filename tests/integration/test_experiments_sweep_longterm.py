@@ -30,7 +30,7 @@ def test_a_small_sweep_writes_rows_table_and_plots(tmp_path: Path) -> None:
         rows = list(csv.DictReader(f))
     assert [(r["task_interval_s"], r["seed"]) for r in rows] == [("45.0", "3"), ("15.0", "3")]
     for row in rows:
-        assert row["exit_code"] == "0"
+        assert row["exit_code"] == "0" and row["robot_failures"] == "0"
         summary = json.loads((Path(row["run_dir"]) / "summary.json").read_text())
         assert int(row["executed"]) == summary["tasks"]["executed"]
         assert int(row["first_attempt_unallocatable"]) == (

@@ -25,6 +25,7 @@ def summary(executed: int, first: int, trips: int, sim_s: float = 3600.0) -> dic
                   "then_allocated": first - 1, "unachievable_after_backoff": 1},
         "waits_s": {"mean": 3.0, "median": 1.5, "p95": 9.0, "never_awarded": 1},
         "charging_trips": trips, "wall_time_s": 50.0, "events_sha256": "ab",
+        "robot_failures": 0,
     }
 
 
