@@ -105,6 +105,17 @@ def test_short_run_completes_tasks_and_sends_robots_to_charge(tmp_path: Path) ->
     starts = [e for e in events if e["kind"] == ev.CHARGE_START]
     ends = [e for e in events if e["kind"] == ev.CHARGE_END]
     assert ends and ends[0]["robot"] == starts[0]["robot"] and ends[0]["t"] > starts[0]["t"]
+    # charging trips are completed cycles: each robot's ends that close an open start
+    open_: set[str] = set()
+    cycles = 0
+    for e in events:
+        if e["kind"] == ev.CHARGE_START:
+            open_.add(e["robot"])
+        elif e["kind"] == ev.CHARGE_END and e["robot"] in open_:
+            open_.discard(e["robot"])
+            cycles += 1
+    assert summary["charging_trips"] == cycles
+    assert summary["charging_starts"] == len(starts)
 
 
 def test_specialist_and_distance_terms_give_tracking_to_the_camera_only_robots(
