@@ -108,8 +108,8 @@ def marker_goal(world: WorldSpec, name: str) -> tuple[tuple[float, float], int]:
     raise ValueError(f"world {world.name!r} has no marker {name!r} (markers: {known})")
 
 
-PUSH_ENDS = {"push-left-end": "left", "push-right-end": "right"}
-"""The pushing tasks of each end of the box (left / right as seen from behind it)."""
+PUSH_ENDS = {"push-left-end": "left", "push-right-end": "right", "push-box": "middle"}
+"""Where each pushing task pushes the box (its ends: left / right as seen from behind it)."""
 OTHER_END = {"left": "right", "right": "left"}
 SWITCH_ON_WAIT_S = 60.0
 """How long a switch-on may wait for the remaining pusher to work the other end."""

@@ -310,7 +310,7 @@ class RunLoop:
         side = bp.side_of(box_pose, xy[:2]) if box_pose is not None else 0.0
         self.switched_off[name] = side
         # the end it worked: the end of most of its pushes so far (else where it stands)
-        worked = self.ends_before[name].most_common()
+        worked = [(e, n) for e, n in self.ends_before[name].most_common() if e in bp.OTHER_END]
         if worked and (len(worked) == 1 or worked[0][1] > worked[1][1]):
             self.worked_end[name] = worked[0][0]
         elif box_pose is not None:

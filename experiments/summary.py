@@ -12,6 +12,7 @@ from collections import Counter, defaultdict
 from collections.abc import Iterable, Mapping
 from typing import Any
 
+from experiments import boxpush as bp
 from experiments import events as ev
 
 SCHEMA_VERSION = 1
@@ -115,9 +116,6 @@ def waits(events: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
     return {**_latency_stats(values), "never_awarded": len(introduced)}
 
 
-PUSH_ENDS = {"push-left-end": "left", "push-right-end": "right", "push-box": "middle"}
-
-
 def push_phases(events: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
     """boxpush: pushes (awards) per end per pusher, before the first switch-off, while
     alone (until the next switch-on) and after it; with one switch-off and -on, whether
@@ -141,7 +139,7 @@ def push_phases(events: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
     pushes: dict[str, dict[str, Counter[str]]] = defaultdict(lambda: defaultdict(Counter))
     for e in evs:
         if e["kind"] == ev.AWARD:
-            end = PUSH_ENDS.get(kind_of.get(str(e["task"]), ""))
+            end = bp.PUSH_ENDS.get(kind_of.get(str(e["task"]), ""))
             if end is not None:
                 pushes[phase(float(e["t"]))][str(e["robot"])][end] += 1
     out: dict[str, Any] = {
