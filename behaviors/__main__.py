@@ -42,6 +42,8 @@ log = logging.getLogger("murdoch-robot")
 PROFILE_ENV = "MURDOCH_ROBOT_PROFILE_DIR"
 KEY_ENV = "MURDOCH_TEAM_KEY"
 EPOCH_ENV = "MURDOCH_RUN_EPOCH"
+LOCKSTEP_READ_TIMEOUT_S = 300.0
+"""In a lockstep run, how long a robot waits for a round before it gives up (wall time)."""
 STALE_AFTER_TICKS = 100
 """Outside lockstep, datagrams stamped more than this many ticks (10 s) ago are refused."""
 
@@ -133,7 +135,11 @@ def main(argv: list[str] | None = None) -> int:
         events.add_sink(on_event)
 
     battery = None if args.no_battery else BatteryPolicy(args.battery_low, args.battery_resume)
-    client = PlayerClient(args.host, args.port, lockstep=True if args.lockstep_bus else None)
+    # In a lockstep run a round waits for every robot, so the first one waits for the slowest
+    # to start: on a loaded machine that took more than the client's usual 60 s. The runner
+    # ends a run that stops advancing (after 180 s), so a robot waits longer than that.
+    client = PlayerClient(args.host, args.port, lockstep=True if args.lockstep_bus else None,
+                          read_timeout_s=LOCKSTEP_READ_TIMEOUT_S if args.lockstep_bus else 60.0)
     code = 0
     auction_log: IO[str] | None = None
     transport = link = None
