@@ -3,6 +3,7 @@
     murdoch-robot -p 6665 [-h 127.0.0.1] [--name r1] [--world longterm]
                   [--task goto-goal --param x=1 --param y=2] [--events run/r1.jsonl]
                   [--mcast-port 5xxxx [--mcast-group 239.255.74.17] [--auction-log F]]
+                  [--metric distance,specialist]
 
 Connects to the robot's port, subscribes to every device listed there, derives the robot's
 resource subjects and runs until SIGINT/SIGTERM (or, with --exit-when-done, until its task
@@ -32,7 +33,7 @@ from typing import IO, Any
 
 from behaviors.battery import BatteryPolicy
 from behaviors.events import TASK_DONE, TASK_FAILED, TASK_STOPPED, Event, EventLog
-from behaviors.library import TASKS
+from behaviors.library import TASKS, parse_bid_terms
 from behaviors.params import ParamError, parse_assignments
 from behaviors.robot import build_agent
 from player_server.client import (
@@ -90,6 +91,9 @@ def _parser() -> argparse.ArgumentParser:
                         "numbers each start of a robot 0, 1, ...)")
     p.add_argument("--auction-log", default="",
                    help="append this robot's auctioneer and bidder events (JSON lines) here")
+    p.add_argument("--metric", default="",
+                   help="optional terms added to every task's metric, comma-separated: "
+                        "distance, specialist (default: none)")
     p.add_argument("--log-level", default="WARNING", help="logging level (default WARNING)")
     return p
 
@@ -100,6 +104,7 @@ def main(argv: list[str] | None = None) -> int:
                         format="%(asctime)s %(name)s %(levelname)s %(message)s")
     try:
         params = parse_assignments(args.param)
+        terms = parse_bid_terms(args.metric)
     except ParamError as exc:
         print(f"murdoch-robot: {exc}", file=sys.stderr)
         return 2
@@ -148,7 +153,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         client.connect()
         agent = build_agent(client, name, world=world, events=events, battery=battery,
-                            seed=args.seed, subscribe_images=args.images)
+                            seed=args.seed, subscribe_images=args.images, bid_terms=terms)
         # What start-up built lives as long as the process: keep it out of the collector's
         # way, so the collections the tick's short-lived objects trigger stay small.
         gc.collect()

@@ -41,6 +41,8 @@ from behaviors.metrics import (
     colour_visible,
     constant,
     negative_distance,
+    place_distance,
+    spare_resources,
     weighted_sum,
 )
 from behaviors.params import ParamError, colour_of, number
@@ -50,6 +52,16 @@ from behaviors.task import Stage, TaskPlan, TickView, any_of, elapsed, signal, s
 
 Params = Mapping[str, object]
 Builder = Callable[[Params, RobotProfile], TaskPlan]
+
+# Optional terms of every task's metric (`RobotProfile.bid_terms`, `murdoch-robot --metric`):
+# "distance", the paper's example metric (metres to where the task is, shorter is better),
+# and "specialist", the paper's proposal that a robot with fewer resources raise its score so
+# that generalists stay free for later tasks. The specialist weight exceeds the spread of
+# every other term (visibility 1, battery 0.5, distance over a 16 m lab 4): a specialist
+# always defeats a generalist, as proposed.
+BID_TERMS = ("distance", "specialist")
+DISTANCE_WEIGHT = 0.25
+SPECIALIST_WEIGHT = 6.0
 
 # Where a pusher aims across the box's width (as seen from behind it).
 AIM_LEFT = 0.2
@@ -106,7 +118,31 @@ class TaskSpec:
                     f"known: {', '.join(by_name)}"
                 )
             metrics = tuple(WeightedMetric(n, by_name[n].fn, w) for n, w in weights)
+        if profile.bid_terms:
+            metrics = (*metrics, *bid_terms(self, profile.bid_terms))
         return weighted_sum(metrics, snapshot, self.resolve(params), profile)
+
+
+def parse_bid_terms(text: str) -> tuple[str, ...]:
+    """'distance,specialist' -> ('distance', 'specialist'); '' or 'default' -> ().
+    ParamError names the unknown term and the known ones."""
+    terms = tuple(t.strip() for t in text.split(",") if t.strip() and t.strip() != "default")
+    unknown = [t for t in terms if t not in BID_TERMS]
+    if unknown:
+        raise ParamError(f"unknown metric term(s) {', '.join(unknown)}; known: "
+                         f"{', '.join(BID_TERMS)} (comma-separated), or default")
+    return tuple(dict.fromkeys(terms))
+
+
+def bid_terms(spec: TaskSpec, terms: Sequence[str]) -> tuple[WeightedMetric, ...]:
+    """The optional metric terms `terms` for task `spec`."""
+    out = []
+    if "distance" in terms:
+        out.append(WeightedMetric("distance", place_distance(), DISTANCE_WEIGHT))
+    if "specialist" in terms:
+        out.append(WeightedMetric("specialist", spare_resources(spec.subjects, RESOURCES),
+                                  SPECIALIST_WEIGHT))
+    return tuple(out)
 
 
 def _avoid(profile: RobotProfile, safe_range_m: float, ignore_half_angle_rad: float = 0.0,
@@ -283,8 +319,11 @@ def build_watch_box(p: Params, profile: RobotProfile) -> TaskPlan:
     tolerance = number(p, "tolerance_rad")
     period = number(p, "need_period_s")
     duration = number(p, "duration_s")
+    # while it waits for the box it keeps turning until the goal is in view (the goal may
+    # have moved or changed), in the direction its search turns
     aligner = BoxAlignmentFromLaser(
-        centre_rad=number(p, "laser_sector_rad"), max_range_m=lead + 2.5, wait_range_m=lead
+        centre_rad=number(p, "laser_sector_rad"), max_range_m=lead + 2.5, wait_range_m=lead,
+        look_for=goal, look_turn_radps=0.4 if profile.seed % 2 == 0 else -0.4,
     )
     layers = (
         Layer(aligner, 2),
@@ -549,6 +588,9 @@ TASKS: dict[str, TaskSpec] = {
         ),
     )
 }
+
+RESOURCES: frozenset[str] = frozenset().union(*(t.subjects for t in TASKS.values()))
+"""Every resource some task needs (what a specialist has little of)."""
 
 INTERNAL_TASKS: dict[str, TaskSpec] = {
     "dock": TaskSpec("dock", frozenset({"mobile"}), {"tolerance_m": 0.1, "timeout_s": 300.0},

@@ -113,3 +113,34 @@ def constant(value: float) -> MetricFn:
         return value
 
     return metric
+
+
+def place_distance(colour_key: str = "colour") -> MetricFn:
+    """-(metres) from the robot to where the task takes it: the task's (x, y) if it names
+    one, else the nearest coloured object or box of the task's colour where the world file
+    puts it (the robot's map; boxes pushed away since are not followed). 0 when the robot
+    has no pose or the task no place: the term then does not tell robots apart."""
+
+    def metric(snapshot: Snapshot, params: Params, profile: RobotProfile) -> float | None:
+        pose = snapshot.pose
+        if pose is None:
+            return 0.0
+        if "x" in params and "y" in params:
+            return -pose.distance_to(float(params["x"]), float(params["y"]))  # type: ignore[arg-type]
+        if colour_key not in params:
+            return 0.0
+        colour = colour_of(params[colour_key])
+        ranges = [pose.distance_to(x, y) for c, x, y in profile.landmarks if c == colour]
+        return -min(ranges) if ranges else 0.0
+
+    return metric
+
+
+def spare_resources(needed: frozenset[str], resources: frozenset[str]) -> MetricFn:
+    """-(number of the robot's `resources` the task does not need): a specialist, with
+    nothing to spare, scores higher than a generalist, who stays free for later tasks."""
+
+    def metric(snapshot: Snapshot, params: Params, profile: RobotProfile) -> float | None:
+        return -float(len((profile.subjects & resources) - needed))
+
+    return metric

@@ -72,6 +72,10 @@ class RobotProfile:
     chargers: tuple[Charger, ...] = ()
     overhead: OverheadView | None = None
     seed: int = 0
+    landmarks: tuple[tuple[int, float, float], ...] = ()
+    """(colour, x, y) of the coloured objects and boxes where the world file puts them."""
+    bid_terms: tuple[str, ...] = ()
+    """Optional terms added to every task's metric (`behaviors.library.BID_TERMS`)."""
 
     def has(self, *subjects: str) -> bool:
         return all(s in self.subjects for s in subjects)

@@ -30,14 +30,17 @@ def profile_from(
     interfaces: frozenset[str],
     world: WorldSpec | None = None,
     seed: int = 0,
+    bid_terms: tuple[str, ...] = (),
 ) -> RobotProfile:
     """A robot's profile from the interfaces its server port lists and the world file."""
     subjects = subjects_for(interfaces)
     chargers: tuple[Charger, ...] = ()
     overhead = None
+    landmarks: tuple[tuple[int, float, float], ...] = ()
     fov = math.radians(60.0)
     max_speed, max_turn = 0.5, 1.5
     if world is not None:
+        landmarks = tuple((b.colour, b.pose.x, b.pose.y) for b in (*world.objects, *world.boxes))
         chargers = tuple(Charger(c.name, c.x, c.y, c.radius_m) for c in world.chargers)
         robot = next((r for r in world.robots if r.name == name), None)
         if robot is not None:
@@ -50,7 +53,8 @@ def profile_from(
         if cam is not None and "mobile" not in subjects:
             overhead = OverheadView(cam.x, cam.y, cam.view_size_x_m, cam.view_size_y_m)
     return RobotProfile(name, subjects, max_speed_mps=max_speed, max_turn_radps=max_turn,
-                        camera_fov_rad=fov, chargers=chargers, overhead=overhead, seed=seed)
+                        camera_fov_rad=fov, chargers=chargers, overhead=overhead, seed=seed,
+                        landmarks=landmarks, bid_terms=bid_terms)
 
 
 def build_agent(
@@ -63,6 +67,7 @@ def build_agent(
     seed: int = 0,
     subscribe_images: bool = False,
     odometry_offset: FrameOffset | None = None,
+    bid_terms: tuple[str, ...] = (),
 ) -> RobotAgent:
     """Discover and subscribe the devices behind `client`'s port and build the agent."""
     fov = math.radians(60.0)
@@ -78,5 +83,5 @@ def build_agent(
     io = PlayerRobotIO(client, camera_fov_rad=fov, subscribe_images=subscribe_images,
                        odometry_offset=odometry_offset)
     interfaces = io.open()
-    profile = profile_from(name, interfaces, world, seed)
+    profile = profile_from(name, interfaces, world, seed, bid_terms)
     return RobotAgent(io, profile, events=events, battery=battery)

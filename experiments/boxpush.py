@@ -4,7 +4,9 @@
 truth (the robots never see it); the run ends when the box is within `radius_m`. `SimActions`
 queues changes to the simulation (moving a switched-off pusher out of the way, placing it
 back behind the other end of the box) and applies them on the serving thread, between steps.
-`return_pose` and `park_pose` say where.
+`return_pose` and `park_pose` say where. `GoalPlan` is the paper's stresses of the goal: a
+goal that moves during the run (`goal_at`) and the watch task re-targeted to another goal
+marker at set times.
 """
 
 from __future__ import annotations
@@ -60,6 +62,78 @@ def resolve_robot(name: str, names: Iterable[str]) -> str:
     raise ValueError(f"no robot {name!r}; robots: {', '.join(names)}")
 
 
+@dataclass(frozen=True, slots=True)
+class GoalPlan:
+    """How the goal behaves during a run: `velocity_mps` moves the goal marker from the start
+    (it stops `margin_m` from the walls); each (t_s, marker) of `retargets` gives the watch
+    task that marker as its goal from t_s on."""
+
+    velocity_mps: tuple[float, float] = (0.0, 0.0)
+    retargets: tuple[tuple[float, str], ...] = ()
+    margin_m: float = 0.6
+
+    @property
+    def moving(self) -> bool:
+        return self.velocity_mps != (0.0, 0.0)
+
+    def goal_at(self, start_xy: tuple[float, float], t_s: float,
+                arena_xy: tuple[float, float]) -> tuple[float, float]:
+        """Where a moving goal that was at `start_xy` at time 0 is at `t_s`."""
+        hx, hy = arena_xy[0] / 2.0 - self.margin_m, arena_xy[1] / 2.0 - self.margin_m
+        x = start_xy[0] + self.velocity_mps[0] * t_s
+        y = start_xy[1] + self.velocity_mps[1] * t_s
+        return max(-hx, min(hx, x)), max(-hy, min(hy, y))
+
+
+def parse_velocity(text: str) -> tuple[float, float]:
+    """'VX,VY' in metres per second, e.g. '0,-0.01'; ValueError says what was wrong."""
+    parts = text.split(",")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        vx, vy = float(parts[0]), float(parts[1])
+    except ValueError:
+        raise ValueError(f"expected VX,VY in m/s such as 0,-0.01, got {text!r}") from None
+    if not (math.isfinite(vx) and math.isfinite(vy)) or math.hypot(vx, vy) > 0.5:
+        raise ValueError(f"goal velocity {text!r}: expected finite speeds up to 0.5 m/s")
+    return vx, vy
+
+
+def marker_goal(world: WorldSpec, name: str) -> tuple[tuple[float, float], int]:
+    """(position, colour) of the goal marker `name`; ValueError names the markers there are."""
+    for m in world.markers:
+        if m.name == name:
+            return (m.x, m.y), m.colour
+    known = ", ".join(m.name for m in world.markers) or "none"
+    raise ValueError(f"world {world.name!r} has no marker {name!r} (markers: {known})")
+
+
+PUSH_ENDS = {"push-left-end": "left", "push-right-end": "right", "push-box": "middle"}
+"""Where each pushing task pushes the box (its ends: left / right as seen from behind it)."""
+OTHER_END = {"left": "right", "right": "left"}
+SWITCH_ON_WAIT_S = 60.0
+"""How long a switch-on may wait for the remaining pusher to work the other end."""
+
+
+def end_offset(box_pose: tuple[float, float, float], goal_xy: tuple[float, float], end: str,
+               bg: BoxGoal, inset_m: float = 0.2) -> float:
+    """Signed offset along the box's long axis (its local +y) of `end` ('left' or 'right' as
+    seen from behind the box, facing the goal), `inset_m` in from the end."""
+    reach = bg.box_half_length_m - inset_m
+    forward = math.cos(push_heading(box_pose, goal_xy) - box_pose[2]) > 0.0
+    # facing along the box's +x, its +y is on the left; facing along -x, on the right
+    left = reach if forward else -reach
+    return left if end == "left" else -left
+
+
+def end_at(box_pose: tuple[float, float, float], goal_xy: tuple[float, float],
+           xy: tuple[float, float]) -> str:
+    """The end of the box ('left' or 'right', seen from behind) a point is nearer to."""
+    side = side_of(box_pose, xy)
+    forward = math.cos(push_heading(box_pose, goal_xy) - box_pose[2]) > 0.0
+    return "left" if (side >= 0.0) == forward else "right"
+
+
 def side_of(box_pose: tuple[float, float, float], xy: tuple[float, float]) -> float:
     """Signed offset (metres) of a point along the box's long axis (its local +y)."""
     bx, by, yaw = box_pose
@@ -113,6 +187,7 @@ class GoalWatch:
     def __init__(self, bg: BoxGoal, radius_m: float = GOAL_RADIUS_M,
                  robots: tuple[str, ...] = ()) -> None:
         self.bg = bg
+        self.goal_xy = bg.goal_xy  # the current goal (it may move, or be another marker)
         self.robots = robots
         self.robot_poses: dict[str, tuple[float, float, float]] = {}
         self.radius_m = radius_m
@@ -128,7 +203,7 @@ class GoalWatch:
             x, y, yaw = sim.get_pose(name)
             poses[name] = (float(x), float(y), float(yaw))
         self.robot_poses = poses  # replaced whole: readers on other threads see one or the other
-        d = math.hypot(self.bg.goal_xy[0] - pose[0], self.bg.goal_xy[1] - pose[1])
+        d = math.hypot(self.goal_xy[0] - pose[0], self.goal_xy[1] - pose[1])
         self.distance_m = d
         if d <= self.radius_m and self.reached_at_s is None:
             self.reached_at_s = t

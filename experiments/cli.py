@@ -23,6 +23,8 @@ SUBCOMMANDS: dict[str, Subcommand] = {
     "allocate": Subcommand("murdoch.consensus_cli:allocate", "Run CBBA or CBGA on a scenario."),
     "sweep": Subcommand("murdoch.consensus_cli:sweep", "Reproduce the CBGA paper's experiments."),
     "run": Subcommand("experiments.run_cli:run", "Run an experiment end to end."),
+    "sweep-longterm": Subcommand("experiments.sweep_longterm:sweep_longterm",
+                                 "Run the long-term experiment over task rates and seeds."),
     "report": Subcommand("experiments.report_cli:report", "Rebuild a run's summary and plots."),
     "record-info": Subcommand("experiments.record_cli:record_info",
                               "Channels, message counts and duration of a run's run.mcap."),

@@ -21,10 +21,19 @@ def summary_lines(s: Mapping[str, Any]) -> list[str]:
         f"tasks      introduced {tasks['introduced']}  executed {tasks['executed']}  "
         f"failed {tasks['failed']}  unachievable {tasks['unachievable']}  "
         f"open at end {tasks.get('open_at_end', 0)}  reallocations {tasks['reallocations']}",
-        f"charging   {s['charging_trips']} trips   robot failures {s['robot_failures']}"
-        f"   restarts {s.get('robot_restarts', 0)}",
+        f"charging   {s['charging_trips']} completed trips"
+        + (f" ({s['charging_starts']} charge starts)" if "charging_starts" in s else "")
+        + f"   robot failures {s['robot_failures']}   restarts {s.get('robot_restarts', 0)}",
         f"messages   {s['messages']['total']} ({s['messages']['total_bytes']} bytes)",
     ]
+    if "first_attempt_unallocatable" in tasks:
+        lines.insert(2, f"no bid     first auction of {tasks['first_attempt_unallocatable']} "
+                        f"task(s) (allocated after backoff {tasks['then_allocated']}, "
+                        f"unachievable after backoff {tasks['unachievable_after_backoff']})")
+    waits = s.get("waits_s") or {}
+    if waits.get("count"):
+        lines.insert(3, f"waits      introduction to award: median {waits['median']:g} s, "
+                        f"p95 {waits['p95']:g} s, max {waits['max']:g} s")
     goal = s.get("goal")
     if goal:
         if goal.get("reached"):
@@ -34,6 +43,10 @@ def summary_lines(s: Mapping[str, Any]) -> list[str]:
             lines.append(f"goal       unachievable: {goal.get('unachievable_reason')}")
         else:
             lines.append("goal       not reached")
+        swap = (goal.get("pushes") or {}).get("role_swap")
+        if swap is not None:
+            lines.append(f"role swap  {swap['robot']}: {swap['end_before']} end before, "
+                         f"{swap['end_after']} end after: {'yes' if swap['swapped'] else 'NO'}")
     inv = s["invariant_terminal_states"]
     lines.append("invariant  every task ends in exactly one terminal state: "
                  f"{'yes' if inv['holds'] else 'NO'}")

@@ -53,6 +53,12 @@ GOAL_REACHED = "goal_reached"
 GOAL_UNACHIEVABLE = "goal_unachievable"
 ROBOT_SWITCH_OFF = "robot_switch_off"
 ROBOT_SWITCH_ON = "robot_switch_on"
+NO_BID = "no_bid"
+"""An auction round of a task closed without a bid (attempt 1: the task's first auction)."""
+BOX_PROGRESS = "box_progress"
+"""boxpush: the box's ground-truth distance to the goal, once per simulated second."""
+GOAL_MOVED = "goal_moved"
+"""boxpush: the goal marker moved (a moving goal, or a new goal for the watch task)."""
 
 COMPLETED = "completed"
 FAILED = "failed"
@@ -93,6 +99,9 @@ REQUIRED_FIELDS: dict[str, tuple[str, ...]] = {
     GOAL_UNACHIEVABLE: ("task", "reason"),
     ROBOT_SWITCH_OFF: ("robot",),
     ROBOT_SWITCH_ON: ("robot", "x", "y"),
+    NO_BID: ("task", "attempt"),
+    BOX_PROGRESS: ("distance_m",),
+    GOAL_MOVED: ("x", "y"),
 }
 
 

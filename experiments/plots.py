@@ -7,6 +7,8 @@
                     down (killed or switched off); the legend lists the states that occur
     robots.png      per robot: tasks won by kind, and the share of time idle / working /
                     charging / down
+    box_distance.png  (boxpush) the box's distance to the goal, with switch-offs, switch-ons
+                    and goal changes marked
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ PLOT_FILES = ("tasks.png", "battery.png", "allocation.png", "robots.png")
 # task kinds in a fixed order of colours (tab10 without the state colours' look-alikes)
 KIND_COLOURS = ("#1f77b4", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22", "#d62728",
                 "#2ca02c", "#ff7f0e", "#7f7f7f")
+BOX_PLOT = "box_distance.png"
 
 
 def _hours(t_s: float) -> float:
@@ -273,6 +276,36 @@ def plot_robots(
     return fig
 
 
+def plot_box_distance(evs: list[Mapping[str, Any]], radius_m: float | None = None) -> Figure:
+    """The box's ground-truth distance to the (current) goal over simulation time."""
+    track = [(float(e["t"]), float(e["distance_m"])) for e in evs if e["kind"] == ev.BOX_PROGRESS]
+    fig, ax = plt.subplots(figsize=(9, 4.0), dpi=100)
+    ax.plot([t for t, _ in track], [d for _, d in track], color="#f08c00", linewidth=1.6,
+            label="box to goal")
+    marks = {ev.ROBOT_SWITCH_OFF: ("#7a7a7a", "off"), ev.ROBOT_SWITCH_ON: ("#1fb84a", "on"),
+             ev.GOAL_MOVED: ("#c2255c", "new goal")}
+    for e in evs:
+        if e["kind"] in marks:
+            colour, what = marks[str(e["kind"])]
+            who = e.get("robot") or e.get("marker") or ""
+            ax.axvline(float(e["t"]), color=colour, linestyle="--", linewidth=1.0)
+            ax.text(float(e["t"]), 0.02, f" {who} {what}", rotation=90, va="bottom",
+                    fontsize=8, color=colour, transform=ax.get_xaxis_transform())
+    if radius_m is None:
+        reached = next((e for e in evs if e["kind"] == ev.GOAL_REACHED), None)
+        radius_m = float(reached["radius_m"]) if reached and "radius_m" in reached else None
+    if radius_m is not None:
+        ax.axhline(radius_m, color="#1c7ed6", linewidth=0.8, label="goal radius")
+    ax.set_xlabel("simulation time (s)")
+    ax.set_ylabel("distance to the goal (m)")
+    ax.set_ylim(bottom=0)
+    ax.set_title("Box distance to the goal")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="upper right", fontsize="small")
+    fig.tight_layout()
+    return fig
+
+
 def write_plots(
     evs: Iterable[Mapping[str, Any]], out_dir: Path, robots: Iterable[str] = ()
 ) -> list[Path]:
@@ -289,6 +322,12 @@ def write_plots(
         strict=True,
     ):
         path = out_dir / filename
+        fig.savefig(path)
+        plt.close(fig)
+        paths.append(path)
+    if any(e["kind"] == ev.BOX_PROGRESS for e in evs):
+        fig = plot_box_distance(evs)
+        path = out_dir / BOX_PLOT
         fig.savefig(path)
         plt.close(fig)
         paths.append(path)

@@ -144,6 +144,15 @@ def _stop_robot(rp: RobotProcess, *, kill: bool = False, timeout_s: float = 5.0)
 @click.option("--goal-radius", type=float, default=None,
               help="boxpush: the box has arrived when its centre is this close to the goal "
                    "marker (metres, default 2.5).")
+@click.option("--goal-velocity", default=None,
+              help="boxpush: the goal marker moves at VX,VY metres per second from the start "
+                   "(e.g. 0,-0.01), stopping short of the walls.")
+@click.option("--retarget", "retargets", multiple=True,
+              help="boxpush: give the watch task another goal marker of the world at a time: "
+                   "MARKER@TIME, e.g. goal2@60s.")
+@click.option("--metric", "metric_terms", default="",
+              help="Terms added to every robot's task metrics: distance (metres to where the "
+                   "task is), specialist (fewer spare resources bid higher), comma-separated.")
 @click.option("--no-replay", is_flag=True, help="Do not write replay.html.")
 @click.option("--pipelined/--no-pipelined", default=True, show_default=True,
               help="Lockstep: the server sends each round before it steps and computes the "
@@ -169,7 +178,8 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
         seed: int,
         meshcat: bool, out: Path, world: str | None, task_interval: float,
         kills: tuple[str, ...], restarts: tuple[str, ...], switch_offs: tuple[str, ...],
-        switch_ons: tuple[str, ...], goal_radius: float | None, no_replay: bool,
+        switch_ons: tuple[str, ...], goal_radius: float | None, goal_velocity: str | None,
+        retargets: tuple[str, ...], metric_terms: str, no_replay: bool,
         pipelined: bool, robot_nice: int, key: str | None, pin_cpus: bool,
         record_rate: float, no_record: bool, trails: int, lasers: bool) -> None:
     """Run EXPERIMENT end to end and leave a run directory behind."""
@@ -191,11 +201,34 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
             switch_ons=[parse_at(r) for r in switch_ons], goal_radius_m=goal_radius,
             pipelined=pipelined, robot_nice=robot_nice, pin_cpus=pin_cpus, key=key,
             record=not no_record, record_rate_hz=record_rate, trails=trails, lasers=lasers,
+            goal_plan=_goal_plan(goal_velocity, retargets),
+            metric_terms=_metric_terms(metric_terms),
         )
     except RunSetupError as exc:
         click.echo(f"murdoch run: {exc}", err=True)
         sys.exit(exc.exit_code)
     sys.exit(code)
+
+
+def _goal_plan(velocity: str | None, retargets: tuple[str, ...]) -> Any:
+    from experiments import boxpush as bp
+
+    try:
+        v = bp.parse_velocity(velocity) if velocity else (0.0, 0.0)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--goal-velocity") from exc
+    moves = tuple(sorted((t, m) for m, t in (parse_at(r) for r in retargets)))
+    return bp.GoalPlan(v, moves)
+
+
+def _metric_terms(text: str) -> tuple[str, ...]:
+    from behaviors.library import parse_bid_terms
+    from behaviors.params import ParamError
+
+    try:
+        return parse_bid_terms(text)
+    except ParamError as exc:
+        raise click.BadParameter(str(exc), param_hint="--metric") from exc
 
 
 class RobotSupervisor:
@@ -298,7 +331,7 @@ def run_experiment(
     switch_ons: list[tuple[str, float]] | None = None, goal_radius_m: float | None = None,
     pipelined: bool = True, robot_nice: int = 0, pin_cpus: bool = False,
     key: str | None = None, trails: int = 0, lasers: bool = False, record: bool = True,
-    record_rate_hz: float = 2.0,
+    record_rate_hz: float = 2.0, goal_plan: Any = None, metric_terms: tuple[str, ...] = (),
 ) -> int:
     from experiments import boxpush as bp
     from experiments import events as ev
@@ -336,8 +369,15 @@ def run_experiment(
         switch_ons = [(bp.resolve_robot(r, names), t) for r, t in switch_ons]
     except ValueError as exc:
         raise click.BadParameter(str(exc)) from exc
-    if (switch_offs or switch_ons) and experiment != "boxpush":
-        raise click.UsageError("--switch-off/--switch-on are for the boxpush experiment")
+    goal_plan = goal_plan or bp.GoalPlan()
+    if (switch_offs or switch_ons or goal_plan != bp.GoalPlan()) and experiment != "boxpush":
+        raise click.UsageError("--switch-off/--switch-on/--goal-velocity/--retarget are for "
+                               "the boxpush experiment")
+    for _, marker in goal_plan.retargets:
+        try:
+            bp.marker_goal(spec, marker)
+        except ValueError as exc:
+            raise click.BadParameter(str(exc), param_hint="--retarget") from exc
     if not any(r.mobile for r in spec.robots):
         raise RunSetupError(f"world {spec.source}: no mobile robot can take part in "
                             f"{experiment} (every robot lacks position2d)")
@@ -370,7 +410,11 @@ def run_experiment(
             "switch_offs": [f"{r}@{t:g}s" for r, t in switch_offs],
             "switch_ons": [f"{r}@{t:g}s" for r, t in switch_ons],
             "goal_radius_m": goal_watch.radius_m,
+            "goal_velocity_mps": list(goal_plan.velocity_mps),
+            "retargets": [f"{m}@{t:g}s" for t, m in goal_plan.retargets],
         })
+    if metric_terms:
+        config["metric_terms"] = list(metric_terms)
     try:
         rec = RunRecorder(out, experiment, config, world=spec, started=datetime.now(),
                           wall_clock=time.monotonic, stream=sys.stdout, meshcat=meshcat,
@@ -411,6 +455,8 @@ def run_experiment(
                 str(mcast_port), "--seed", str(seed), "--instance", str(start),
                 "--events", str(rec.run.logs / f"{name}.events.jsonl"),
                 "--auction-log", str(rec.run.logs / f"{name}.auction.jsonl")]
+        if metric_terms:
+            args += ["--metric", ",".join(metric_terms)]
         if not lockstep:
             return args
         # in lockstep a robot waits for the slowest of the team (one starting up on a
@@ -452,6 +498,7 @@ def run_experiment(
         wait_clock=time.monotonic, request_stop=server.request_stop,
         boxpush=(goal_watch, actions) if goal_watch is not None else None,
         mobile=frozenset(r.name for r in spec.robots if r.mobile), spec=spec, place=_place,
+        goal_plan=goal_plan,
     )
     loop_ref.append(loop)
     monitor = transport.subscribe(None, loop.on_message)

@@ -23,7 +23,7 @@ which can only end the run with an error. The main thread does the wall-clock wo
 from __future__ import annotations
 
 import logging
-import math
+from collections import Counter, defaultdict
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -40,6 +40,8 @@ DEATH_CHECK_TICKS = 10
 """How often (in ticks) the runner looks for robot processes that died by themselves."""
 BOXPUSH_LINGER_S = 3.0
 """After the box's fate is decided, the run goes on this long for the last reports."""
+BOX_PROGRESS_PERIOD_S = 1.0
+"""boxpush: how often the box's distance to the goal goes into the events."""
 
 
 @dataclass(frozen=True)
@@ -109,6 +111,7 @@ class RunLoop:
         mobile: frozenset[str] = frozenset(),
         spec: Any = None,
         place: Callable[..., None] | None = None,
+        goal_plan: bp.GoalPlan | None = None,
     ) -> None:
         self.rec = rec
         self.sim = sim
@@ -131,13 +134,26 @@ class RunLoop:
         self.mobile = mobile
         self.spec = spec
         self.place = place
+        self.goal_plan = goal_plan or bp.GoalPlan()
+        self.retargets = sorted(self.goal_plan.retargets)
+        self.goal_marker = self.goal_watch.bg.goal if self.goal_watch is not None else None
+        self.next_progress_s = 0.0
         self.interval_s = float(sim.interval_s)
         self.state = RunState()
         self.announced_at: dict[str, float] = {}
         self.main_task: str | None = None
+        self.task_params: dict[str, Any] = {}
         self.end_after_s: float | None = None
         self.switched_off: dict[str, float] = {}
         self.busy_killed: list[str] = []
+        # boxpush: which end each pusher pushes now and pushed before; switch-ons waiting
+        self.task_kind: dict[str, str] = {}
+        self.push_holder: dict[str, tuple[str, str]] = {}  # robot -> (end, task)
+        self.push_task: dict[str, str] = {}  # task -> robot
+        self.pushed: set[str] = set()
+        self.ends_before: dict[str, Counter[str]] = defaultdict(Counter)
+        self.worked_end: dict[str, str] = {}
+        self.pending_on: dict[str, float] = {}
         self.scheduled_down: set[str] = set()
 
     # -- the hook -------------------------------------------------------------------------------
@@ -167,7 +183,10 @@ class RunLoop:
         if tick % DEATH_CHECK_TICKS == 0:
             self._deaths(now)
         self._faults(now)
+        if self.pending_on:
+            self._pending_switch_ons(now)
         self._introduce(now)
+        self._goal(now)
         self._referee(now)
         self.node.step(0.0)
         self.rec.advance(now)
@@ -194,16 +213,21 @@ class RunLoop:
         kind, task_id, t = d.get("kind"), str(d.get("task_id")), float(d["time_s"])
         st = self.state
         if kind == "announce":
+            self.task_kind.setdefault(task_id, str(d.get("name", "")))
             if task_id not in self.announced_at and d.get("agent") != "user":
                 self.rec.event(t, ev.TASK_INTRODUCED, task=task_id, task_kind=d.get("name", ""),
                                source=d.get("agent"))
                 st.introduced.add(task_id)
             self.announced_at[task_id] = t
+        elif kind == "close" and not d.get("bids"):
+            self.rec.event(t, ev.NO_BID, task=task_id, attempt=int(d.get("attempt", 0)))
         elif kind == "award":
             latency = t - self.announced_at.get(task_id, t)
             self.rec.event(t, ev.AWARD, task=task_id, robot=d.get("winner"),
                            bid=d.get("score"), latency_s=round(latency, 4))
+            self._push_award(task_id, str(d.get("winner")))
         elif kind == "reallocation":
+            self._push_over(task_id)
             self.rec.event(t, ev.REALLOCATION, task=task_id, from_robot=d.get("winner"),
                            reason=d.get("reason", ""))
         elif kind in ("decline", "expired"):
@@ -213,6 +237,7 @@ class RunLoop:
                            task=task_id, robot=d.get("agent"),
                            **({"reason": d["reason"]} if "reason" in d else {}))
         elif kind == "outcome" and task_id not in st.finished:
+            self._push_over(task_id)
             why = str(d.get("reason", ""))
             if d.get("status") == "unachievable" or why.startswith("unachievable"):
                 st.unachievable[task_id] = why or "unachievable"
@@ -290,21 +315,51 @@ class RunLoop:
         xy = gw.robot_poses.get(name, (0.0, 0.0, 0.0))
         side = bp.side_of(box_pose, xy[:2]) if box_pose is not None else 0.0
         self.switched_off[name] = side
+        # the end it worked: the end of most of its pushes so far (else where it stands)
+        worked = [(e, n) for e, n in self.ends_before[name].most_common() if e in bp.OTHER_END]
+        if worked and (len(worked) == 1 or worked[0][1] > worked[1][1]):
+            self.worked_end[name] = worked[0][0]
+        elif box_pose is not None:
+            self.worked_end[name] = bp.end_at(box_pose, gw.goal_xy, xy[:2])
+        self.ends_before[name].clear()
+        self.push_holder.pop(name, None)
         spot = bp.park_pose(self.spec, sorted(self.processes.names()).index(name))
         place = self.place
         actions.put(lambda s, n=name, p=spot: place(s, n, p))
-        self.rec.event(now, ev.ROBOT_SWITCH_OFF, robot=name, side_m=round(side, 3))
+        self.rec.event(now, ev.ROBOT_SWITCH_OFF, robot=name, side_m=round(side, 3),
+                       end=self.worked_end.get(name))
 
     def _switch_on(self, name: str, now: float) -> None:
+        """Switch a pusher back on behind the other end from the one it worked before. The
+        remaining pusher must be working that old end (else the returning pusher, free while
+        the other is busy, would be given its old end's pushes again): the switch-on waits,
+        tick by tick, until it is, or at most `SWITCH_ON_WAIT_S`."""
+        self.pending_on[name] = now
+        self._pending_switch_ons(now)
+
+    def _pending_switch_ons(self, now: float) -> None:
+        for name, asked_at in sorted(self.pending_on.items()):
+            old_end = self.worked_end.get(name, "left")
+            others = [r for r in self.push_holder
+                      if r != name and r not in self.switched_off]
+            ready = any(self.push_holder[r][0] == old_end for r in others)
+            waited_out = now >= asked_at + bp.SWITCH_ON_WAIT_S - 1e-9
+            if ready or waited_out or not self._pushers_left(name):
+                del self.pending_on[name]
+                self._place_and_start(name, now, bp.OTHER_END[old_end], ready, asked_at)
+
+    def _pushers_left(self, name: str) -> bool:
+        return any(r not in self.switched_off and r != name for r in self.pushed)
+
+    def _place_and_start(self, name: str, now: float, end: str, other_ready: bool,
+                         asked_at: float) -> None:
         gw, actions = self.goal_watch, self.actions
         assert gw is not None and actions is not None and self.place is not None
-        side = self.switched_off.pop(name, 0.0)
+        self.switched_off.pop(name, None)
         box_pose = gw.box_pose
         assert box_pose is not None
-        # the other end of the box from where it was
-        other = -math.copysign(max(abs(side), 0.3), side or 1.0)
-        other = max(-gw.bg.box_half_length_m + 0.2, min(gw.bg.box_half_length_m - 0.2, other))
-        pose = bp.return_pose(box_pose, gw.bg.goal_xy, other, gw.bg)
+        offset = bp.end_offset(box_pose, gw.goal_xy, end, gw.bg)
+        pose = bp.return_pose(box_pose, gw.goal_xy, offset, gw.bg)
         start = next(r.pose for r in self.spec.robots if r.name == name)
         odo = bp.odometry_at((start[0], start[1], start[2]), pose)
         place = self.place
@@ -312,7 +367,23 @@ class RunLoop:
         actions.put(lambda s, n=name, p=pose, o=odo: place(s, n, p, o))
         self._start(name, now)
         self.rec.event(now, ev.ROBOT_SWITCH_ON, robot=name, x=round(pose[0], 3),
-                       y=round(pose[1], 3), yaw=round(pose[2], 3))
+                       y=round(pose[1], 3), yaw=round(pose[2], 3), end=end,
+                       other_at_old_end=other_ready, asked_t=round(asked_at, 3))
+
+    def _push_award(self, task_id: str, robot: str) -> None:
+        end = bp.PUSH_ENDS.get(self.task_kind.get(task_id, ""))
+        if end is None:
+            return
+        self.push_holder[robot] = (end, task_id)
+        self.push_task[task_id] = robot
+        self.pushed.add(robot)
+        if robot not in self.switched_off:
+            self.ends_before[robot][end] += 1
+
+    def _push_over(self, task_id: str) -> None:
+        robot = self.push_task.pop(task_id, None)
+        if robot is not None and self.push_holder.get(robot, ("", ""))[1] == task_id:
+            del self.push_holder[robot]
 
     # -- tasks and the referee ---------------------------------------------------------------
     def _introduce(self, now: float) -> None:
@@ -325,13 +396,55 @@ class RunLoop:
             self.rec.event(now, ev.TASK_INTRODUCED, task=task_id, task_kind=planned.kind,
                            params=planned.params, source="user")
             st.introduced.add(task_id)
-            self.main_task = self.main_task or task_id
+            if self.main_task is None:
+                self.main_task = task_id
+                self.task_params = dict(planned.params)
             self.next_task = next(self.planned)
+
+    def _goal(self, now: float) -> None:
+        """boxpush: move a moving goal, and re-target the watch task when it is time."""
+        gw, actions, plan = self.goal_watch, self.actions, self.goal_plan
+        if gw is None or actions is None or self.main_task is None:
+            return
+        if plan.moving and self.goal_marker is not None:
+            start, _ = bp.marker_goal(self.spec, self.goal_marker)
+            arena = (self.spec.arena.size_x_m, self.spec.arena.size_y_m)
+            xy = plan.goal_at(start, now, arena)
+            if xy != gw.goal_xy:
+                gw.goal_xy = xy
+                actions.put(lambda s, m=self.goal_marker, p=xy: s.set_pose(m, p[0], p[1], 0.0))
+        while self.retargets and self.retargets[0][0] <= now + 1e-9:
+            _, marker = self.retargets.pop(0)
+            if self.state.goal_outcome is not None or self.main_task in self.state.finished:
+                continue
+            xy, colour = bp.marker_goal(self.spec, marker)
+            old = self.main_task
+            self.goal_marker = marker
+            gw.goal_xy = xy
+            # the user withdraws the watch task and introduces it again with the new goal
+            self.node.cancel(old, f"re-targeted to {marker}")
+            params = dict(self.task_params)
+            params["goal_colour"] = f"#{colour:06x}"
+            params["duration_s"] = max(60.0, self.duration_s - now - 5.0)
+            planned = PlannedTask(now, "watch-box", params)
+            task_id = self.node.announce(self.task_spec(planned), patience_s=PATIENCE_S)
+            self.rec.event(now, ev.TASK_INTRODUCED, task=task_id, task_kind="watch-box",
+                           params=params, source="user")
+            self.state.introduced.add(task_id)
+            self.main_task = task_id
+            self.rec.event(now, ev.GOAL_MOVED, marker=marker, x=round(xy[0], 3),
+                           y=round(xy[1], 3), task=task_id, replaces=old)
 
     def _referee(self, now: float) -> None:
         gw = self.goal_watch
         if gw is None:
             return
+        if now >= self.next_progress_s - 1e-9 and gw.box_pose is not None:
+            self.next_progress_s = now + BOX_PROGRESS_PERIOD_S
+            bx, by, yaw = gw.box_pose
+            self.rec.event(now, ev.BOX_PROGRESS, distance_m=round(gw.distance_m, 3),
+                           box=[round(bx, 3), round(by, 3), round(yaw, 3)],
+                           goal=[round(gw.goal_xy[0], 3), round(gw.goal_xy[1], 3)])
         st = self.state
         if st.goal_outcome is None:
             if gw.reached_at_s is not None:

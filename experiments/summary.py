@@ -13,6 +13,7 @@ from collections import Counter, defaultdict
 from collections.abc import Iterable, Mapping
 from typing import Any
 
+from experiments import boxpush as bp
 from experiments import events as ev
 
 SCHEMA_VERSION = 1
@@ -47,6 +48,127 @@ def terminal_state_problems(events: Iterable[Mapping[str, Any]]) -> dict[str, li
         "several_outcomes": sorted(t for t, o in outcomes.items() if len(o) > 1),
         "never_introduced": sorted(outcomes.keys() - introduced),
     }
+
+
+def charging_cycles(events: Iterable[Mapping[str, Any]]) -> tuple[int, dict[str, int]]:
+    """Completed charge cycles, in all and per robot: a `charge_start` followed by its
+    `charge_end`. Further starts before the end belong to the same cycle (a robot that
+    re-docks), and a cycle cut off by the robot's failure or by the end of the run is not
+    counted."""
+    charging: set[str] = set()
+    per_robot: Counter[str] = Counter()
+    for e in events:
+        kind = e["kind"]
+        if kind == ev.CHARGE_START:
+            charging.add(str(e["robot"]))
+        elif kind == ev.CHARGE_END and str(e["robot"]) in charging:
+            charging.discard(str(e["robot"]))
+            per_robot[str(e["robot"])] += 1
+        elif kind == ev.ROBOT_FAILURE:
+            charging.discard(str(e["robot"]))
+    return sum(per_robot.values()), dict(sorted(per_robot.items()))
+
+
+def _user_task(e: Mapping[str, Any]) -> bool:
+    return e.get("source") in (None, "user")
+
+
+def allocation_attempts(events: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
+    """The paper's "error returned" apart from the end of the user's patience.
+
+    `first_attempt_unallocatable`: tasks whose first auction closed without a bid;
+    `then_allocated`: those of them a later round (after backoff) gave to a robot;
+    `unachievable_after_backoff`: tasks that ended unachievable (no bid until the deadline).
+    Counted over the user's tasks (sub-tasks that robots announced are in `subtasks`)."""
+    user: set[str] = set()
+    sub: set[str] = set()
+    first_no_bid: set[str] = set()
+    awarded: set[str] = set()
+    unachievable: set[str] = set()
+    for e in events:
+        kind = e["kind"]
+        if kind == ev.TASK_INTRODUCED:
+            (user if _user_task(e) else sub).add(str(e["task"]))
+        elif kind == ev.NO_BID and int(e["attempt"]) == 1:
+            first_no_bid.add(str(e["task"]))
+        elif kind == ev.AWARD:
+            awarded.add(str(e["task"]))
+        elif kind == ev.TASK_OUTCOME and e["outcome"] == ev.UNACHIEVABLE:
+            unachievable.add(str(e["task"]))
+
+    def counts(tasks: set[str]) -> dict[str, int]:
+        first = first_no_bid & tasks
+        return {"first_attempt_unallocatable": len(first),
+                "then_allocated": len(first & awarded),
+                "unachievable_after_backoff": len(unachievable & tasks)}
+
+    return {**counts(user), "subtasks": counts(sub)}
+
+
+def waits(events: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
+    """Introduction of each user task to its first award (when its robot starts on it)."""
+    introduced: dict[str, float] = {}
+    values: list[float] = []
+    for e in events:
+        if e["kind"] == ev.TASK_INTRODUCED and _user_task(e):
+            introduced.setdefault(str(e["task"]), float(e["t"]))
+        elif e["kind"] == ev.AWARD and str(e["task"]) in introduced:
+            values.append(float(e["t"]) - introduced.pop(str(e["task"])))
+    return {**_latency_stats(values), "never_awarded": len(introduced)}
+
+
+def push_phases(events: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
+    """boxpush: pushes (awards) per end per pusher, before the first switch-off, while
+    alone (until the next switch-on) and after it; with one switch-off and -on, whether
+    the returning pusher's main end changed (`role_swap`)."""
+    evs = list(events)
+    kind_of = {str(e["task"]): str(e["task_kind"]) for e in evs
+               if e["kind"] == ev.TASK_INTRODUCED}
+    off = next((e for e in evs if e["kind"] == ev.ROBOT_SWITCH_OFF), None)
+    on = next((e for e in evs if e["kind"] == ev.ROBOT_SWITCH_ON
+               and (off is None or float(e["t"]) >= float(off["t"]))), None)
+    t_off = float(off["t"]) if off is not None else None
+    t_on = float(on["t"]) if on is not None else None
+
+    def phase(t: float) -> str:
+        if t_off is None or t < t_off:
+            return "before" if t_off is not None else "run"
+        if t_on is None or t < t_on:
+            return "alone"
+        return "after"
+
+    pushes: dict[str, dict[str, Counter[str]]] = defaultdict(lambda: defaultdict(Counter))
+    for e in evs:
+        if e["kind"] == ev.AWARD:
+            end = bp.PUSH_ENDS.get(kind_of.get(str(e["task"]), ""))
+            if end is not None:
+                pushes[phase(float(e["t"]))][str(e["robot"])][end] += 1
+    out: dict[str, Any] = {
+        "phases": {p: {r: dict(sorted(c.items())) for r, c in sorted(by.items())}
+                   for p, by in pushes.items()},
+        "switch_off_t_s": t_off, "switch_on_t_s": t_on, "role_swap": None,
+    }
+    if off is not None and on is not None and str(on["robot"]) == str(off["robot"]):
+        robot = str(off["robot"])
+
+        def main_end(p: str) -> str | None:
+            c = pushes.get(p, {}).get(robot, Counter())
+            ranked = c.most_common(2)
+            if not ranked or (len(ranked) > 1 and ranked[0][1] == ranked[1][1]):
+                return None
+            return ranked[0][0]
+
+        before, after = main_end("before"), main_end("after")
+        out["role_swap"] = {"robot": robot, "end_before": before, "end_after": after,
+                            "swapped": before is not None and after is not None
+                            and before != after}
+    return out
+
+
+def box_track(events: Iterable[Mapping[str, Any]]) -> list[tuple[float, float]]:
+    """boxpush: (t, the box's distance to the goal) from the referee's samples."""
+    return [(float(e["t"]), float(e["distance_m"])) for e in events
+            if e["kind"] == ev.BOX_PROGRESS]
 
 
 def summarize(events: Iterable[Mapping[str, Any]],
@@ -92,8 +214,6 @@ def summarize(events: Iterable[Mapping[str, Any]],
             awarded_tasks.add(str(e["task"]))
         elif k == ev.TASK_OUTCOME and e.get("robot") and e["outcome"] == ev.COMPLETED:
             per_robot[str(e["robot"])]["tasks_completed"] += 1
-        elif k == ev.CHARGE_START:
-            per_robot[str(e["robot"])]["charging_trips"] += 1
         elif k == ev.ROBOT_FAILURE:
             per_robot[str(e["robot"])]["failures"] += 1
 
@@ -133,6 +253,9 @@ def summarize(events: Iterable[Mapping[str, Any]],
             low = min(float(v) for v in e["percent"].values())
             battery_min = low if battery_min is None else min(battery_min, low)
 
+    trips, trips_per_robot = charging_cycles(evs)
+    for robot, n in trips_per_robot.items():
+        per_robot[robot]["charging_trips"] = n
     problems = terminal_state_problems(evs)
     reached = next((e for e in evs if e["kind"] == ev.GOAL_REACHED), None)
     unachievable = next((e for e in evs if e["kind"] == ev.GOAL_UNACHIEVABLE), None)
@@ -148,6 +271,9 @@ def summarize(events: Iterable[Mapping[str, Any]],
             "unachievable_reason": unachievable.get("reason") if unachievable else None,
             "switch_offs": kinds[ev.ROBOT_SWITCH_OFF],
             "switch_ons": kinds[ev.ROBOT_SWITCH_ON],
+            "goal_moves": kinds[ev.GOAL_MOVED],
+            "final_distance_m": track[-1][1] if (track := box_track(evs)) else None,
+            "pushes": push_phases(evs),
         }
     return {
         "schema": SCHEMA_VERSION,
@@ -165,10 +291,12 @@ def summarize(events: Iterable[Mapping[str, Any]],
             "unachievable": outcomes[ev.UNACHIEVABLE],
             "open_at_end": outcomes[ev.OPEN_AT_END],
             "reallocations": kinds[ev.REALLOCATION],
+            **allocation_attempts(evs),
             "by_kind": {k: dict(sorted(v.items())) for k, v in sorted(by_task_kind.items())},
         },
         "bids": {"declined": kinds[ev.BID_DECLINED], "expired": kinds[ev.BID_EXPIRED]},
-        "charging_trips": kinds[ev.CHARGE_START],
+        "charging_trips": trips,
+        "charging_starts": kinds[ev.CHARGE_START],
         "robot_failures": kinds[ev.ROBOT_FAILURE],
         "robot_restarts": kinds[ev.ROBOT_RESTART],
         "alarms": kinds[ev.ALARM],
@@ -180,6 +308,7 @@ def summarize(events: Iterable[Mapping[str, Any]],
             "total_bytes": sum(m["bytes"] for m in messages.values()),
         },
         "auction_latency_s": _latency_stats(latencies),
+        "waits_s": waits(evs),
         "robots": {r: dict(sorted(c.items())) for r, c in sorted(per_robot.items())},
         "processes": dict(sorted(processes.items())),
         "invariant_terminal_states": {

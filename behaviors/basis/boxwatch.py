@@ -83,6 +83,8 @@ class BoxAlignmentFromLaser:
     face normal (positive = counter-clockwise), so 0 means the robot looks square at the
     face. It only observes, except that it asks the robot to wait (stand still) while the
     box is farther than `wait_range_m`, so a watcher leading the box does not run away.
+    With `look_for` (a colour, the goal's), it waits turning in place at `look_turn_radps`
+    while that colour is out of view, so a goal that moved or changed is found again.
     """
 
     centre_rad: float = 0.0
@@ -91,6 +93,8 @@ class BoxAlignmentFromLaser:
     min_width_m: float = 0.2
     wait_range_m: float = math.inf
     max_age_s: float = 0.5
+    look_for: int | None = None
+    look_turn_radps: float = 0.4
     name: str = "box-alignment-from-laser"
     max_speed_mps: float = 0.0
     max_turn_radps: float = 0.0
@@ -110,7 +114,12 @@ class BoxAlignmentFromLaser:
             return INACTIVE
         tilt = wrap_angle(face.normal_rad - face.bearing_rad)
         if face.range_m > self.wait_range_m:
-            return Proposal(True, 0.0, 0.0, 1.0, "box", tilt)
+            turn = 0.0
+            if self.look_for is not None:
+                view = snapshot.camera
+                if view is not None and view.largest(self.look_for) is None:
+                    turn = self.look_turn_radps
+            return Proposal(True, 0.0, turn, 1.0, "box", tilt)
         return Proposal(False, 0.0, 0.0, 0.0, "box", tilt)
 
 

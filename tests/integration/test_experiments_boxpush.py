@@ -18,7 +18,7 @@ from experiments import events as ev
 from experiments.report import recorded_poses
 from experiments.summary import terminal_state_problems
 
-pytestmark = pytest.mark.timeout(150)
+pytestmark = pytest.mark.timeout(400)
 
 
 def _murdoch() -> list[str]:
@@ -26,11 +26,12 @@ def _murdoch() -> list[str]:
     return [str(exe)] if exe.exists() else [sys.executable, "-m", "experiments.cli"]
 
 
-def _run(tmp_path: Path, *args: str, wall_s: float = 120.0) -> tuple[
+def _run(tmp_path: Path, *args: str, wall_s: float = 300.0) -> tuple[
         subprocess.CompletedProcess[str], Path, list[dict[str, Any]], dict[str, Any]]:
     out = tmp_path / "runs"
     proc = subprocess.run(
-        [*_murdoch(), "run", "boxpush", "--seed", "2", "--no-replay", "--out", str(out), *args],
+        [*_murdoch(), "run", "boxpush", *(() if "--seed" in args else ("--seed", "2")),
+         "--no-replay", "--out", str(out), *args],
         capture_output=True, text=True, timeout=wall_s, check=False,
     )
     (run,) = out.iterdir()
@@ -91,6 +92,43 @@ def test_one_pusher_switched_off_and_back_on(tmp_path: Path) -> None:
     # the returning pusher takes part again, and the box reaches the goal
     assert any(robot == "pusher1" for t, _, robot in awards if t > on["t"])
     assert summary["goal"]["reached"], (track[-1], proc.stdout[-1500:])
+    _assert_roles_swapped(summary, off, on)
+
+
+def _assert_roles_swapped(summary: dict[str, Any], off: dict[str, Any],
+                          on: dict[str, Any]) -> None:
+    """Per end: the returning pusher works the other end from before, the other pusher
+    takes its old end."""
+    pushes = summary["goal"]["pushes"]
+    phases = pushes["phases"]
+    old_end = off["end"]
+    new_end = {"left": "right", "right": "left"}[old_end]
+    assert on["end"] == new_end
+    before, after = phases["before"]["pusher1"], phases["after"]["pusher1"]
+    assert before.get(old_end, 0) > before.get(new_end, 0), phases
+    assert after.get(new_end, 0) > after.get(old_end, 0), phases
+    other = phases["after"]["pusher2"]
+    assert other.get(old_end, 0) > other.get(new_end, 0), phases
+    assert pushes["role_swap"] == {"robot": "pusher1", "end_before": old_end,
+                                   "end_after": new_end, "swapped": True}
+    assert set(phases["alone"]) == {"pusher2"}
+    assert summary["goal"]["final_distance_m"] <= 2.5
+
+
+def test_the_returning_pusher_waits_for_the_other_to_work_its_old_end(tmp_path: Path) -> None:
+    """Switched on while the remaining pusher pushed its own end, the returning pusher used to
+    be the only one free for the next push of its old end, and kept that end. The switch-on
+    now waits until the remaining pusher works the old end."""
+    proc, run, events, summary = _run(
+        tmp_path, "--until", "600s", "--seed", "3", "--switch-off", "p1@50s",
+        "--switch-on", "p1@100s", wall_s=360.0)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    (off,) = [e for e in events if e["kind"] == ev.ROBOT_SWITCH_OFF]
+    (on,) = [e for e in events if e["kind"] == ev.ROBOT_SWITCH_ON]
+    assert on["asked_t"] == 100.0 and 100.0 <= on["t"] <= 160.0
+    assert on["other_at_old_end"] is True
+    _assert_roles_swapped(summary, off, on)
+    assert (run / "plots" / "box_distance.png").stat().st_size > 10_000
 
 
 def test_no_pusher_left_is_an_unachievable_error(tmp_path: Path) -> None:

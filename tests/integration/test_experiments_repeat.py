@@ -32,8 +32,8 @@ LONGTERM = ["run", "longterm", "--until", "150s", "--task-interval", "25", "--se
             "--kill", "busy@45s", "--restart", "busy@90s", "--no-replay"]
 
 GOLDEN = {
-    "boxpush": "fde96133d7150c8c79ec6b519d3cecdb32fc43d535b36fc393f5b75bd14b26fd",
-    "longterm": "3d74bd9f5193611dc831cea424be48ac1d96aa0f26f05ead6a26dce2c6edf195",
+    "boxpush": "410be479d20b5787343f99df35beba1c33974d60677601cf5de6bd5b7507b7c3",
+    "longterm": "b6498449060e95f535792569ba49b4c5ce467926dc9139bad6917bcda29332d5",
 }
 """sha256 of events.jsonl for each run."""
 OUTCOMES = {

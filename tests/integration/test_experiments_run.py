@@ -269,3 +269,48 @@ def test_short_run_completes_tasks_and_sends_robots_to_charge(tmp_path: Path) ->
     starts = [e for e in events if e["kind"] == ev.CHARGE_START]
     ends = [e for e in events if e["kind"] == ev.CHARGE_END]
     assert ends and ends[0]["robot"] == starts[0]["robot"] and ends[0]["t"] > starts[0]["t"]
+    # charging trips are completed cycles: each robot's ends that close an open start
+    open_: set[str] = set()
+    cycles = 0
+    for e in events:
+        if e["kind"] == ev.CHARGE_START:
+            open_.add(e["robot"])
+        elif e["kind"] == ev.CHARGE_END and e["robot"] in open_:
+            open_.discard(e["robot"])
+            cycles += 1
+    assert summary["charging_trips"] == cycles
+    assert summary["charging_starts"] == len(starts)
+
+
+def test_specialist_and_distance_terms_give_tracking_to_the_camera_only_robots(
+    tmp_path: Path,
+) -> None:
+    out = tmp_path / "runs"
+    proc = subprocess.run(
+        [*_murdoch(), "run", "longterm", "--until", "150s", "--task-interval", "20",
+         "--seed", "4", "--metric", "distance,specialist", "--no-replay", "--out", str(out)],
+        capture_output=True, text=True, timeout=220, check=False,
+    )
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    (run,) = out.iterdir()
+    assert json.loads((run / "config.json").read_text())["metric_terms"] == [
+        "distance", "specialist"]
+    events = ev.read_events(run / "events.jsonl")
+    assert not any(terminal_state_problems(events).values())
+    kind = {e["task"]: e["task_kind"] for e in events if e["kind"] == ev.TASK_INTRODUCED}
+    first_award: dict[str, dict] = {}
+    specialist_bid: set[str] = set()
+    for e in events:
+        if e["kind"] == ev.AWARD:
+            first_award.setdefault(e["task"], e)
+        elif (e["kind"] == ev.MESSAGE and e["msg_kind"] == "bid"
+              and e["sender"] in ("p5", "p6") and e.get("task") not in first_award):
+            specialist_bid.add(str(e.get("task")))
+    contested = [t for t, k in kind.items() if k == "object-tracking" and t in specialist_bid
+                 and t in first_award]
+    assert contested, kind
+    for task in contested:
+        award = first_award[task]
+        # a camera-only robot that bid beats every generalist (one spare resource fewer)
+        assert award["robot"] in ("p5", "p6"), award
+        assert award["bid"] < 0.0  # the specialist term (-6 per spare resource) is in it

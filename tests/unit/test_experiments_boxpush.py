@@ -72,3 +72,44 @@ def test_goal_watch_and_sim_actions() -> None:
     actions.apply(sim, 0.0)
     actions.apply(sim, 0.0)
     assert done == ["a", "b"]
+
+
+def test_ends_of_the_box_as_seen_from_behind() -> None:
+    bg = bp.BoxGoal("box", "goal", (5.0, 0.0), 0.25, 0.7)
+    box = (0.0, 0.0, 0.0)  # pushed along +x: its +y end is on the pushers' left
+    assert bp.end_offset(box, bg.goal_xy, "left", bg) == pytest.approx(0.5)
+    assert bp.end_offset(box, bg.goal_xy, "right", bg) == pytest.approx(-0.5)
+    assert bp.end_at(box, bg.goal_xy, (-1.0, 0.4)) == "left"
+    assert bp.end_at(box, bg.goal_xy, (-1.0, -0.4)) == "right"
+    # the same box pushed along -x (goal behind it): the ends swap sides
+    assert bp.end_offset(box, (-5.0, 0.0), "left", bg) == pytest.approx(-0.5)
+    assert bp.end_at(box, (-5.0, 0.0), (1.0, 0.4)) == "right"
+    for end in ("left", "right"):
+        pose = bp.return_pose(box, bg.goal_xy, bp.end_offset(box, bg.goal_xy, end, bg), bg)
+        assert bp.end_at(box, bg.goal_xy, pose[:2]) == end
+
+
+def test_a_moving_goal_stops_short_of_the_walls() -> None:
+    plan = bp.GoalPlan((0.0, -0.01))
+    assert plan.moving and not bp.GoalPlan().moving
+    assert plan.goal_at((5.0, 1.0), 100.0, (14.0, 8.0)) == pytest.approx((5.0, 0.0))
+    assert plan.goal_at((5.0, 1.0), 1000.0, (14.0, 8.0)) == pytest.approx((5.0, -3.4))
+
+
+def test_goal_options_are_checked() -> None:
+    assert bp.parse_velocity("0,-0.01") == (0.0, -0.01)
+    for bad in ("0.1", "a,b", "nan,0", "1,0"):
+        with pytest.raises(ValueError, match=r"VX,VY|up to 0\.5"):
+            bp.parse_velocity(bad)
+    world = load_world(world_path("boxpush_goals"))
+    assert bp.marker_goal(world, "goal2") == ((5.0, -1.8), 0x00FF00)
+    with pytest.raises(ValueError, match=r"no marker 'goal9' .*goal, goal2"):
+        bp.marker_goal(world, "goal9")
+
+
+def test_the_side_world_puts_the_goal_far_off_the_pushing_direction() -> None:
+    world = load_world(world_path("boxpush_side"))
+    bg = bp.box_goal(world)
+    box = next(b for b in world.boxes if b.name == bg.box)
+    bearing = math.atan2(bg.goal_xy[1] - box.pose.y, bg.goal_xy[0] - box.pose.x)
+    assert math.degrees(bearing - box.pose.yaw) > 35.0

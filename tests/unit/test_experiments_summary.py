@@ -74,6 +74,85 @@ def test_summary_counts() -> None:
     assert s["invariant_terminal_states"]["holds"] is True
 
 
+def test_charging_trips_are_completed_cycles() -> None:
+    evs = [
+        E(0.0, ev.RUN_START, experiment="longterm", seed=1),
+        # p1 docks three times before it finishes one charge: one trip
+        E(1.0, ev.CHARGE_START, robot="p1"),
+        E(2.0, ev.CHARGE_START, robot="p1"),
+        E(3.0, ev.CHARGE_START, robot="p1"),
+        E(4.0, ev.CHARGE_END, robot="p1"),
+        # p2: two full cycles, then one cut off by the end of the run
+        E(1.0, ev.CHARGE_START, robot="p2"),
+        E(2.0, ev.CHARGE_END, robot="p2"),
+        E(5.0, ev.CHARGE_START, robot="p2"),
+        E(6.0, ev.CHARGE_END, robot="p2"),
+        E(7.0, ev.CHARGE_START, robot="p2"),
+        # p3: killed while charging, its end never comes; a stray end counts nothing
+        E(1.0, ev.CHARGE_START, robot="p3"),
+        E(2.0, ev.ROBOT_FAILURE, robot="p3"),
+        E(3.0, ev.CHARGE_END, robot="p3"),
+    ]
+    s = summarize(evs)
+    assert s["charging_trips"] == 3
+    assert s["charging_starts"] == 7
+    assert s["robots"]["p1"]["charging_trips"] == 1
+    assert s["robots"]["p2"]["charging_trips"] == 2
+    assert "charging_trips" not in s["robots"].get("p3", {})
+
+
+def test_first_attempt_unallocatable_apart_from_unachievable_after_backoff() -> None:
+    evs = [
+        E(0.0, ev.RUN_START, experiment="longterm", seed=1),
+        E(1.0, ev.TASK_INTRODUCED, task="t1", task_kind="cleanup", source="user"),
+        E(2.0, ev.NO_BID, task="t1", attempt=1),
+        E(9.0, ev.AWARD, task="t1", robot="p3"),          # allocated after backoff
+        E(1.5, ev.TASK_INTRODUCED, task="t2", task_kind="cleanup", source="user"),
+        E(2.5, ev.NO_BID, task="t2", attempt=1),
+        E(8.0, ev.NO_BID, task="t2", attempt=2),
+        E(300.0, ev.TASK_OUTCOME, task="t2", outcome=ev.UNACHIEVABLE),
+        E(3.0, ev.TASK_INTRODUCED, task="t3", task_kind="sentry-duty", source="user"),
+        E(4.0, ev.AWARD, task="t3", robot="p1"),
+        E(5.0, ev.REALLOCATION, task="t3", from_robot="p1", reason="silent"),
+        E(6.0, ev.NO_BID, task="t3", attempt=2),           # not its first auction
+        E(6.0, ev.TASK_INTRODUCED, task="r1", task_kind="push-left-end", source="watcher"),
+        E(6.5, ev.NO_BID, task="r1", attempt=1),
+    ]
+    tasks = summarize(evs)["tasks"]
+    assert tasks["first_attempt_unallocatable"] == 2
+    assert tasks["then_allocated"] == 1
+    assert tasks["unachievable_after_backoff"] == 1
+    assert tasks["subtasks"] == {"first_attempt_unallocatable": 1, "then_allocated": 0,
+                                 "unachievable_after_backoff": 0}
+    waits = summarize(evs)["waits_s"]
+    assert waits["count"] == 2 and waits["max"] == pytest.approx(8.0)
+    assert waits["never_awarded"] == 1
+
+
+def test_pushes_per_end_per_pusher_before_alone_and_after() -> None:
+    evs = [E(0.0, ev.RUN_START, experiment="boxpush", seed=1)]
+    for i, (t, kind, robot) in enumerate([
+        (5, "push-left-end", "pusher1"), (6, "push-right-end", "pusher2"),
+        (12, "push-left-end", "pusher1"), (30, "push-left-end", "pusher2"),
+        (35, "push-right-end", "pusher2"), (70, "push-right-end", "pusher1"),
+        (71, "push-left-end", "pusher2"), (80, "push-right-end", "pusher1"),
+    ]):
+        evs += [E(t, ev.TASK_INTRODUCED, task=f"w{i}", task_kind=kind, source="watcher"),
+                E(t + 0.5, ev.AWARD, task=f"w{i}", robot=robot)]
+    evs += [E(20.0, ev.ROBOT_SWITCH_OFF, robot="pusher1"),
+            E(60.0, ev.ROBOT_SWITCH_ON, robot="pusher1", x=0.0, y=0.0),
+            E(61.0, ev.BOX_PROGRESS, distance_m=4.0), E(62.0, ev.BOX_PROGRESS, distance_m=3.5)]
+    goal = summarize(sorted(evs, key=lambda e: e["t"]))["goal"]
+    assert goal["pushes"]["phases"] == {
+        "before": {"pusher1": {"left": 2}, "pusher2": {"right": 1}},
+        "alone": {"pusher2": {"left": 1, "right": 1}},
+        "after": {"pusher1": {"right": 2}, "pusher2": {"left": 1}},
+    }
+    assert goal["pushes"]["role_swap"] == {"robot": "pusher1", "end_before": "left",
+                                           "end_after": "right", "swapped": True}
+    assert goal["final_distance_m"] == 3.5
+
+
 def test_terminal_state_problems_are_reported() -> None:
     evs = [
         *run_events(),
