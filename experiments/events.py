@@ -53,6 +53,16 @@ GOAL_REACHED = "goal_reached"
 GOAL_UNACHIEVABLE = "goal_unachievable"
 ROBOT_SWITCH_OFF = "robot_switch_off"
 ROBOT_SWITCH_ON = "robot_switch_on"
+ROBOT_FREEZE = "robot_freeze"
+"""(soak) a robot's process was stopped; it no longer holds the lockstep clock."""
+ROBOT_THAW = "robot_thaw"
+"""(soak) the stopped process continued."""
+CHARGER_OFF = "charger_off"
+"""(soak) a charging pad stopped charging."""
+CHARGER_ON = "charger_on"
+"""(soak) it charges again."""
+TASK_BURST = "task_burst"
+"""(soak) many tasks introduced at one tick (after their own task_introduced events)."""
 
 COMPLETED = "completed"
 FAILED = "failed"
@@ -79,6 +89,11 @@ REQUIRED_FIELDS: dict[str, tuple[str, ...]] = {
     GOAL_UNACHIEVABLE: ("task", "reason"),
     ROBOT_SWITCH_OFF: ("robot",),
     ROBOT_SWITCH_ON: ("robot", "x", "y"),
+    ROBOT_FREEZE: ("robot",),
+    ROBOT_THAW: ("robot",),
+    CHARGER_OFF: ("charger",),
+    CHARGER_ON: ("charger",),
+    TASK_BURST: ("count",),
 }
 
 

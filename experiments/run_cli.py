@@ -36,6 +36,7 @@ EXPERIMENT_WORLDS = {"longterm": "longterm", "boxpush": "boxpush"}
 KEY_ENV = "MURDOCH_TEAM_KEY"
 STALL_LIMIT_S = 180.0
 EPOCH_ENV = "MURDOCH_RUN_EPOCH"
+LOSS_ENV = "MURDOCH_BUS_LOSS"
 _DURATION_RE = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*([smh]?)\s*$")
 
 
@@ -101,6 +102,8 @@ def _place(sim: Any, name: str, pose: tuple[float, float, float],
 
 def _stop_robot(rp: RobotProcess, *, kill: bool = False, timeout_s: float = 5.0) -> None:
     if rp.proc is not None and rp.proc.poll() is None:
+        if not kill:
+            rp.proc.send_signal(signal.SIGCONT)  # a stopped process could not end itself
         if kill:
             rp.proc.kill()
         else:
@@ -231,6 +234,14 @@ class RobotSupervisor:
                     rp.proc = None
         return out
 
+    def pause(self, name: str, paused: bool) -> int | None:
+        with self._lock:
+            proc = self.robots[name].proc
+            if proc is None or proc.poll() is not None:
+                return None
+            proc.send_signal(signal.SIGSTOP if paused else signal.SIGCONT)
+            return proc.pid
+
     def alive_test(self, name: str) -> Callable[[], bool]:
         """A test of whether the robot's current process is still running."""
         rp = self.robots[name]
@@ -281,11 +292,13 @@ def run_experiment(
     switch_ons: list[tuple[str, float]] | None = None, goal_radius_m: float | None = None,
     pipelined: bool = True, robot_nice: int = 0, pin_cpus: bool = False,
     key: str | None = None, record: bool = True, record_rate_hz: float = 2.0,
+    extras: Any = None,
 ) -> int:
     from experiments import boxpush as bp
     from experiments import events as ev
     from experiments.observe import JsonlTail
     from experiments.recorder import RunRecorder
+    from experiments.run_extras import RunExtras
     from experiments.run_loop import Fault, RunLoop
     from experiments.summary import terminal_state_problems
     from experiments.task_source import boxpush_task, longterm_tasks
@@ -303,6 +316,7 @@ def run_experiment(
     from worlds import load_world, world_path
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    extras = extras if extras is not None else RunExtras()
     wpath = Path(world_name)
     spec = load_world(wpath if wpath.suffix == ".toml" else world_path(world_name))
     lockstep = speedup == 0
@@ -346,10 +360,13 @@ def run_experiment(
             "switch_ons": [f"{r}@{t:g}s" for r, t in switch_ons],
             "goal_radius_m": goal_watch.radius_m,
         })
+    config.update(extras.config)
     rec = RunRecorder(out, experiment, config, world=spec, started=datetime.now(),
                       wall_clock=time.monotonic, stream=sys.stdout, meshcat=meshcat,
                       record=record, record_rate_hz=record_rate_hz)
     click.echo(f"run directory: {rec.run.root}")
+    if extras.on_run_dir is not None:
+        extras.on_run_dir(rec.run.root)
     sim = Simulation(spec, seed=seed)
     endpoints = world_endpoints(spec, sim, 0)
     team_clock = TeamClock() if lockstep else None
@@ -372,6 +389,8 @@ def run_experiment(
         cpus=split.serving if split is not None else None,
     )
     env = {**os.environ, KEY_ENV: secret, EPOCH_ENV: epoch}
+    if extras.bus_loss is not None:
+        env[LOSS_ENV] = extras.bus_loss
     tails: dict[str, tuple[JsonlTail, JsonlTail]] = {}
     ports: dict[str, int] = {}
 
@@ -406,7 +425,13 @@ def run_experiment(
     faults = ([Fault(t, "kill", r) for r, t in kills]
               + [Fault(t, "restart", r) for r, t in restarts]
               + [Fault(t, "switch-off", r) for r, t in switch_offs]
-              + [Fault(t, "switch-on", r) for r, t in switch_ons])
+              + [Fault(t, "switch-on", r) for r, t in switch_ons] + list(extras.faults))
+
+    def hold_clock(name: str, hold: bool) -> None:
+        # on the serving thread: a stopped robot's session no longer holds the lockstep
+        for s in list(server.core.sessions.values()):
+            if s.endpoint.name == name:
+                s.lockstep_override = None if hold else False
     loop = RunLoop(
         rec=rec, sim=sim, node=node, transport=transport, processes=supervisor, tails=tails,
         planned=planned, task_subjects=lambda k: (), task_spec=_task_spec,
@@ -417,6 +442,10 @@ def run_experiment(
         wait_clock=time.monotonic, request_stop=server.request_stop,
         boxpush=(goal_watch, actions) if goal_watch is not None else None,
         mobile=frozenset(r.name for r in spec.robots if r.mobile), spec=spec, place=_place,
+        hold_clock=hold_clock,
+        burst=(longterm_tasks(spec, random.Random(extras.burst_seed),
+                              mean_interval_s=task_interval_s)
+               if extras.burst_seed is not None else None),
     )
     loop_ref.append(loop)
     monitor = transport.subscribe(None, loop.on_message)
@@ -455,7 +484,7 @@ def run_experiment(
                 waiting_for_robots = False
                 sim.set_paused(False)
             if wall >= next_memory_wall:
-                next_memory_wall = wall + 30.0
+                next_memory_wall = wall + extras.memory_every_s
                 rec.sample_processes(sim_now(), {"runner": os.getpid(), **supervisor.pids()})
             if sim_now() != last_progress[0]:
                 last_progress = (sim_now(), wall)

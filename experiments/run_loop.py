@@ -42,11 +42,17 @@ BOXPUSH_LINGER_S = 3.0
 
 @dataclass(frozen=True)
 class Fault:
-    """One entry of the fault schedule: `action` on `robot` at simulation time `t_s`."""
+    """One entry of the fault schedule: `action` on `robot` at simulation time `t_s`.
+
+    Actions: kill, restart, switch-off, switch-on (boxpush), and for soak runs freeze, thaw
+    (a robot's process stopped and continued, `hold_clock`), retire (switched off for good),
+    charger-off, charger-on (`robot` names the charger) and burst (`count` tasks at once from
+    the burst source)."""
 
     t_s: float
-    action: str  # kill, restart, switch-off, switch-on
+    action: str
     robot: str
+    count: int = 0
 
     def label(self) -> str:
         return f"{self.robot}@{self.t_s:g}s"
@@ -67,6 +73,11 @@ class RobotProcesses(Protocol):
 
     def exited(self) -> list[tuple[str, int, int]]:
         """(name, pid, exit code) of processes that ended by themselves since last asked."""
+        ...
+
+    def pause(self, name: str, paused: bool) -> int | None:
+        """Stop (SIGSTOP) or continue (SIGCONT) the robot's process; its pid (None: not
+        running)."""
         ...
 
 
@@ -107,6 +118,8 @@ class RunLoop:
         mobile: frozenset[str] = frozenset(),
         spec: Any = None,
         place: Callable[..., None] | None = None,
+        hold_clock: Callable[[str, bool], None] | None = None,
+        burst: Iterator[PlannedTask | None] | None = None,
     ) -> None:
         self.rec = rec
         self.sim = sim
@@ -136,6 +149,10 @@ class RunLoop:
         self.switched_off: dict[str, float] = {}
         self.busy_killed: list[str] = []
         self.scheduled_down: set[str] = set()
+        self.hold_clock = hold_clock
+        self.burst = burst
+        self.frozen: set[str] = set()
+        self.busy_frozen: list[str] = []
 
     # -- the hook -------------------------------------------------------------------------------
     def on_round(self) -> None:
@@ -239,25 +256,33 @@ class RunLoop:
             fault = self.faults.pop(0)
             name = fault.robot
             if name == "busy":
-                if fault.action == "kill":
+                picked = self.busy_frozen if fault.action in ("freeze", "thaw") else \
+                    self.busy_killed
+                if fault.action in ("kill", "freeze"):
                     working = [r for r, st in sorted(self.rec.robot_states().items())
                                if st == "working" and r in self.mobile
-                               and r not in self.scheduled_down]
+                               and r not in self.scheduled_down and r not in self.frozen]
                     if not working:
                         self.rec.event(now, ev.FAULT_SKIPPED, action=fault.action,
                                        robot="busy", reason="no robot holds a task")
                         continue
-                    self.busy_killed.append(working[0])
+                    picked.append(working[0])
                     name = working[0]
-                elif self.busy_killed:
-                    name = self.busy_killed[-1]
+                elif picked:
+                    name = picked[-1]
                 else:
                     self.rec.event(now, ev.FAULT_SKIPPED, action=fault.action, robot="busy",
-                                   reason="no robot was killed as busy")
+                                   reason="no robot was killed as busy"
+                                   if fault.action == "restart"
+                                   else "no robot was frozen as busy")
                     continue
-            getattr(self, "_" + fault.action.replace("-", "_"))(name, now)
+            if fault.action == "burst":
+                self._burst(name, now, fault.count)
+            else:
+                getattr(self, "_" + fault.action.replace("-", "_"))(name, now)
 
     def _kill(self, name: str, now: float) -> None:
+        self._unfreeze_quietly(name)
         self.scheduled_down.add(name)
         pid = self.processes.kill(name)
         self.rec.event(now, ev.ROBOT_FAILURE, robot=name, reason="killed")
@@ -268,6 +293,7 @@ class RunLoop:
         self.rec.event(now, ev.ROBOT_RESTART, robot=name)
 
     def _start(self, name: str, now: float) -> int:
+        self._unfreeze_quietly(name)
         self.processes.kill(name)  # a process still running is replaced
         pid = self.processes.start(name)
         self.rec.note_process(now, "started", name, pid)
@@ -310,19 +336,89 @@ class RunLoop:
         self.rec.event(now, ev.ROBOT_SWITCH_ON, robot=name, x=round(pose[0], 3),
                        y=round(pose[1], 3), yaw=round(pose[2], 3))
 
+    # -- soak faults ------------------------------------------------------------------------------
+    def _skip(self, fault: str, name: str, now: float, why: str) -> None:
+        self.rec.event(now, ev.FAULT_SKIPPED, action=fault, robot=name, reason=why)
+
+    def _freeze(self, name: str, now: float) -> None:
+        """The robot's process is stopped where it stands: it has finished the previous tick
+        and waits for this one. It no longer holds the lockstep clock (the world goes on
+        without it, its Player session silent, so the server's watchdog stops its motors)."""
+        if name in self.scheduled_down or name in self.frozen:
+            self._skip("freeze", name, now, "down" if name in self.scheduled_down
+                       else "already frozen")
+            return
+        assert self.hold_clock is not None
+        pid = self.processes.pause(name, True)
+        if pid is None:
+            self._skip("freeze", name, now, "not running")
+            return
+        self.frozen.add(name)
+        self.hold_clock(name, False)
+        self.rec.event(now, ev.ROBOT_FREEZE, robot=name)
+        self.rec.note_process(now, "stopped", name, pid)
+
+    def _thaw(self, name: str, now: float) -> None:
+        """The stopped process continues: it reads the round it was waiting for, then the
+        current one; the lockstep waits for it again from this tick."""
+        if name not in self.frozen:
+            self._skip("thaw", name, now, "not frozen")
+            return
+        self._unfreeze_quietly(name)
+        self.rec.event(now, ev.ROBOT_THAW, robot=name)
+
+    def _unfreeze_quietly(self, name: str) -> None:
+        if name in self.frozen:
+            self.frozen.discard(name)
+            assert self.hold_clock is not None
+            pid = self.processes.pause(name, False)
+            self.hold_clock(name, True)
+            self.rec.note_process(float(self.sim.time_s), "continued", name, pid)
+
+    def _retire(self, name: str, now: float) -> None:
+        """Switched off for good: the process is killed and never started again."""
+        if name in self.scheduled_down:
+            self._skip("retire", name, now, "already down")
+            return
+        self._unfreeze_quietly(name)
+        self.scheduled_down.add(name)
+        pid = self.processes.kill(name)
+        self.rec.event(now, ev.ROBOT_SWITCH_OFF, robot=name, permanent=True)
+        self.rec.note_process(now, "switched-off", name, pid)
+
+    def _charger_off(self, name: str, now: float) -> None:
+        self.sim.set_charger_enabled(name, False)
+        self.rec.event(now, ev.CHARGER_OFF, charger=name)
+
+    def _charger_on(self, name: str, now: float) -> None:
+        self.sim.set_charger_enabled(name, True)
+        self.rec.event(now, ev.CHARGER_ON, charger=name)
+
+    def _burst(self, name: str, now: float, count: int) -> None:
+        """`count` tasks from the burst source introduced at this tick."""
+        assert self.burst is not None
+        ids = []
+        for _ in range(count):
+            planned = next(self.burst)
+            if planned is None:
+                break
+            ids.append(self._announce(planned, now))
+        self.rec.event(now, ev.TASK_BURST, count=len(ids), tasks=ids)
+
     # -- tasks and the referee ---------------------------------------------------------------
     def _introduce(self, now: float) -> None:
-        st = self.state
         while (self.next_task is not None and self.next_task.t_s <= now
                and self.next_task.t_s < self.duration_s):
-            planned = self.next_task
-            spec = self.task_spec(planned)
-            task_id = self.node.announce(spec, patience_s=PATIENCE_S)
-            self.rec.event(now, ev.TASK_INTRODUCED, task=task_id, task_kind=planned.kind,
-                           params=planned.params, source="user")
-            st.introduced.add(task_id)
+            task_id = self._announce(self.next_task, now)
             self.main_task = self.main_task or task_id
             self.next_task = next(self.planned)
+
+    def _announce(self, planned: PlannedTask, now: float) -> str:
+        task_id = str(self.node.announce(self.task_spec(planned), patience_s=PATIENCE_S))
+        self.rec.event(now, ev.TASK_INTRODUCED, task=task_id, task_kind=planned.kind,
+                       params=planned.params, source="user")
+        self.state.introduced.add(task_id)
+        return task_id
 
     def _referee(self, now: float) -> None:
         gw = self.goal_watch
