@@ -36,7 +36,6 @@ EXPERIMENT_WORLDS = {"longterm": "longterm", "boxpush": "boxpush"}
 KEY_ENV = "MURDOCH_TEAM_KEY"
 STALL_LIMIT_S = 180.0
 EPOCH_ENV = "MURDOCH_RUN_EPOCH"
-LOSS_ENV = "MURDOCH_BUS_LOSS"
 _DURATION_RE = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*([smh]?)\s*$")
 
 
@@ -303,6 +302,8 @@ def run_experiment(
     from experiments.summary import terminal_state_problems
     from experiments.task_source import boxpush_task, longterm_tasks
     from murdoch.auth import TeamKey
+    from murdoch.lossy import ENV as LOSS_ENV
+    from murdoch.lossy import LossSpec, LossyReceiver
     from murdoch.multicast import MulticastConfig, MulticastTransport
     from murdoch.node import Node
     from murdoch.transport import TickConfig
@@ -389,8 +390,11 @@ def run_experiment(
         cpus=split.serving if split is not None else None,
     )
     env = {**os.environ, KEY_ENV: secret, EPOCH_ENV: epoch}
-    if extras.bus_loss is not None:
+    bus_loss = None
+    if extras.bus_loss is not None and not lockstep:
+        # every receiver of the bus, the runner's node included, drops and delays
         env[LOSS_ENV] = extras.bus_loss
+        bus_loss = LossyReceiver(LossSpec.parse(extras.bus_loss), "user", time.monotonic)
     tails: dict[str, tuple[JsonlTail, JsonlTail]] = {}
     ports: dict[str, int] = {}
 
@@ -413,7 +417,8 @@ def run_experiment(
     ticks = TickConfig(user_tick, epoch=epoch, ordered=lockstep, late_joiner=False,
                        stale_after_ticks=0 if lockstep else 100, require_tick=True)
     transport = MulticastTransport("user", sim_now, MulticastConfig(port=mcast_port),
-                                   key=TeamKey(secret), instance="0", ticks=ticks)
+                                   key=TeamKey(secret), instance="0", ticks=ticks,
+                                   loss=bus_loss)
     loop_ref: list[RunLoop] = []
     node = Node(transport, sim_now, agent_id="user",
                 observer=lambda e: loop_ref[0].on_auction_event(e.to_dict()),

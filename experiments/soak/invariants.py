@@ -7,9 +7,9 @@ counter-example:
 - `terminal_states`: every task introduced ends in exactly one terminal state (no second
   outcome, no outcome of a task never introduced, none left open at the end);
 - `exclusive_execution`: no task is executed by two robots at once for longer than
-  `OVERLAP_GRACE_S` of simulated time (a robot executes from its `robot_task` start until its own end of that task,
-  its death, or its switch-off; a frozen robot's execution is suspended and resumes at its
-  thaw);
+  `OVERLAP_GRACE_S` of simulated time (a robot executes from its `robot_task` start until
+  its own end of that task, its death, or its switch-off; a frozen robot's execution is
+  suspended and resumes at its thaw);
 - `reallocation_bound`: every task held by a robot when it was killed, frozen, switched off or
   died is back at auction (`reallocation`) or ended within `realloc_bound_s` (a frozen holder
   that is continued within the bound and keeps its task also satisfies it);
