@@ -40,6 +40,7 @@ from player_server.client import PlayerClient, PlayerConnectionError, PlayerErro
 log = logging.getLogger("murdoch-robot")
 PROFILE_ENV = "MURDOCH_ROBOT_PROFILE_DIR"
 KEY_ENV = "MURDOCH_TEAM_KEY"
+LOCKSTEP_REQUEST_TIMEOUT_S = 60.0
 EPOCH_ENV = "MURDOCH_RUN_EPOCH"
 STALE_AFTER_TICKS = 100
 """Outside lockstep, datagrams stamped more than this many ticks (10 s) ago are refused."""
@@ -128,7 +129,10 @@ def main(argv: list[str] | None = None) -> int:
         events.add_sink(on_event)
 
     battery = None if args.no_battery else BatteryPolicy(args.battery_low, args.battery_resume)
-    client = PlayerClient(args.host, args.port, lockstep=True if args.lockstep_bus else None)
+    # in lockstep a busy machine may keep the serving thread from answering for seconds; the
+    # wall clock only bounds waiting there (the runner's own stall limit ends a stuck run)
+    client = PlayerClient(args.host, args.port, lockstep=True if args.lockstep_bus else None,
+                          timeout_s=LOCKSTEP_REQUEST_TIMEOUT_S if args.lockstep_bus else 5.0)
     code = 0
     auction_log: IO[str] | None = None
     transport = link = None
