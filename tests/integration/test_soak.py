@@ -60,7 +60,6 @@ def test_an_hour_under_random_faults_keeps_every_invariant(
     for kind in ("robot_failure:killed", "robot_freeze", "robot_thaw", "robot_switch_off",
                  "charger_off", "charger_on", "task_burst"):
         assert injected.get(kind, 0) >= 1, (kind, injected)
-    assert injected.get("robot_failure:exited", 0) == 0, injected
     assert report["reallocation_latency_s"]["count"] >= 1
     assert report["reallocation_latency_s"]["max"] <= report["limits"]["realloc_bound_s"]
     assert report["tasks_total"]["introduced"] >= 15 + 10
