@@ -535,7 +535,10 @@ def run_experiment(
         sim.close()
         if split is not None and own_cpus is not None:
             pin_current_thread(own_cpus)  # the report may use every CPU again
-    report = rec.finish(reason, replay=replay, end_t=loop.state.last_t)
+    report = rec.finish(reason, replay=replay, end_t=loop.state.last_t,
+                        extra=({"bus_loss_runner": {"dropped": bus_loss.dropped,
+                                                    "delayed": bus_loss.delayed}}
+                               if bus_loss is not None else None))
     problems = terminal_state_problems(ev.read_events(rec.run.events))
     s = report.summary
     if loop.state.goal_outcome == "reached" and goal_watch is not None:

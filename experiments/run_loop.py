@@ -11,7 +11,9 @@ once every robot has finished the previous tick and asked for this one). There i
 2. reads what the robots wrote (events, auction events) for the previous tick, robots in
    name order;
 3. applies the fault schedule entries due at this tick (kill, restart, switch off, switch
-   on); a robot started here is expected by the lockstep before the next tick;
+   on; for soak runs also freeze and thaw, switch-off for good, charger off and on, and task
+   bursts); a robot started (or continued) here is expected by the lockstep before the next
+   tick;
 4. introduces due tasks, watches the goal (boxpush), ends the run when its end is decided;
 5. steps its MURDOCH node (auctions, awards, renewals, reintroduction with backoff).
 
@@ -282,7 +284,7 @@ class RunLoop:
                 getattr(self, "_" + fault.action.replace("-", "_"))(name, now)
 
     def _kill(self, name: str, now: float) -> None:
-        self._unfreeze_quietly(name)
+        self._unfreeze_quietly(name, resume=False)
         self.scheduled_down.add(name)
         pid = self.processes.kill(name)
         self.rec.event(now, ev.ROBOT_FAILURE, robot=name, reason="killed")
@@ -293,7 +295,7 @@ class RunLoop:
         self.rec.event(now, ev.ROBOT_RESTART, robot=name)
 
     def _start(self, name: str, now: float) -> int:
-        self._unfreeze_quietly(name)
+        self._unfreeze_quietly(name, resume=False)
         self.processes.kill(name)  # a process still running is replaced
         pid = self.processes.start(name)
         self.rec.note_process(now, "started", name, pid)
@@ -367,20 +369,25 @@ class RunLoop:
         self._unfreeze_quietly(name)
         self.rec.event(now, ev.ROBOT_THAW, robot=name)
 
-    def _unfreeze_quietly(self, name: str) -> None:
+    def _unfreeze_quietly(self, name: str, *, resume: bool = True) -> None:
+        """Forget a freeze; `resume` continues the process (else it is about to be killed,
+        which works on a stopped process, so it never runs again in between)."""
         if name in self.frozen:
             self.frozen.discard(name)
             assert self.hold_clock is not None
-            pid = self.processes.pause(name, False)
-            self.hold_clock(name, True)
-            self.rec.note_process(float(self.sim.time_s), "continued", name, pid)
+            if resume:
+                pid = self.processes.pause(name, False)
+                self.hold_clock(name, True)
+                self.rec.note_process(float(self.sim.time_s), "continued", name, pid)
+            # killed: its session stays out of the lockstep until it closes; a new process
+            # comes with a session of its own
 
     def _retire(self, name: str, now: float) -> None:
         """Switched off for good: the process is killed and never started again."""
         if name in self.scheduled_down:
             self._skip("retire", name, now, "already down")
             return
-        self._unfreeze_quietly(name)
+        self._unfreeze_quietly(name, resume=False)
         self.scheduled_down.add(name)
         pid = self.processes.kill(name)
         self.rec.event(now, ev.ROBOT_SWITCH_OFF, robot=name, permanent=True)

@@ -129,7 +129,9 @@ def build_report(run_dir: Path, *, plots: bool = True) -> dict[str, Any]:
         "faults_scheduled": len(config_faults),
         "faults_injected": dict(sorted(fault_counts.items())),
         "fault_effects": effects,
-        "wall_time_s": _wall_time(samples),
+        "wall_time_s": _run_wall(samples).get("wall_s"),
+        "bus_loss": {**(soak_cfg.get("bus_loss") or {}),
+                     **(_run_wall(samples).get("bus_loss_runner") or {})} or None,
     }
     (run.root / SOAK_JSON).write_text(json.dumps(report, indent=2) + "\n")
     (run.root / SOAK_MD).write_text(markdown(report))
@@ -138,11 +140,11 @@ def build_report(run_dir: Path, *, plots: bool = True) -> dict[str, Any]:
     return report
 
 
-def _wall_time(samples: Iterable[Mapping[str, Any]]) -> float | None:
+def _run_wall(samples: Iterable[Mapping[str, Any]]) -> Mapping[str, Any]:
     for s in samples:
         if s.get("kind") == ev.RUN_WALL:
-            return float(s.get("wall_s", s.get("wall_time_s", 0.0)) or 0.0) or None
-    return None
+            return s
+    return {}
 
 
 def _fault_effects(faults: list[dict[str, Any]], latencies: list[dict[str, Any]]
@@ -219,6 +221,9 @@ def markdown(r: Mapping[str, Any]) -> str:
             effect = "held no task"
         lines.append(f"| {f['t']:.1f} | {f['kind']} {f.get('reason', '')} | {target} | "
                      f"{effect} |")
+    if r.get("bus_loss"):
+        lines += ["", f"Loss on the bus (the runner's receiver): {json.dumps(r['bus_loss'])}"]
+    lines += ["", f"Wall time: {r.get('wall_time_s')} s"]
     lines += ["", "Plots: " + ", ".join(f"plots/{p}" for p in PLOT_FILES), ""]
     return "\n".join(lines)
 
@@ -241,6 +246,10 @@ def print_report(r: Mapping[str, Any], echo: Callable[[str], None]) -> None:
     echo(f"  memory slope (MiB per simulated hour): {slopes}")
     echo(f"  messages per hour {r['messages_per_hour']}")
     echo(f"  faults injected: {r['faults_injected']}")
+    if r.get("bus_loss"):
+        echo(f"  bus loss (the runner's receiver): {r['bus_loss']}")
+    if r.get("wall_time_s") is not None:
+        echo(f"  wall time {r['wall_time_s']:.0f} s")
     echo("all invariants held" if r["all_held"] else "error: an invariant broke")
 
 

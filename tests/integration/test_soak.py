@@ -28,7 +28,7 @@ def _murdoch() -> list[str]:
 def hour_soak(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str, int]:
     out = tmp_path_factory.mktemp("soak") / "runs"
     done = subprocess.run(
-        [*_murdoch(), "soak", "longterm", "--sim-hours", "1", "--seed", "2",
+        [*_murdoch(), "soak", "longterm", "--sim-hours", "1", "--seed", "4",
          "--faults", "random", "--out", str(out), "--task-interval", "120",
          "--kills-per-hour", "4", "--kill-down", "30s-2m", "--freezes-per-hour", "4",
          "--freeze-for", "5s-40s", "--charger-outages-per-hour", "3",
