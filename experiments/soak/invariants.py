@@ -248,6 +248,8 @@ class EventInvariants:
             self.executing[task].discard(robot)
         if suspend:
             self.suspended[robot] = set(tasks)
+        else:
+            self.suspended.pop(robot, None)  # killed while frozen: it never resumes those
         for task, holder in sorted(self.holder.items()):
             if holder == robot and task not in self.ended and task not in self.pending:
                 self.pending[task] = _Pending(t, robot, cause)
