@@ -392,23 +392,26 @@ def slope_per_hour(points: list[tuple[float, float]]) -> float:
 
 
 MIN_MEMORY_SAMPLES = 4
+WARMUP_S = 600.0
+"""A process's first simulated minutes (imports, first tasks, buffers) are not judged."""
 
 
 def memory_slopes(samples: Iterable[Mapping[str, Any]], end_t: float,
                   limit_mib_per_h: float) -> tuple[Verdict, dict[str, dict[str, Any]]]:
     """From `process` samples (name, pid, rss_bytes, t): for each process name, the slope of
-    its longest-lived pid's RSS over the second half of the run, in MiB per simulated hour."""
+    its longest-lived pid's RSS over the second half of the run (and after its first
+    `WARMUP_S`), in MiB per simulated hour."""
     series: dict[tuple[str, int], list[tuple[float, float]]] = {}
     for s in samples:
         if s.get("kind") != "process":
             continue
-        t = float(s["t"])
-        if t < end_t / 2.0:
-            continue
         series.setdefault((str(s["name"]), int(s["pid"])), []).append(
-            (t, float(s["rss_bytes"]) / (1 << 20)))
+            (float(s["t"]), float(s["rss_bytes"]) / (1 << 20)))
     by_name: dict[str, list[tuple[float, float]]] = {}
     for (name, _pid), pts in sorted(series.items()):
+        # a process restarted late in the run is judged after it has warmed up
+        since = max(end_t / 2.0, pts[0][0] + WARMUP_S)
+        pts = [p for p in pts if p[0] >= since]
         if len(pts) > len(by_name.get(name, ())):
             by_name[name] = pts
     v = Verdict("memory_flat", DESCRIPTIONS["memory_flat"])

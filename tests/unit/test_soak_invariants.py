@@ -179,6 +179,12 @@ def test_memory_slope_over_the_second_half() -> None:
     assert per["runner"]["slope_mib_per_h"] == pytest.approx(1500 * 3600 / (1 << 20), rel=0.01)
     v, _ = memory_slopes(flat[:3], 7200.0, 2.0)
     assert not v.checked and v.held
+    # a robot restarted late warms up (its first simulated minutes are not judged)
+    restarted = [{"kind": "process", "t": float(t), "name": "robot-p1", "pid": 7,
+                  "rss_bytes": (20 << 20) + min(t - 5400, 300) * 10_000}
+                 for t in range(5400, 7200, 30)]
+    v, per = memory_slopes([*flat, *restarted], 7200.0, 2.0)
+    assert v.held and abs(per["robot-p1"]["slope_mib_per_h"]) < 0.1
 
 
 def test_the_random_schedule_is_seeded_and_its_robot_episodes_never_overlap() -> None:
