@@ -26,9 +26,12 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
+
+if TYPE_CHECKING:
+    from experiments.run_extras import RunExtras
 
 log = logging.getLogger("murdoch.run")
 
@@ -101,11 +104,10 @@ def _place(sim: Any, name: str, pose: tuple[float, float, float],
 
 def _stop_robot(rp: RobotProcess, *, kill: bool = False, timeout_s: float = 5.0) -> None:
     if rp.proc is not None and rp.proc.poll() is None:
-        if not kill:
-            rp.proc.send_signal(signal.SIGCONT)  # a stopped process could not end itself
         if kill:
             rp.proc.kill()
         else:
+            rp.proc.send_signal(signal.SIGCONT)  # a stopped (frozen) process could not end
             rp.proc.terminate()
         try:
             rp.proc.wait(timeout_s)
@@ -291,7 +293,7 @@ def run_experiment(
     switch_ons: list[tuple[str, float]] | None = None, goal_radius_m: float | None = None,
     pipelined: bool = True, robot_nice: int = 0, pin_cpus: bool = False,
     key: str | None = None, record: bool = True, record_rate_hz: float = 2.0,
-    extras: Any = None,
+    extras: RunExtras | None = None,
 ) -> int:
     from experiments import boxpush as bp
     from experiments import events as ev
