@@ -155,6 +155,7 @@ class RunLoop:
         self.burst = burst
         self.frozen: set[str] = set()
         self.busy_frozen: list[str] = []
+        self.episodes: list[str | None] = []
 
     # -- the hook -------------------------------------------------------------------------------
     def on_round(self) -> None:
@@ -257,7 +258,15 @@ class RunLoop:
         while self.faults and self.faults[0].t_s <= now + 1e-9:
             fault = self.faults.pop(0)
             name = fault.robot
-            if name == "busy":
+            if name == "same":
+                # the robot the latest busy kill or freeze picked (None: it found nobody)
+                picked_last = self.episodes.pop() if self.episodes else None
+                if picked_last is None:
+                    self.rec.event(now, ev.FAULT_SKIPPED, action=fault.action, robot="same",
+                                   reason="its kill or freeze found nobody busy")
+                    continue
+                name = picked_last
+            elif name == "busy":
                 picked = self.busy_frozen if fault.action in ("freeze", "thaw") else \
                     self.busy_killed
                 if fault.action in ("kill", "freeze"):
@@ -267,8 +276,10 @@ class RunLoop:
                     if not working:
                         self.rec.event(now, ev.FAULT_SKIPPED, action=fault.action,
                                        robot="busy", reason="no robot holds a task")
+                        self.episodes.append(None)
                         continue
                     picked.append(working[0])
+                    self.episodes.append(working[0])
                     name = working[0]
                 elif picked:
                     name = picked[-1]

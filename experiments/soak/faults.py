@@ -2,10 +2,12 @@
 
 Robot faults come as episodes that never overlap one another, so each one's effect can be
 told apart: a process killed and restarted, or a process frozen (stopped) and continued.
-Their target is `busy` (the first mobile robot holding a task at that tick, resolved by the
-runner; a fault that finds nobody busy is recorded as `fault_skipped`). One named robot is
-switched off for good part-way through, outside every episode. Charger outages (one charger
-at a time) and task bursts are drawn independently. Times are simulated seconds.
+A kill or freeze aims at `busy` (the first mobile robot holding a task at that tick, resolved
+by the runner; a fault that finds nobody busy is recorded as `fault_skipped`), and its restart
+or thaw at `same` (the robot that kill or freeze picked; skipped too when it found nobody).
+One named robot is switched off for good part-way through, outside every episode. Charger
+outages (one charger at a time) and task bursts are drawn independently. Times are simulated
+seconds.
 """
 
 from __future__ import annotations
@@ -80,7 +82,7 @@ def draw_schedule(rng: random.Random, span_s: float, mobile: list[str], chargers
     for start, end, kind in episodes:
         back = "restart" if kind == "kill" else "thaw"
         out.append(Fault(round(start, 1), kind, "busy"))
-        out.append(Fault(round(end, 1), back, "busy"))
+        out.append(Fault(round(end, 1), back, "same"))
     # charger outages, one charger at a time
     t = lo
     while chargers and mix.charger_outages_per_h > 0:
@@ -131,7 +133,8 @@ def load_schedule(path: Path, robots: list[str], chargers: list[str]) -> list[Fa
             raise FaultFileError(f"{where}: t_s must be simulated seconds >= 0, found {t!r}")
         target = d.get("robot", "")
         if action in ROBOT_ACTIONS:
-            allowed = [*robots, "busy"] if action != "retire" else robots
+            allowed = ([*robots, "busy"] if action in ("kill", "freeze")
+                       else [*robots, "same"] if action in ("restart", "thaw") else robots)
             if target not in allowed:
                 raise FaultFileError(f"{where}: robot must be one of {', '.join(allowed)}, "
                                      f"found {target!r}")
