@@ -217,6 +217,8 @@ def _team_transport(args: argparse.Namespace, name: str, agent: Any, client: Pla
     gives them, through the environment) and, in a lockstep run, its tick sync."""
     from behaviors.murdoch_link import TickSync
     from murdoch.auth import TeamKey
+    from murdoch.lossy import ENV as LOSS_ENV
+    from murdoch.lossy import LossSpec, LossyReceiver
     from murdoch.multicast import MulticastConfig, MulticastTransport
     from murdoch.transport import TickConfig
     from player_server.client import OpaqueProxy
@@ -231,10 +233,13 @@ def _team_transport(args: argparse.Namespace, name: str, agent: Any, client: Pla
     ticks = TickConfig(tick, epoch=os.environ.get(EPOCH_ENV, ""), ordered=args.lockstep_bus,
                        stale_after_ticks=0 if args.lockstep_bus else STALE_AFTER_TICKS,
                        require_tick=key is not None)
+    loss_text = os.environ.get(LOSS_ENV, "")
+    loss = (LossyReceiver(LossSpec.parse(loss_text), name, time.monotonic)
+            if loss_text and not args.lockstep_bus else None)
     transport = MulticastTransport(
         name, lambda: float(agent.status().time_s),
         MulticastConfig(group=args.mcast_group, port=args.mcast_port), key=key,
-        instance=args.instance or None, ticks=ticks,
+        instance=args.instance or None, ticks=ticks, loss=loss,
     )
     sync = None
     if args.lockstep_bus:

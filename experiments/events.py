@@ -59,6 +59,16 @@ BOX_PROGRESS = "box_progress"
 """boxpush: the box's ground-truth distance to the goal, once per simulated second."""
 GOAL_MOVED = "goal_moved"
 """boxpush: the goal marker moved (a moving goal, or a new goal for the watch task)."""
+ROBOT_FREEZE = "robot_freeze"
+"""(soak) a robot's process was stopped; it no longer holds the lockstep clock."""
+ROBOT_THAW = "robot_thaw"
+"""(soak) the stopped process continued."""
+CHARGER_OFF = "charger_off"
+"""(soak) a charging pad stopped charging."""
+CHARGER_ON = "charger_on"
+"""(soak) it charges again."""
+TASK_BURST = "task_burst"
+"""(soak) many tasks introduced at one tick (after their own task_introduced events)."""
 
 COMPLETED = "completed"
 FAILED = "failed"
@@ -102,6 +112,11 @@ REQUIRED_FIELDS: dict[str, tuple[str, ...]] = {
     NO_BID: ("task", "attempt"),
     BOX_PROGRESS: ("distance_m",),
     GOAL_MOVED: ("x", "y"),
+    ROBOT_FREEZE: ("robot",),
+    ROBOT_THAW: ("robot",),
+    CHARGER_OFF: ("charger",),
+    CHARGER_ON: ("charger",),
+    TASK_BURST: ("count",),
 }
 
 

@@ -26,9 +26,12 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
+
+if TYPE_CHECKING:
+    from experiments.run_extras import RunExtras
 
 log = logging.getLogger("murdoch.run")
 
@@ -105,6 +108,7 @@ def _stop_robot(rp: RobotProcess, *, kill: bool = False, timeout_s: float = 5.0)
         if kill:
             rp.proc.kill()
         else:
+            rp.proc.send_signal(signal.SIGCONT)  # a stopped (frozen) process could not end
             rp.proc.terminate()
         try:
             rp.proc.wait(timeout_s)
@@ -279,6 +283,14 @@ class RobotSupervisor:
                     rp.proc = None
         return out
 
+    def pause(self, name: str, paused: bool) -> int | None:
+        with self._lock:
+            proc = self.robots[name].proc
+            if proc is None or proc.poll() is not None:
+                return None
+            proc.send_signal(signal.SIGSTOP if paused else signal.SIGCONT)
+            return proc.pid
+
     def alive_test(self, name: str) -> Callable[[], bool]:
         """A test of whether the robot's current process is still running."""
         rp = self.robots[name]
@@ -332,6 +344,7 @@ def run_experiment(
     pipelined: bool = True, robot_nice: int = 0, pin_cpus: bool = False,
     key: str | None = None, trails: int = 0, lasers: bool = False, record: bool = True,
     record_rate_hz: float = 2.0, goal_plan: Any = None, metric_terms: tuple[str, ...] = (),
+    extras: RunExtras | None = None,
 ) -> int:
     from experiments import boxpush as bp
     from experiments import events as ev
@@ -344,10 +357,13 @@ def run_experiment(
         describe_os_error,
         load_run_world,
     )
+    from experiments.run_extras import RunExtras
     from experiments.run_loop import Fault, RunLoop
     from experiments.summary import terminal_state_problems
     from experiments.task_source import boxpush_task, longterm_tasks
     from murdoch.auth import TeamKey
+    from murdoch.lossy import ENV as LOSS_ENV
+    from murdoch.lossy import LossSpec, LossyReceiver
     from murdoch.multicast import MulticastConfig, MulticastTransport
     from murdoch.node import Node
     from murdoch.transport import TickConfig
@@ -360,6 +376,7 @@ def run_experiment(
     from player_server.sim import Simulation
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    extras = extras if extras is not None else RunExtras()
     spec = load_run_world(world_name)
     lockstep = speedup == 0
     switch_offs, switch_ons = list(switch_offs or ()), list(switch_ons or ())
@@ -415,6 +432,7 @@ def run_experiment(
         })
     if metric_terms:
         config["metric_terms"] = list(metric_terms)
+    config.update(extras.config)
     try:
         rec = RunRecorder(out, experiment, config, world=spec, started=datetime.now(),
                           wall_clock=time.monotonic, stream=sys.stdout, meshcat=meshcat,
@@ -424,6 +442,8 @@ def run_experiment(
         raise RunSetupError(describe_os_error(
             exc, f"--out {out}: cannot create the run directory")) from exc
     click.echo(f"run directory: {rec.run.root}")
+    if extras.on_run_dir is not None:
+        extras.on_run_dir(rec.run.root)
     sim = Simulation(spec, seed=seed)
     endpoints = world_endpoints(spec, sim, 0)
     team_clock = TeamClock() if lockstep else None
@@ -446,6 +466,11 @@ def run_experiment(
         cpus=split.serving if split is not None else None,
     )
     env = {**os.environ, KEY_ENV: secret, EPOCH_ENV: epoch}
+    bus_loss = None
+    if extras.bus_loss is not None and not lockstep:
+        # every receiver of the bus, the runner's node included, drops and delays
+        env[LOSS_ENV] = extras.bus_loss
+        bus_loss = LossyReceiver(LossSpec.parse(extras.bus_loss), "user", time.monotonic)
     tails: dict[str, tuple[JsonlTail, JsonlTail]] = {}
     ports: dict[str, int] = {}
 
@@ -475,7 +500,8 @@ def run_experiment(
     ticks = TickConfig(user_tick, epoch=epoch, ordered=lockstep, late_joiner=False,
                        stale_after_ticks=0 if lockstep else 100, require_tick=True)
     transport = MulticastTransport("user", sim_now, MulticastConfig(port=mcast_port),
-                                   key=TeamKey(secret), instance="0", ticks=ticks)
+                                   key=TeamKey(secret), instance="0", ticks=ticks,
+                                   loss=bus_loss)
     loop_ref: list[RunLoop] = []
     node = Node(transport, sim_now, agent_id="user",
                 observer=lambda e: loop_ref[0].on_auction_event(e.to_dict()),
@@ -487,7 +513,13 @@ def run_experiment(
     faults = ([Fault(t, "kill", r) for r, t in kills]
               + [Fault(t, "restart", r) for r, t in restarts]
               + [Fault(t, "switch-off", r) for r, t in switch_offs]
-              + [Fault(t, "switch-on", r) for r, t in switch_ons])
+              + [Fault(t, "switch-on", r) for r, t in switch_ons] + list(extras.faults))
+
+    def hold_clock(name: str, hold: bool) -> None:
+        # on the serving thread: a stopped robot's session no longer holds the lockstep
+        for s in list(server.core.sessions.values()):
+            if s.endpoint.name == name:
+                s.lockstep_override = None if hold else False
     loop = RunLoop(
         rec=rec, sim=sim, node=node, transport=transport, processes=supervisor, tails=tails,
         planned=planned, task_subjects=lambda k: (), task_spec=_task_spec,
@@ -499,6 +531,10 @@ def run_experiment(
         boxpush=(goal_watch, actions) if goal_watch is not None else None,
         mobile=frozenset(r.name for r in spec.robots if r.mobile), spec=spec, place=_place,
         goal_plan=goal_plan,
+        hold_clock=hold_clock,
+        burst=(longterm_tasks(spec, random.Random(extras.burst_seed),
+                              mean_interval_s=task_interval_s)
+               if extras.burst_seed is not None else None),
     )
     loop_ref.append(loop)
     monitor = transport.subscribe(None, loop.on_message)
@@ -537,7 +573,7 @@ def run_experiment(
                 waiting_for_robots = False
                 sim.set_paused(False)
             if wall >= next_memory_wall:
-                next_memory_wall = wall + 30.0
+                next_memory_wall = wall + extras.memory_every_s
                 rec.sample_processes(sim_now(), {"runner": os.getpid(), **supervisor.pids()})
             if sim_now() != last_progress[0]:
                 last_progress = (sim_now(), wall)
@@ -589,7 +625,10 @@ def run_experiment(
             pin_current_thread(own_cpus)  # the report may use every CPU again
     keep_viewer = meshcat and reason == "completed"
     report = rec.finish(reason, replay=replay, end_t=loop.state.last_t,
-                        keep_viewer=keep_viewer)
+                        keep_viewer=keep_viewer,
+                        extra=({"bus_loss_runner": {"dropped": bus_loss.dropped,
+                                                    "delayed": bus_loss.delayed}}
+                               if bus_loss is not None else None))
     problems = terminal_state_problems(ev.read_events(rec.run.events))
     s = report.summary
     if loop.state.goal_outcome == "reached" and goal_watch is not None:

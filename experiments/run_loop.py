@@ -11,7 +11,9 @@ once every robot has finished the previous tick and asked for this one). There i
 2. reads what the robots wrote (events, auction events) for the previous tick, robots in
    name order;
 3. applies the fault schedule entries due at this tick (kill, restart, switch off, switch
-   on); a robot started here is expected by the lockstep before the next tick;
+   on; for soak runs also freeze and thaw, switch-off for good, charger off and on, and task
+   bursts); a robot started (or continued) here is expected by the lockstep before the next
+   tick;
 4. introduces due tasks, watches the goal (boxpush), ends the run when its end is decided;
 5. steps its MURDOCH node (auctions, awards, renewals, reintroduction with backoff).
 
@@ -46,11 +48,17 @@ BOX_PROGRESS_PERIOD_S = 1.0
 
 @dataclass(frozen=True)
 class Fault:
-    """One entry of the fault schedule: `action` on `robot` at simulation time `t_s`."""
+    """One entry of the fault schedule: `action` on `robot` at simulation time `t_s`.
+
+    Actions: kill, restart, switch-off, switch-on (boxpush), and for soak runs freeze, thaw
+    (a robot's process stopped and continued, `hold_clock`), retire (switched off for good),
+    charger-off, charger-on (`robot` names the charger) and burst (`count` tasks at once from
+    the burst source)."""
 
     t_s: float
-    action: str  # kill, restart, switch-off, switch-on
+    action: str
     robot: str
+    count: int = 0
 
     def label(self) -> str:
         return f"{self.robot}@{self.t_s:g}s"
@@ -71,6 +79,11 @@ class RobotProcesses(Protocol):
 
     def exited(self) -> list[tuple[str, int, int]]:
         """(name, pid, exit code) of processes that ended by themselves since last asked."""
+        ...
+
+    def pause(self, name: str, paused: bool) -> int | None:
+        """Stop (SIGSTOP) or continue (SIGCONT) the robot's process; its pid (None: not
+        running)."""
         ...
 
 
@@ -112,6 +125,8 @@ class RunLoop:
         spec: Any = None,
         place: Callable[..., None] | None = None,
         goal_plan: bp.GoalPlan | None = None,
+        hold_clock: Callable[[str, bool], None] | None = None,
+        burst: Iterator[PlannedTask | None] | None = None,
     ) -> None:
         self.rec = rec
         self.sim = sim
@@ -155,6 +170,11 @@ class RunLoop:
         self.worked_end: dict[str, str] = {}
         self.pending_on: dict[str, float] = {}
         self.scheduled_down: set[str] = set()
+        self.hold_clock = hold_clock
+        self.burst = burst
+        self.frozen: set[str] = set()
+        self.busy_frozen: list[str] = []
+        self.episodes: list[str | None] = []
 
     # -- the hook -------------------------------------------------------------------------------
     def on_round(self) -> None:
@@ -267,26 +287,44 @@ class RunLoop:
         while self.faults and self.faults[0].t_s <= now + 1e-9:
             fault = self.faults.pop(0)
             name = fault.robot
-            if name == "busy":
-                if fault.action == "kill":
+            if name == "same":
+                # the robot the latest busy kill or freeze picked (None: it found nobody)
+                picked_last = self.episodes.pop() if self.episodes else None
+                if picked_last is None:
+                    self.rec.event(now, ev.FAULT_SKIPPED, action=fault.action, robot="same",
+                                   reason="its kill or freeze found nobody busy")
+                    continue
+                name = picked_last
+            elif name == "busy":
+                picked = self.busy_frozen if fault.action in ("freeze", "thaw") else \
+                    self.busy_killed
+                if fault.action in ("kill", "freeze"):
                     working = [r for r, st in sorted(self.rec.robot_states().items())
                                if st == "working" and r in self.mobile
-                               and r not in self.scheduled_down]
+                               and r not in self.scheduled_down and r not in self.frozen]
                     if not working:
                         self.rec.event(now, ev.FAULT_SKIPPED, action=fault.action,
                                        robot="busy", reason="no robot holds a task")
+                        self.episodes.append(None)
                         continue
-                    self.busy_killed.append(working[0])
+                    picked.append(working[0])
+                    self.episodes.append(working[0])
                     name = working[0]
-                elif self.busy_killed:
-                    name = self.busy_killed[-1]
+                elif picked:
+                    name = picked[-1]
                 else:
                     self.rec.event(now, ev.FAULT_SKIPPED, action=fault.action, robot="busy",
-                                   reason="no robot was killed as busy")
+                                   reason="no robot was killed as busy"
+                                   if fault.action == "restart"
+                                   else "no robot was frozen as busy")
                     continue
-            getattr(self, "_" + fault.action.replace("-", "_"))(name, now)
+            if fault.action == "burst":
+                self._burst(name, now, fault.count)
+            else:
+                getattr(self, "_" + fault.action.replace("-", "_"))(name, now)
 
     def _kill(self, name: str, now: float) -> None:
+        self._unfreeze_quietly(name, resume=False)
         self.scheduled_down.add(name)
         pid = self.processes.kill(name)
         self.rec.event(now, ev.ROBOT_FAILURE, robot=name, reason="killed")
@@ -297,6 +335,7 @@ class RunLoop:
         self.rec.event(now, ev.ROBOT_RESTART, robot=name)
 
     def _start(self, name: str, now: float) -> int:
+        self._unfreeze_quietly(name, resume=False)
         self.processes.kill(name)  # a process still running is replaced
         pid = self.processes.start(name)
         self.rec.note_process(now, "started", name, pid)
@@ -385,21 +424,97 @@ class RunLoop:
         if robot is not None and self.push_holder.get(robot, ("", ""))[1] == task_id:
             del self.push_holder[robot]
 
+    # -- soak faults ------------------------------------------------------------------------------
+    def _skip(self, fault: str, name: str, now: float, why: str) -> None:
+        self.rec.event(now, ev.FAULT_SKIPPED, action=fault, robot=name, reason=why)
+
+    def _freeze(self, name: str, now: float) -> None:
+        """The robot's process is stopped where it stands: it has finished the previous tick
+        and waits for this one. It no longer holds the lockstep clock (the world goes on
+        without it, its Player session silent, so the server's watchdog stops its motors)."""
+        if name in self.scheduled_down or name in self.frozen:
+            self._skip("freeze", name, now, "down" if name in self.scheduled_down
+                       else "already frozen")
+            return
+        assert self.hold_clock is not None
+        pid = self.processes.pause(name, True)
+        if pid is None:
+            self._skip("freeze", name, now, "not running")
+            return
+        self.frozen.add(name)
+        self.hold_clock(name, False)
+        self.rec.event(now, ev.ROBOT_FREEZE, robot=name)
+        self.rec.note_process(now, "stopped", name, pid)
+
+    def _thaw(self, name: str, now: float) -> None:
+        """The stopped process continues: it reads the round it was waiting for, then the
+        current one; the lockstep waits for it again from this tick."""
+        if name not in self.frozen:
+            self._skip("thaw", name, now, "not frozen")
+            return
+        self._unfreeze_quietly(name)
+        self.rec.event(now, ev.ROBOT_THAW, robot=name)
+
+    def _unfreeze_quietly(self, name: str, *, resume: bool = True) -> None:
+        """Forget a freeze; `resume` continues the process (else it is about to be killed,
+        which works on a stopped process, so it never runs again in between)."""
+        if name in self.frozen:
+            self.frozen.discard(name)
+            assert self.hold_clock is not None
+            if resume:
+                pid = self.processes.pause(name, False)
+                self.hold_clock(name, True)
+                self.rec.note_process(float(self.sim.time_s), "continued", name, pid)
+            # killed: its session stays out of the lockstep until it closes; a new process
+            # comes with a session of its own
+
+    def _retire(self, name: str, now: float) -> None:
+        """Switched off for good: the process is killed and never started again."""
+        if name in self.scheduled_down:
+            self._skip("retire", name, now, "already down")
+            return
+        self._unfreeze_quietly(name, resume=False)
+        self.scheduled_down.add(name)
+        pid = self.processes.kill(name)
+        self.rec.event(now, ev.ROBOT_SWITCH_OFF, robot=name, permanent=True)
+        self.rec.note_process(now, "switched-off", name, pid)
+
+    def _charger_off(self, name: str, now: float) -> None:
+        self.sim.set_charger_enabled(name, False)
+        self.rec.event(now, ev.CHARGER_OFF, charger=name)
+
+    def _charger_on(self, name: str, now: float) -> None:
+        self.sim.set_charger_enabled(name, True)
+        self.rec.event(now, ev.CHARGER_ON, charger=name)
+
+    def _burst(self, name: str, now: float, count: int) -> None:
+        """`count` tasks from the burst source introduced at this tick."""
+        assert self.burst is not None
+        ids = []
+        for _ in range(count):
+            planned = next(self.burst)
+            if planned is None:
+                break
+            ids.append(self._announce(planned, now))
+        self.rec.event(now, ev.TASK_BURST, count=len(ids), tasks=ids)
+
     # -- tasks and the referee ---------------------------------------------------------------
     def _introduce(self, now: float) -> None:
-        st = self.state
         while (self.next_task is not None and self.next_task.t_s <= now
                and self.next_task.t_s < self.duration_s):
             planned = self.next_task
-            spec = self.task_spec(planned)
-            task_id = self.node.announce(spec, patience_s=PATIENCE_S)
-            self.rec.event(now, ev.TASK_INTRODUCED, task=task_id, task_kind=planned.kind,
-                           params=planned.params, source="user")
-            st.introduced.add(task_id)
+            task_id = self._announce(planned, now)
             if self.main_task is None:
                 self.main_task = task_id
                 self.task_params = dict(planned.params)
             self.next_task = next(self.planned)
+
+    def _announce(self, planned: PlannedTask, now: float) -> str:
+        task_id = str(self.node.announce(self.task_spec(planned), patience_s=PATIENCE_S))
+        self.rec.event(now, ev.TASK_INTRODUCED, task=task_id, task_kind=planned.kind,
+                       params=planned.params, source="user")
+        self.state.introduced.add(task_id)
+        return task_id
 
     def _goal(self, now: float) -> None:
         """boxpush: move a moving goal, and re-target the watch task when it is time."""
@@ -426,11 +541,7 @@ class RunLoop:
             params = dict(self.task_params)
             params["goal_colour"] = f"#{colour:06x}"
             params["duration_s"] = max(60.0, self.duration_s - now - 5.0)
-            planned = PlannedTask(now, "watch-box", params)
-            task_id = self.node.announce(self.task_spec(planned), patience_s=PATIENCE_S)
-            self.rec.event(now, ev.TASK_INTRODUCED, task=task_id, task_kind="watch-box",
-                           params=params, source="user")
-            self.state.introduced.add(task_id)
+            task_id = self._announce(PlannedTask(now, "watch-box", params), now)
             self.main_task = task_id
             self.rec.event(now, ev.GOAL_MOVED, marker=marker, x=round(xy[0], 3),
                            y=round(xy[1], 3), task=task_id, replaces=old)

@@ -38,6 +38,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from murdoch.auth import TeamKey
+from murdoch.lossy import LossyReceiver
 from murdoch.tick_order import LostDatagrams
 from murdoch.transport import (
     Clock,
@@ -137,8 +138,14 @@ class MulticastTransport(EndpointBacked):
         key: TeamKey | None = None,
         instance: str | None = None,
         ticks: TickConfig | None = None,
+        loss: LossyReceiver | None = None,
     ) -> None:
         from murdoch.auction.messages import AUCTION_CODEC
+
+        if loss is not None and ticks is not None and ticks.ordered:
+            raise ValueError("a loss layer cannot be used in lockstep (ordered ticks): a "
+                             "lost datagram is an error there")
+        self.loss = loss
 
         self.config = config or MulticastConfig()
         self._core = EndpointCore(
@@ -208,6 +215,7 @@ class MulticastTransport(EndpointBacked):
         receive = core.receive
         delivered = 0
         budget = max_datagrams
+        loss = self.loss
         for sock in self._read_order:
             recv = sock.recv
             while budget > 0:
@@ -216,6 +224,12 @@ class MulticastTransport(EndpointBacked):
                 except (BlockingIOError, InterruptedError):
                     break
                 budget -= 1
+                if loss is not None:
+                    loss.offer(datagram)
+                else:
+                    delivered += receive(datagram)
+        if loss is not None:
+            for datagram in loss.due():
                 delivered += receive(datagram)
         return delivered
 

@@ -148,6 +148,7 @@ class Simulation:
         self._robot_index = {r.name: i for i, r in enumerate(spec.robots)}
         self._active_ranges: set[tuple[int, str]] = set()
         self._active_cameras: set[int] = set()
+        self._chargers_off: set[str] = set()
         self._build()
 
     # ---- lifecycle -------------------------------------------------------------------------
@@ -237,6 +238,7 @@ class Simulation:
         """Rebuild the world from its spec at tick 0 (optionally with a new seed)."""
         if seed is not None:
             self.seed = seed
+        self._chargers_off.clear()
         self._build()
 
     def close(self) -> None:
@@ -354,6 +356,8 @@ class Simulation:
             frac = 0.5 * (abs(st.v) / p2d.max_speed_mps + abs(st.w) / p2d.max_yaw_rate_radps)
         charge = 0.0
         for c in self.spec.chargers:
+            if c.name in self._chargers_off:
+                continue
             if (st.x - c.x) ** 2 + (st.y - c.y) ** 2 <= c.radius_m ** 2:
                 charge = c.rate_w
                 break
@@ -1076,6 +1080,19 @@ class Simulation:
         b = st.battery
         b.joules = b.spec.capacity_j * fraction
         b.flat = b.fraction <= b.spec.flat_fraction
+
+    def set_charger_enabled(self, charger: str, enabled: bool) -> None:
+        """Switch a charging pad off (a robot on it no longer charges) or on again; from the
+        next step on, so it acts at a tick boundary."""
+        if charger not in {c.name for c in self.spec.chargers}:
+            raise KeyError(f"no charger named {charger!r}")
+        if enabled:
+            self._chargers_off.discard(charger)
+        else:
+            self._chargers_off.add(charger)
+
+    def charger_enabled(self, charger: str) -> bool:
+        return charger not in self._chargers_off
 
     # ---- fiducials -------------------------------------------------------------------------
     def fiducials(self, robot: str) -> tuple[Fiducial, ...]:

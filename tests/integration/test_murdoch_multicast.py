@@ -98,3 +98,36 @@ def test_garbage_on_the_group_is_counted_and_harmless(config: MulticastConfig) -
         poll_until([rx], lambda: bool(received.extend(sub.drain()) or received))
         assert [e.message.bidder for e in received] == ["tx"]
         assert sum(rx.counters.dropped.values()) == 5
+
+
+@pytest.mark.timeout(30)
+def test_a_seeded_loss_layer_drops_and_delays_what_one_receiver_reads(
+        config: MulticastConfig) -> None:
+    from murdoch.lossy import LossSpec, LossyReceiver
+    from murdoch.transport import TickConfig
+
+    got: list[Envelope] = []
+    loss = LossyReceiver(LossSpec(0.3, 0.05, 7), "lossy", time.monotonic)
+    sender = MulticastTransport("s", time.monotonic, config)
+    lossy = MulticastTransport("lossy", time.monotonic, config, loss=loss)
+    try:
+        lossy.subscribe({"task.t"}, callback=got.append)
+        for n in range(200):
+            sender.publish({"task.t"}, Bid("t", 1, f"x{n}", float(n)))
+        poll_until([lossy], lambda: loss.dropped + len(got) >= 200 and not loss.pending(),
+                   timeout_s=5.0)
+        assert loss.dropped + len(got) == 200
+        assert 30 <= loss.dropped <= 90 and loss.delayed > 0
+        scores = [e.message.score for e in got]
+        assert len(set(scores)) == len(scores)  # nothing twice
+        # the same seed and arrivals drop the same datagrams
+        again = LossyReceiver(LossSpec(0.3, 0.05, 7), "lossy", time.monotonic)
+        for n in range(200):
+            again.offer(str(n).encode())
+        assert again.dropped == loss.dropped
+    finally:
+        sender.close()
+        lossy.close()
+    with pytest.raises(ValueError, match="lockstep"):
+        MulticastTransport("x", time.monotonic, config, loss=loss,
+                           ticks=TickConfig(lambda: 0, ordered=True))

@@ -265,6 +265,24 @@ def test_battery_drains_stops_robot_and_charges(sim: Simulation) -> None:
     assert sim.odometry("r").vx > 0.0  # recovered above the resume fraction
 
 
+def test_a_charger_switched_off_charges_nobody_until_it_is_on_again(sim: Simulation) -> None:
+    sim.set_battery("r", 0.5)
+    sim.set_pose("r", -2.0, 1.0, 0.0)  # on the charger
+    sim.set_charger_enabled("dock", False)
+    assert not sim.charger_enabled("dock")
+    sim.step(5)
+    p = sim.power("r")
+    assert not p.charging and p.joules < 50.0
+    sim.set_charger_enabled("dock", True)
+    sim.step(5)
+    assert sim.power("r").charging and sim.power("r").joules > p.joules
+    with pytest.raises(KeyError, match="no charger named"):
+        sim.set_charger_enabled("nowhere", False)
+    sim.set_charger_enabled("dock", False)
+    sim.reset()
+    assert sim.charger_enabled("dock")
+
+
 def test_overhead_snapshot_fiducials_pause(sim: Simulation) -> None:
     seen = {t.name: t for t in sim.overhead()}
     assert set(seen) == {"r", "r2", "box", "red", "pick"}

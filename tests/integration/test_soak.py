@@ -1,0 +1,127 @@
+"""`murdoch soak`: a simulated hour of `longterm` under dense random faults keeps every
+invariant, and a broken invariant makes the command exit non-zero."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from experiments import events as ev
+from experiments.soak.report import PLOT_FILES, SOAK_JSON, SOAK_MD
+
+INVARIANTS = ("terminal_states", "exclusive_execution", "reallocation_bound", "charging",
+              "dead_controller_still", "memory_flat")
+
+
+def _murdoch() -> list[str]:
+    exe = Path(sys.executable).parent / "murdoch"
+    return [str(exe)] if exe.exists() else [sys.executable, "-m", "experiments.cli"]
+
+
+@pytest.fixture(scope="module")
+def hour_soak(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str, int]:
+    out = tmp_path_factory.mktemp("soak") / "runs"
+    done = subprocess.run(
+        [*_murdoch(), "soak", "longterm", "--sim-hours", "1", "--seed", "4",
+         "--faults", "random", "--out", str(out), "--task-interval", "120",
+         "--kills-per-hour", "4", "--kill-down", "30s-2m", "--freezes-per-hour", "4",
+         "--freeze-for", "5s-40s", "--charger-outages-per-hour", "3",
+         "--charger-outage", "3m-6m", "--burst-size", "15", "--memory-every", "2",
+         # a half-hour window cannot tell slow growth from warming up: the day-long soak
+         # keeps the default limit of 2 MiB per simulated hour
+         "--memory-slope-limit", "30"],
+        capture_output=True, text=True, timeout=3000)
+    (run_dir,) = out.iterdir()
+    return run_dir, done.stdout + done.stderr, done.returncode
+
+
+@pytest.mark.timeout(3600)
+def test_an_hour_under_random_faults_keeps_every_invariant(
+        hour_soak: tuple[Path, str, int]) -> None:
+    run_dir, output, code = hour_soak
+    assert code == 0, output[-3000:]
+    report = json.loads((run_dir / SOAK_JSON).read_text())
+    for name in INVARIANTS:
+        verdict = report["invariants"][name]
+        assert verdict["checked"] and verdict["held"], (name, verdict)
+    assert report["all_held"]
+    # every kind of fault was injected, and some took a task from its holder
+    config = json.loads((run_dir / "config.json").read_text())
+    actions = {f["action"] for f in config["faults"]}
+    assert {"kill", "restart", "freeze", "thaw", "retire", "charger-off", "charger-on",
+            "burst"} <= actions
+    injected = report["faults_injected"]
+    for kind in ("robot_failure:killed", "robot_freeze", "robot_thaw", "robot_switch_off",
+                 "charger_off", "charger_on", "task_burst"):
+        assert injected.get(kind, 0) >= 1, (kind, injected)
+    assert report["reallocation_latency_s"]["count"] >= 1
+    assert report["reallocation_latency_s"]["max"] <= report["limits"]["realloc_bound_s"]
+    assert report["tasks_total"]["introduced"] >= 15 + 10
+    assert report["messages_per_hour"][0] > 0 and report["bytes_per_hour"][0] > 0
+    assert report["memory"]["runner"]["slope_mib_per_h"] is not None
+    for plot in PLOT_FILES:
+        assert (run_dir / "plots" / plot).stat().st_size > 1000, plot
+    md = (run_dir / SOAK_MD).read_text()
+    assert "| reallocation_bound" in md and "held" in md
+    assert "all invariants held" in output
+
+
+@pytest.mark.timeout(600)
+def test_a_broken_invariant_fails_the_report_with_its_first_counter_example(
+        hour_soak: tuple[Path, str, int], tmp_path: Path) -> None:
+    run_dir, _, _ = hour_soak
+    broken = tmp_path / "broken"
+    shutil.copytree(run_dir, broken)
+    events = ev.read_events(broken / "events.jsonl")
+    first: dict[str, Any] = next(e for e in events if e["kind"] == ev.TASK_OUTCOME)
+    with (broken / "events.jsonl").open("a") as f:
+        f.write(json.dumps({"t": events[-1]["t"], "kind": ev.TASK_OUTCOME,
+                            "task": first["task"], "outcome": "failed"}) + "\n")
+    done = subprocess.run([*_murdoch(), "soak-report", str(broken)], capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 3, done.stdout + done.stderr
+    assert "BROKEN" in done.stdout and "terminal_states" in done.stdout
+    assert first["task"] in done.stdout and "a second terminal state" in done.stdout
+    report = json.loads((broken / SOAK_JSON).read_text())
+    assert not report["all_held"] and not report["invariants"]["terminal_states"]["held"]
+    # the original still holds
+    again = subprocess.run([*_murdoch(), "soak-report", str(run_dir)], capture_output=True,
+                           text=True, timeout=300)
+    assert again.returncode == 0, again.stdout + again.stderr
+
+
+@pytest.mark.timeout(900)
+def test_a_soak_whose_invariant_breaks_exits_3(tmp_path: Path) -> None:
+    """A bound no reallocation can meet (0 s) on a run that kills a holder."""
+    faults = tmp_path / "faults.json"
+    faults.write_text(json.dumps([{"t_s": 30, "action": "kill", "robot": "busy"}]))
+    out = tmp_path / "runs"
+    done = subprocess.run(
+        [*_murdoch(), "soak", "longterm", "--sim-hours", "0.025", "--seed", "1",
+         "--faults", str(faults), "--realloc-bound", "0", "--out", str(out), "--no-record"],
+        capture_output=True, text=True, timeout=800)
+    assert done.returncode == 3, (done.stdout + done.stderr)[-3000:]
+    assert "soak: invariant reallocation_bound broken" in done.stdout
+    (run_dir,) = out.iterdir()
+    report = json.loads((run_dir / SOAK_JSON).read_text())
+    verdict = report["invariants"]["reallocation_bound"]
+    assert not verdict["held"] and verdict["first_counter_example"]["cause"] == "killed"
+    assert not report["invariants"]["dead_controller_still"]["checked"]  # no run.mcap
+
+
+def test_a_bad_fault_file_is_named_without_a_traceback(tmp_path: Path) -> None:
+    faults = tmp_path / "faults.json"
+    faults.write_text(json.dumps([{"t_s": 30, "action": "kill", "robot": "p42"}]))
+    done = subprocess.run([*_murdoch(), "soak", "longterm", "--faults", str(faults),
+                           "--out", str(tmp_path / "runs")], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 2
+    assert str(faults) in done.stderr and "p42" in done.stderr
+    assert "Traceback" not in done.stderr
+    assert not (tmp_path / "runs").exists()
