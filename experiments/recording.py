@@ -217,11 +217,13 @@ class RunRecording:
             name = s.name
             if s.odometry:
                 o = sim.odometry(name)
+                cmd_v, cmd_w = sim.drive_command(name)
                 put(topic(name, ch.ODOMETRY), t, {
                     "timestamp": ch.stamp(t), "x": round(float(o.x), 4),
                     "y": round(float(o.y), 4), "yaw": round(float(o.yaw), 4),
                     "vx": round(float(o.vx), 4), "vy": round(float(o.vy), 4),
-                    "vyaw": round(float(o.vyaw), 4), "stall": bool(o.stall)})
+                    "vyaw": round(float(o.vyaw), 4), "stall": bool(o.stall),
+                    "cmd_vx": round(float(cmd_v), 4), "cmd_vyaw": round(float(cmd_w), 4)})
             if s.laser is not None:
                 mx, my, mz, myaw, lo, hi = s.laser
                 ranges = _ranges(sim.laser(name))

@@ -17,8 +17,10 @@ counter-example:
   reaches a charger (`charge_start`) within `charge_bound_s`, the bound stretched by any
   charger outage in between.
 
-Two more are checked at the end from other files: `dead_controller_still` (no robot moves while
-its controller is dead, from the recorded odometry, `check_dead_controllers`) and
+Two more are checked at the end from other files: `dead_controller_still` (no robot drives while
+its controller is dead: the drive command recorded with each odometry sample must be zero once
+the watchdog had time to act, `check_dead_controllers`; a parked robot that others bump moves
+without driving) and
 `memory_flat` (least-squares slope of each process's resident memory over the second half of
 the run, `memory_slopes`).
 """
@@ -355,13 +357,15 @@ def dead_spans(events: Iterable[Mapping[str, Any]], end_t: float) -> dict[str, l
 
 
 def check_dead_controllers(spans: Mapping[str, list[tuple[float, float]]],
-                           odometry: Iterable[tuple[str, float, float, float]]) -> Verdict:
-    """`odometry`: (robot, t, forward speed, yaw rate) samples in any order. A sample inside a
-    dead span, more than `DEAD_GRACE_S` after its start, must show a robot standing still."""
+                           drive: Iterable[tuple[str, float, float, float]],
+                           what: str = "drive commands") -> Verdict:
+    """`drive`: (robot, t, forward speed, yaw rate) samples in any order, the speeds the drive
+    was commanded to (a recording without commands gives the measured ones). A sample inside a
+    dead span, more than `DEAD_GRACE_S` after its start, must show a robot not driving."""
     v = Verdict("dead_controller_still", DESCRIPTIONS["dead_controller_still"])
     checked = 0
     first: tuple[float, dict[str, Any]] | None = None
-    for robot, t, vx, vyaw in odometry:
+    for robot, t, vx, vyaw in drive:
         for a, b in spans.get(robot, ()):
             if a + DEAD_GRACE_S <= t < b:
                 checked += 1
@@ -374,7 +378,7 @@ def check_dead_controllers(spans: Mapping[str, list[tuple[float, float]]],
     if first is not None:
         v.held = False
         v.first_counter_example = first[1]
-    v.note = f"{checked} odometry samples inside dead spans"
+    v.note = f"{checked} {what} inside dead spans"
     return v
 
 

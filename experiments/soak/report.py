@@ -44,14 +44,22 @@ def _stats(values: list[float]) -> dict[str, Any]:
             "mean": round(statistics.fmean(s), 3)}
 
 
-def _odometry(recording: Path, robots: list[str]) -> Iterator[tuple[str, float, float, float]]:
+def _drive(recording: Path, robots: list[str],
+           seen: list[str]) -> Iterator[tuple[str, float, float, float]]:
+    """Each odometry sample's drive command (`cmd_vx`, `cmd_vyaw`); a recording from before
+    commands were recorded gives the measured velocity instead. `seen` collects which."""
     from player_server.record.reader import iter_messages
 
     topics = [f"/{r}/odometry" for r in robots]
     for rec in iter_messages(recording, topics):
         d = rec.json()
-        yield rec.topic.split("/")[1], rec.t_s, float(d.get("vx", 0.0)), float(
-            d.get("vyaw", 0.0))
+        if "cmd_vx" in d:
+            kind, vx, vyaw = "drive commands", d["cmd_vx"], d.get("cmd_vyaw", 0.0)
+        else:
+            kind, vx, vyaw = "odometry samples", d.get("vx", 0.0), d.get("vyaw", 0.0)
+        if kind not in seen:
+            seen.append(kind)
+        yield rec.topic.split("/")[1], rec.t_s, float(vx), float(vyaw)
 
 
 def build_report(run_dir: Path, *, plots: bool = True) -> dict[str, Any]:
@@ -67,8 +75,10 @@ def build_report(run_dir: Path, *, plots: bool = True) -> dict[str, Any]:
     # dead controllers, from the recorded odometry
     spans = dead_spans(events, end_t)
     if run.recording.exists():
+        seen: list[str] = []
+        samples_iter = list(_drive(run.recording, sorted(spans), seen))
         verdicts["dead_controller_still"] = check_dead_controllers(
-            spans, _odometry(run.recording, sorted(spans)))
+            spans, samples_iter, " and ".join(seen) or "drive commands")
     else:
         v = Verdict("dead_controller_still", "no robot drives with a dead controller",
                     checked=False, note="no run.mcap (run with --no-record)")

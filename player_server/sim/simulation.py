@@ -469,6 +469,14 @@ class Simulation:
     def motor_power(self, robot: str) -> bool:
         return self._device(robot, "position2d").motors_on
 
+    def drive_command(self, robot: str) -> tuple[float, float]:
+        """The forward and turn speed the drive is steering towards now: the commanded
+        velocity, or zero while the motors are off or the battery is flat."""
+        st = self._device(robot, "position2d")
+        if not st.motors_on or (st.battery is not None and st.battery.flat):
+            return 0.0, 0.0
+        return st.target_v, st.target_w
+
     def odometry(self, robot: str) -> Odometry:
         st = self._device(robot, "position2d")
         x, y, yaw = st.odom

@@ -186,8 +186,10 @@ def test_drive_acceleration_odometry_and_turning(sim: Simulation) -> None:
     assert yaw2 > 1.0
     sim.set_odometry("r", 1.0, 2.0, 0.5)
     assert sim.odometry("r").x == 1.0 and sim.odometry("r").yaw == 0.5
+    assert sim.drive_command("r") == (0.0, 1.0)
     sim.set_motor_power("r", False)
     sim.set_velocity("r", 0.5, 0.0)
+    assert sim.drive_command("r") == (0.0, 0.0)  # motors off: the drive steers to rest
     sim.step(10)
     assert sim.odometry("r").vx == 0.0
 

@@ -51,6 +51,8 @@ def test_an_hour_under_random_faults_keeps_every_invariant(
         verdict = report["invariants"][name]
         assert verdict["checked"] and verdict["held"], (name, verdict)
     assert report["all_held"]
+    assert "drive commands inside dead spans" in report["invariants"]["dead_controller_still"][
+        "note"]
     # every kind of fault was injected, and some took a task from its holder
     config = json.loads((run_dir / "config.json").read_text())
     actions = {f["action"] for f in config["faults"]}
