@@ -123,6 +123,8 @@ class SessionCounters:
     replies: int = 0
     nacks: int = 0
     rounds: int = 0
+    #: turns that ended with the client's messages still waiting (its budget ran out)
+    budget_exhausted: int = 0
 
 
 @dataclass(eq=False)
@@ -269,6 +271,7 @@ class ServerCore:
         while session.closing is None:
             if budget <= 0:
                 session.backlog = session.decoder.buffered > 0
+                session.counters.budget_exhausted += session.backlog
                 return
             try:
                 ev = session.decoder.next_event()

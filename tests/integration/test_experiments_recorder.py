@@ -151,7 +151,10 @@ def test_the_live_view_shows_laser_rays_and_trails_when_asked(tmp_path: Path) ->
         time.sleep(0.05)  # the next step hands over a snapshot (the live period has passed)
         observed.step()
         target = rec.live.stats().frames + 3  # ... and the view has sent it
-        while rec.live.stats().frames < target and time.monotonic() < deadline:
+        # the view keeps only the latest snapshot: it may have seen none of the first
+        # stretch, so the robot drives on (a trail point every 0.1 m) with each step seen
+        while ((rec.live.stats().frames < target or sim.get_pose(robot)[0] < 1.0)
+               and time.monotonic() < deadline):
             time.sleep(0.03)  # past the live period: each step hands over a snapshot
             observed.step()
         viewer_url = rec._viewer.urls.zmq_url

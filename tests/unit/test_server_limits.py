@@ -116,6 +116,7 @@ def test_input_budget_leaves_a_flood_for_later_turns() -> None:
     flood = core_tests.req(1, 0, 2) * 35  # DEVLIST
     core.receive(s, flood)
     assert s.counters.messages_in == 10 and core.has_backlog(s)
+    assert s.counters.budget_exhausted == 1
     assert not core.accepting_input(s)  # not read again until worked through
     core.process(s)
     core.process(s)
