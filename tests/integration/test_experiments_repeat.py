@@ -32,8 +32,8 @@ LONGTERM = ["run", "longterm", "--until", "150s", "--task-interval", "25", "--se
             "--kill", "busy@45s", "--restart", "busy@90s", "--no-replay"]
 
 GOLDEN = {
-    "boxpush": "410be479d20b5787343f99df35beba1c33974d60677601cf5de6bd5b7507b7c3",
-    "longterm": "b6498449060e95f535792569ba49b4c5ce467926dc9139bad6917bcda29332d5",
+    "boxpush": "ff5377a5e0e93f769488de0742849a79958483579f7f82533b464ac5768f1d21",
+    "longterm": "e83264129e72b1174b54c9b09f3301d2eb9c861332aaf8878506c02439d81be9",
 }
 """sha256 of events.jsonl for each run."""
 OUTCOMES = {
