@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from player_server.sim.cast_kernel import CompiledCaster
@@ -76,11 +76,13 @@ def test_room_exit_from_outside_is_infinite() -> None:
 
 
 @CASTERS
-# derandomized: random scenes (e.g. seeds 30679 and 35722) have found scenes where the
-# compiled caster and the face caster disagree; that defect is open and must not make the
-# suite fail at random
+# Seeds 30679 and 35722 hold rays where the float32 face caster is the one that is wrong: a
+# ray that passes 2 um outside a circle's edge (the face caster sees a hit), and a long ray
+# whose float32 distance is 1.6 mm short. The float64 brute force settles such rays.
 @settings(max_examples=40, deadline=None, derandomize=True)
 @given(st.integers(min_value=0, max_value=2**31 - 1))
+@example(30679)
+@example(35722)
 def test_matches_the_face_caster(caster: type, seed: int) -> None:
     rng = np.random.default_rng(seed)
     k, m, n = int(rng.integers(0, 8)), int(rng.integers(0, 5)), 97
@@ -106,9 +108,26 @@ def test_matches_the_face_caster(caster: type, seed: int) -> None:
     ])
     want = RayCaster().cast(o.real, o.imag, d.real, d.imag, limit, z, faces,
                             Circles(circles[:, 0], circles[:, 1], circles[:, 2], circles[:, 3]))
-    # The face caster works in float32; rays grazing a corner may differ by a hair of angle.
+    # The face caster works in float32: rays grazing a corner or a circle's edge, and long
+    # rays, may differ by more than its noise; there the float64 brute force decides.
     close = np.isclose(got, want, atol=2e-4, rtol=1e-5)
-    assert close.all(), (got[~close], want[~close])
+    for i in np.flatnonzero(~close):
+        exact = _brute_force_in_room(o[i], float(a[i]), rects, circles, room, float(z[i]),
+                                     float(limit[i]))
+        assert got[i] == pytest.approx(exact, abs=1e-9), (i, got[i], want[i], exact)
+
+
+def _brute_force_in_room(o: complex, a: float, rects: np.ndarray, circles: np.ndarray,
+                         room: Room, z: float, max_range: float) -> float:
+    """`_reference` with heights (a footprint lower than the ray is not seen) and the room's
+    walls (for a ray no higher than them), in float64."""
+    best = _reference(o, a, rects[rects[:, 5] >= z], circles[circles[:, 3] >= z], max_range)
+    if z <= room.top:
+        dx, dy = math.cos(a), math.sin(a)
+        for half, p, d in ((room.half_x, o.real, dx), (room.half_y, o.imag, dy)):
+            if d != 0.0:
+                best = min(best, (math.copysign(half, d) - p) / d)
+    return best
 
 
 @CASTERS
