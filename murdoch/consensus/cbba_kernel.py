@@ -14,8 +14,8 @@ without the tighter bounds the agents inherit from ancestor paths (so the kernel
 few more tasks, and picks the same one); each agent's gains are kept until its path changes,
 but paths met earlier are not remembered.
 
-Layout: `tasks` is (6, M): window start, latest start (raw, no tolerance), duration, score
-reference time, reward, discount; task j's prerequisites are pre_idx[pre_ptr[j]:pre_ptr[j+1]];
+Layout: `tasks` is (7, M): window start, latest start (raw, no tolerance), duration, score
+reference time, reward, discount, linear cost flag (the paper's cost); task j's prerequisites are pre_idx[pre_ptr[j]:pre_ptr[j+1]];
 the state is one row per agent (y, z, bundle in insertion order, path in execution order and
 its start times). Each phase is its own small function (which also compiles faster).
 Compiled on first use and cached on disk next to this module (``cache=True``).
@@ -32,6 +32,9 @@ _EPS = 1e-9  # the latest-start tolerance of `scoring._EPS`
 _NONE = -1
 # rows of `tasks`
 _WS, _WE, _DUR, _REF, _REW, _DISC = 0, 1, 2, 3, 4, 5
+# 1.0 when every score is the paper's linear reward - ((start - ref) + duration) (the same
+# in every column): a delay d then costs exactly d, and `Problem.gain_bound` is its bound
+_LIN = 6
 # rows of the per-path work array (what `gains.PathGains.__init__` computes)
 _READY, _CUM, _OLD, _LAM, _ROOM = 0, 1, 2, 3, 4
 
@@ -132,6 +135,7 @@ def _gain(c: int, at_row: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr
     ref_c = tasks[_REF, c]
     rew_c = tasks[_REW, c]
     disc_c = tasks[_DISC, c]
+    linear = tasks[_LIN, c] > 0.0
     best = -math.inf
     at = 0
     for q in range(first, n_path + 1):
@@ -149,7 +153,10 @@ def _gain(c: int, at_row: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr
             start = lower
         if start > w_e:
             continue
-        total = rew_c * math.exp(-disc_c * (start - ref_c))
+        if linear:
+            total = rew_c - d_c - (start - ref_c)
+        else:
+            total = rew_c * math.exp(-disc_c * (start - ref_c))
         if total <= best:
             continue
         if q < n_path:
@@ -159,7 +166,10 @@ def _gain(c: int, at_row: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr
                     continue
                 if d0 > work[_ROOM, q]:
                     continue
-                change = work[_OLD, q] * math.expm1(-work[_LAM, q] * d0)
+                if linear:
+                    change = -d0
+                else:
+                    change = work[_OLD, q] * math.expm1(-work[_LAM, q] * d0)
                 base = work[_CUM, q]
                 feasible = True
                 for k in range(q + 1, n_path):
@@ -169,7 +179,10 @@ def _gain(c: int, at_row: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr
                     if delay > work[_ROOM, k]:
                         feasible = False
                         break
-                    change += work[_OLD, k] * math.expm1(-work[_LAM, k] * delay)
+                    if linear:
+                        change -= delay
+                    else:
+                        change += work[_OLD, k] * math.expm1(-work[_LAM, k] * delay)
                 if not feasible:
                     continue
                 total += change

@@ -42,7 +42,7 @@ def compiled_cbga_unsupported(scenario: Scenario, options: CbgaOptions | None = 
     one the kernel lacks can say so)."""
     if not scenario.agents or not scenario.tasks:
         return "no agents or no tasks"
-    if any(t.discount < 0.0 for t in scenario.tasks):
+    if scenario.cost == "discount" and any(t.discount < 0.0 for t in scenario.tasks):
         return "negative discount (scores that rise with time have no direct-travel bound)"
     if len(_items(scenario)) > _MAX_ITEMS:
         return f"more than {_MAX_ITEMS} kinds of equipment"

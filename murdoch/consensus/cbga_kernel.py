@@ -15,8 +15,8 @@ bid found, as the agents do, but without the tighter bounds the agents inherit f
 paths; an agent's gains are kept until its path or its start times change (and per
 not-before time), but paths met earlier are not remembered.
 
-Layout: `tasks` is (6, M): window start, latest start (raw), duration, score reference time,
-reward, discount; task j's prerequisites are pre_idx[pre_ptr[j]:pre_ptr[j+1]]; equipment is
+Layout: `tasks` is (7, M): window start, latest start (raw), duration, score reference time,
+reward, discount, linear cost flag (the paper's cost); task j's prerequisites are pre_idx[pre_ptr[j]:pre_ptr[j+1]]; equipment is
 a bit mask per agent and per task. Agent i's beliefs are x[i] (M, N: bids, 0 = not a member)
 and t[i] (M, N: when each member can be at a group task on its own, 0 = unknown), its
 timestamps s[i] (N + 1, the last one -inf), its bundle (insertion order) and path (execution
@@ -39,6 +39,9 @@ _EPS = 1e-9  # the latest-start tolerance of `scoring._EPS`
 _NONE = -1
 # rows of `tasks`
 _WS, _WE, _DUR, _REF, _REW, _DISC = 0, 1, 2, 3, 4, 5
+# 1.0 when every score is the paper's linear reward - ((start - ref) + duration) (the same
+# in every column): a delay d then costs exactly d, and `Problem.gain_bound` is its bound
+_LIN = 6
 # rows of the per-path work array (what `gains.PathGains.__init__` computes)
 _READY, _CUM, _OLD, _LAM, _ROOM = 0, 1, 2, 3, 4
 
@@ -197,6 +200,7 @@ def _gain(c: int, not_before: float, at_row: np.ndarray, tt: np.ndarray, tasks: 
     ref_c = tasks[_REF, c]
     rew_c = tasks[_REW, c]
     disc_c = tasks[_DISC, c]
+    linear = tasks[_LIN, c] > 0.0
     best = -math.inf
     at = 0
     for q in range(first, n_path + 1):
@@ -214,7 +218,10 @@ def _gain(c: int, not_before: float, at_row: np.ndarray, tt: np.ndarray, tasks: 
             start = lower
         if start > w_e:
             continue
-        total = rew_c * math.exp(-disc_c * (start - ref_c))
+        if linear:
+            total = rew_c - d_c - (start - ref_c)
+        else:
+            total = rew_c * math.exp(-disc_c * (start - ref_c))
         if total <= best:
             continue
         if q < n_path:
@@ -224,7 +231,10 @@ def _gain(c: int, not_before: float, at_row: np.ndarray, tt: np.ndarray, tasks: 
                     continue
                 if d0 > work[_ROOM, q]:
                     continue
-                change = work[_OLD, q] * math.expm1(-work[_LAM, q] * d0)
+                if linear:
+                    change = -d0
+                else:
+                    change = work[_OLD, q] * math.expm1(-work[_LAM, q] * d0)
                 base = work[_CUM, q]
                 feasible = True
                 for k in range(q + 1, n_path):
@@ -234,7 +244,10 @@ def _gain(c: int, not_before: float, at_row: np.ndarray, tt: np.ndarray, tasks: 
                     if delay > work[_ROOM, k]:
                         feasible = False
                         break
-                    change += work[_OLD, k] * math.expm1(-work[_LAM, k] * delay)
+                    if linear:
+                        change -= delay
+                    else:
+                        change += work[_OLD, k] * math.expm1(-work[_LAM, k] * delay)
                 if not feasible:
                     continue
                 total += change

@@ -43,7 +43,13 @@ import numpy as np
 from murdoch.consensus.joint_score import joint_score
 from murdoch.consensus.pair_replan import PairReplan
 from murdoch.consensus.scenario import Scenario
-from murdoch.consensus.scoring import Problem, build_problem, evaluate_plan, path_starts
+from murdoch.consensus.scoring import (
+    Problem,
+    build_problem,
+    evaluate_plan,
+    path_starts,
+    task_value,
+)
 from murdoch.consensus.sync_runner import AllocationResult, build_result, graph_diameter
 
 Plan = tuple[tuple[int, ...], ...]
@@ -105,7 +111,7 @@ class PlanScorer:
                     lst = p.lists
                     v = 0.0
                     for j, t in zip(path, starts, strict=True):
-                        v += lst.reward[j] * math.exp(-lst.discount[j] * (t - lst.score_ref[j]))
+                        v += task_value(lst, j, t)
             self._paths[key] = v
         return v
 
