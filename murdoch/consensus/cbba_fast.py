@@ -93,14 +93,14 @@ def allocate_compiled(scenario: Scenario, max_rounds: int = 1000) -> AllocationR
     table, lut = rule_arrays()
     base = encoded_size(0, n, 0)
     per_entry = encoded_size(1, n, 0) - base
-    paths_a, plen, z, _y, _t, rounds, steps, messages, nbytes, converged = run_cbba(
+    paths_a, plen, z, _y, _t, rounds, steps, messages, nbytes, converged, pairs = run_cbba(
         p.agent_task_dist, p.task_task_dist, a.tasks, a.pre_ptr, a.pre_idx, p.speed,
         p.availability, p.eligible, p.gain_bound, min(p.max_depth, m), a.nbr_ptr, a.nbr_idx,
         a.out_degree, a.diameter, max_rounds, table, lut, base, per_entry)
     paths = [paths_a[i, :plen[i]].tolist() for i in range(n)]
     views = [[frozenset() if w < 0 else frozenset((w,)) for w in row] for row in z.tolist()]
     result = build_result("cbba", p, paths, views, active, a.neighbours, bool(converged),
-                          int(steps), int(messages), int(nbytes), int(rounds))
+                          int(steps), int(messages), int(nbytes), int(rounds), int(pairs))
     return replace(result, extra={"engine": ENGINE_COMPILED})
 
 

@@ -15,7 +15,8 @@ few more tasks, and picks the same one); each agent's gains are kept until its p
 but paths met earlier are not remembered.
 
 Layout: `tasks` is (7, M): window start, latest start (raw, no tolerance), duration, score
-reference time, reward, discount, linear cost flag (the paper's cost); task j's prerequisites are pre_idx[pre_ptr[j]:pre_ptr[j+1]];
+reference time, reward, discount, linear cost flag (the paper's cost); task j's
+prerequisites are pre_idx[pre_ptr[j]:pre_ptr[j+1]];
 the state is one row per agent (y, z, bundle in insertion order, path in execution order and
 its start times). Each phase is its own small function (which also compiles faster).
 Compiled on first use and cached on disk next to this module (``cache=True``).
@@ -382,10 +383,11 @@ def run_cbba(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
              out_degree: np.ndarray, diameter: int, max_rounds: int, table: np.ndarray,
              lut: np.ndarray, msg_base: int, msg_entry: int
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, int,
-                        int, int, bool]:
+                        int, int, bool, int]:
     """Synchronous CBBA to convergence. Returns (paths (N, M + 1), path lengths, winners z
     (N, M), bids y (N, M), start times (N, M + 1), rounds, comm_steps, messages, bytes,
-    converged)."""
+    converged, pairwise steps: the sends among those messages whose (y, z) entries differ
+    from the sender's previous round's)."""
     n, m = at_dist.shape
     y = np.zeros((n, m))
     z = np.full((n, m), _NONE, dtype=np.int64)
@@ -410,6 +412,8 @@ def run_cbba(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
     blen_before = blen.copy()
     sent_msgs = 0  # transmissions so far, and through the last round with a change
     sent_bytes = 0
+    sent_pairs = 0
+    pairwise = 0
     messages = 0
     nbytes = 0
     rnd = 0
@@ -444,6 +448,11 @@ def run_cbba(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
                     entries += 1
             sent_msgs += d
             sent_bytes += d * (msg_base + entries * msg_entry)
+            # y_sent, z_sent still hold what k sent last round (nothing before round 1)
+            for j in range(m):
+                if z[k, j] != z_sent[k, j] or (z[k, j] != _NONE and y[k, j] != y_sent[k, j]):
+                    sent_pairs += d
+                    break
         # -- phase 2: everyone sends, then each merges its neighbours' messages in order
         for i in range(n):
             for j in range(m):
@@ -482,8 +491,9 @@ def run_cbba(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
             last_change = rnd
             messages = sent_msgs
             nbytes = sent_bytes
+            pairwise = sent_pairs
             quiet = 0
         else:
             quiet += 1
     converged = quiet >= diameter + 1
-    return path, plen, z, y, times, rnd, last_change, messages, nbytes, converged
+    return path, plen, z, y, times, rnd, last_change, messages, nbytes, converged, pairwise

@@ -78,7 +78,7 @@ def _run(scenario: Scenario, options: CbgaOptions | None, max_rounds: int
         p.availability, p.eligible, p.gain_bound, min(p.max_depth, m), p.required,
         p.team_reward, p.quit_after, task_eq, agent_eq, opts.task_quitting, opts.team_reward,
         opts.quit_limit, a.nbr_ptr, a.nbr_idx, a.out_degree, a.diameter, max_rounds, table,
-        lut, base, per_entry)
+        lut, base, per_entry, opts.team_mode == "total")
     return p, a.neighbours, out
 
 
@@ -87,14 +87,14 @@ def allocate_compiled_cbga(scenario: Scenario, options: CbgaOptions | None = Non
     """Run synchronous CBGA to convergence with the compiled kernel (the caller checks
     `compiled_cbga_unsupported` first)."""
     p, neighbours, out = _run(scenario, options, max_rounds)
-    paths_a, plen, x, rounds, steps, messages, nbytes, converged = out
+    paths_a, plen, x, rounds, steps, messages, nbytes, converged, pairs = out
     n = p.n_agents
     paths = [paths_a[i, :plen[i]].tolist() for i in range(n)]
     members = x > 0.0
     views = [[frozenset(np.flatnonzero(row).tolist()) for row in members[i]]
              for i in range(n)]
     result = build_result("cbga", p, paths, views, [True] * n, neighbours, bool(converged),
-                          int(steps), int(messages), int(nbytes), int(rounds))
+                          int(steps), int(messages), int(nbytes), int(rounds), int(pairs))
     return replace(result, extra={"engine": ENGINE_COMPILED})
 
 

@@ -565,7 +565,10 @@ def refine_allocation(scenario: Scenario, plain: AllocationResult,
     res = build_result(plain.algorithm, p, plan, views, [True] * p.n_agents, neighbours,
                        plain.converged and out.converged, plain.comm_steps + out.rounds,
                        plain.messages + out.messages, plain.bytes + out.bytes,
-                       plain.rounds + out.rounds)
+                       plain.rounds + out.rounds,
+                       # the phase's sends each carry new paths or proposals; it has
+                       # one encoding, so its bytes count in both forms
+                       plain.pairwise_steps + out.messages, plain.bytes_dense + out.bytes)
     extra["refine"] = {"plain_score": plain.total_score, "rounds": out.rounds,
                        "messages": out.messages, "bytes": out.bytes, "steps": out.steps,
                        "moves": out.moves, "converged": out.converged}
