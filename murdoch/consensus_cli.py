@@ -173,3 +173,51 @@ def sweep(experiment: str, agents: str | None, runs: int, seed: int, jobs: int,
     click.echo(markdown_table(rows))
     for f in files:
         click.echo(f"wrote {f}")
+
+
+@click.command("sweep-compare")
+@click.argument("base", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.argument("other", required=False,
+                type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.option("--metric", "metrics", multiple=True, default=("score", "steps"),
+              show_default=True, type=click.Choice(["score", "steps", "pairwise_steps",
+                                                    "messages", "bytes", "bytes_dense"]),
+              help="What to compare (repeatable).")
+@click.option("--agents", default=None, help="Only these agent counts, e.g. 5,10.")
+def sweep_compare(base: Path, other: Path | None, metrics: tuple[str, ...],
+                  agents: str | None) -> None:
+    """Paired differences (mean ± standard error, runs up/down/same) between sweeps.
+
+    With one sweep directory, each variant against its experiment's first variant; with
+    two, OTHER's runs against BASE's (same experiment, variant, agents and run)."""
+    import csv
+
+    from murdoch.consensus.compare import against_first, between, markdown
+    from murdoch.consensus.sweep import parse_agents
+
+    def rows(d: Path) -> list[dict[str, str]]:
+        f = d / "runs.csv"
+        if not f.is_file():
+            raise click.BadParameter(f"{d}: no runs.csv (expected a `murdoch sweep` output "
+                                     "directory)", param_hint="BASE/OTHER")
+        with f.open(encoding="utf-8", newline="") as fh:
+            out = list(csv.DictReader(fh))
+        missing = [m for m in metrics if out and m not in out[0]]
+        if missing:
+            raise click.BadParameter(f"{f}: no column {', '.join(missing)} (a sweep made "
+                                     "before it was recorded)", param_hint="--metric")
+        return out
+
+    try:
+        counts = parse_agents(agents) if agents else None
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--agents") from exc
+    order = {name: [v.name for v in variants] for name, variants in EXPERIMENTS.items()}
+    first = rows(base)
+    second = rows(other) if other is not None else None
+    for metric in metrics:
+        if second is None:
+            table = against_first(first, metric, order)
+        else:
+            table = between(first, second, metric, reference=base.name)
+        click.echo(markdown(table, counts))
