@@ -83,7 +83,7 @@ def allocate(scenario: str, algorithm: str, task_quitting: bool, team_reward: bo
         click.echo(COMPILE_NOTE.format(algorithm=algorithm.upper()), err=True)
     try:
         result = run_allocation(sc, algorithm,  # type: ignore[arg-type]
-                                CbgaOptions(task_quitting, team_reward, team_mode),
+                                CbgaOptions(task_quitting, team_reward, team_mode=team_mode),
                                 max_rounds,
                                 compiled=engine == "compiled",
                                 refine=RefineOptions(seed=refine_seed) if refine else False)

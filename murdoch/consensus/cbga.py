@@ -78,9 +78,9 @@ def team_bound_bonus(ub: float, others: int) -> float:
 class CbgaOptions:
     task_quitting: bool = True
     team_reward: bool = True
-    team_mode: str = "bonus"  # one of TEAM_MODES
     # an agent quits one group task at most this many times, then gives it up for the run
     quit_limit: int = 5
+    team_mode: str = "bonus"  # one of TEAM_MODES
 
 
 class CbgaAgent(BundleBuilding):
