@@ -22,6 +22,8 @@ SUBCOMMANDS: dict[str, Subcommand] = {
     "announce": Subcommand("murdoch.pubsub_cli:announce", "Auction one task, print the outcome."),
     "allocate": Subcommand("murdoch.consensus_cli:allocate", "Run CBBA or CBGA on a scenario."),
     "sweep": Subcommand("murdoch.consensus_cli:sweep", "Reproduce the CBGA paper's experiments."),
+    "sweep-compare": Subcommand("murdoch.consensus_cli:sweep_compare",
+                                "Paired differences between sweep runs, with standard errors."),
     "run": Subcommand("experiments.run_cli:run", "Run an experiment end to end."),
     "sweep-longterm": Subcommand("experiments.sweep_longterm:sweep_longterm",
                                  "Run the long-term experiment over task rates and seeds."),

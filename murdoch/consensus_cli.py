@@ -5,15 +5,16 @@ from __future__ import annotations
 import json
 import os
 import time
+from dataclasses import replace
 from datetime import UTC, datetime
 from pathlib import Path
 
 import click
 
-from murdoch.consensus.cbga import CbgaOptions
+from murdoch.consensus.cbga import TEAM_MODES, CbgaOptions
 from murdoch.consensus.experiments import DEFAULT_AGENTS, EXPERIMENTS
 from murdoch.consensus.refine import RefineOptions
-from murdoch.consensus.scenario import ScenarioError, load_scenario
+from murdoch.consensus.scenario import COSTS, ScenarioError, load_scenario
 from murdoch.consensus.sync_runner import allocate as run_allocation
 
 # the `murdoch` group puts the directories of bundled scenarios here (the composition root
@@ -40,6 +41,16 @@ def _scenario_path(text: str) -> Path:
               help="CBGA: leave group tasks still incomplete after their quit_after.")
 @click.option("--team-reward/--no-team-reward", default=True, show_default=True,
               help="CBGA: group-task bids count the team's value.")
+@click.option("--team-mode", type=click.Choice(TEAM_MODES), default="bonus",
+              show_default=True,
+              help="CBGA team reward: 'bonus' adds team_reward * others / (L - 1) to a "
+                   "group bid; 'total' bids the agent's gain for every member it completes "
+                   "the task with (the paper's total value).")
+@click.option("--cost", type=click.Choice(COSTS), default=None,
+              help="How a task scores, overriding the scenario's 'cost': 'discount' "
+                   "(reward * exp(-discount * delay)) or 'paper' (reward - (delay + "
+                   "duration), the CBGA paper's eq. 8).  [default: the scenario's, "
+                   "else discount]")
 @click.option("--max-rounds", type=click.IntRange(1), default=1000, show_default=True)
 @click.option("--engine", type=click.Choice(["compiled", "agents"]), default="compiled",
               show_default=True,
@@ -53,8 +64,8 @@ def _scenario_path(text: str) -> Path:
               help="With --refine: the seed that orders equal proposals.")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 def allocate(scenario: str, algorithm: str, task_quitting: bool, team_reward: bool,
-             max_rounds: int, engine: str, refine: bool, refine_seed: int,
-             as_json: bool) -> None:
+             team_mode: str, cost: str | None, max_rounds: int, engine: str, refine: bool,
+             refine_seed: int, as_json: bool) -> None:
     """Run CBBA or CBGA on SCENARIO in synchronous rounds and print the allocation.
 
     SCENARIO is a JSON file or the name of a bundled scenario (consensus-small,
@@ -66,11 +77,14 @@ def allocate(scenario: str, algorithm: str, task_quitting: bool, team_reward: bo
         sc = load_scenario(path)
     except ScenarioError as exc:
         raise click.ClickException(str(exc)) from exc
+    if cost is not None:
+        sc = replace(sc, cost=cost)
     if engine == "compiled" and not kernel_cache_warm(algorithm):
         click.echo(COMPILE_NOTE.format(algorithm=algorithm.upper()), err=True)
     try:
         result = run_allocation(sc, algorithm,  # type: ignore[arg-type]
-                                CbgaOptions(task_quitting, team_reward), max_rounds,
+                                CbgaOptions(task_quitting, team_reward, team_mode=team_mode),
+                                max_rounds,
                                 compiled=engine == "compiled",
                                 refine=RefineOptions(seed=refine_seed) if refine else False)
     except ValueError as exc:
@@ -107,8 +121,15 @@ def allocate(scenario: str, algorithm: str, task_quitting: bool, team_reward: bo
 @click.option("--refine", is_flag=True, default=False,
               help="Run every allocation with the improvement phase (variants are named "
                    "'... +refine').")
+@click.option("--cost", type=click.Choice(COSTS), default="discount", show_default=True,
+              help="How tasks score: 'discount' (100 * exp(-0.02 * delay)) or 'paper' "
+                   "(100 - (delay + duration), the CBGA paper's eq. 8).")
+@click.option("--team-mode", type=click.Choice(TEAM_MODES), default="bonus",
+              show_default=True,
+              help="How the team-reward variants bid: 'bonus' or 'total' (the paper's "
+                   "total value of the group task).")
 def sweep(experiment: str, agents: str | None, runs: int, seed: int, jobs: int,
-          out: Path | None, refine: bool) -> None:
+          out: Path | None, refine: bool, cost: str, team_mode: str) -> None:
     """Reproduce the CBGA paper's experiments: table (mean ± std) and figures."""
     from murdoch.consensus import plots
     from murdoch.consensus.sweep import (
@@ -128,7 +149,8 @@ def sweep(experiment: str, agents: str | None, runs: int, seed: int, jobs: int,
         counts = {n: parse_agents(agents) if agents else DEFAULT_AGENTS[n] for n in names}
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="--agents") from exc
-    all_jobs = [j for n in names for j in jobs_for(n, counts[n], runs, seed, refine)]
+    all_jobs = [j for n in names
+                for j in jobs_for(n, counts[n], runs, seed, refine, cost, team_mode)]
     click.echo(f"{len(all_jobs)} allocations in {jobs} process(es) -> {out}", err=True)
     t0 = time.monotonic()
     last = [0.0]
@@ -142,7 +164,8 @@ def sweep(experiment: str, agents: str | None, runs: int, seed: int, jobs: int,
     records = run_jobs(all_jobs, jobs, progress)
     rows = summarise(records)
     meta = {"experiments": names, "agents": {n: list(c) for n, c in counts.items()},
-            "runs": runs, "seed": seed, "jobs": jobs, "refine": refine,
+            "runs": runs, "seed": seed, "jobs": jobs, "refine": refine, "cost": cost,
+            "team_mode": team_mode,
             "wall_s": round(time.monotonic() - t0, 1)}
     files = write_outputs(out, records, rows, meta)
     for n in names:
@@ -150,3 +173,51 @@ def sweep(experiment: str, agents: str | None, runs: int, seed: int, jobs: int,
     click.echo(markdown_table(rows))
     for f in files:
         click.echo(f"wrote {f}")
+
+
+@click.command("sweep-compare")
+@click.argument("base", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.argument("other", required=False,
+                type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.option("--metric", "metrics", multiple=True, default=("score", "steps"),
+              show_default=True, type=click.Choice(["score", "steps", "pairwise_steps",
+                                                    "messages", "bytes", "bytes_dense"]),
+              help="What to compare (repeatable).")
+@click.option("--agents", default=None, help="Only these agent counts, e.g. 5,10.")
+def sweep_compare(base: Path, other: Path | None, metrics: tuple[str, ...],
+                  agents: str | None) -> None:
+    """Paired differences (mean ± standard error, runs up/down/same) between sweeps.
+
+    With one sweep directory, each variant against its experiment's first variant; with
+    two, OTHER's runs against BASE's (same experiment, variant, agents and run)."""
+    import csv
+
+    from murdoch.consensus.compare import against_first, between, markdown
+    from murdoch.consensus.sweep import parse_agents
+
+    def rows(d: Path) -> list[dict[str, str]]:
+        f = d / "runs.csv"
+        if not f.is_file():
+            raise click.BadParameter(f"{d}: no runs.csv (expected a `murdoch sweep` output "
+                                     "directory)", param_hint="BASE/OTHER")
+        with f.open(encoding="utf-8", newline="") as fh:
+            out = list(csv.DictReader(fh))
+        missing = [m for m in metrics if out and m not in out[0]]
+        if missing:
+            raise click.BadParameter(f"{f}: no column {', '.join(missing)} (a sweep made "
+                                     "before it was recorded)", param_hint="--metric")
+        return out
+
+    try:
+        counts = parse_agents(agents) if agents else None
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--agents") from exc
+    order = {name: [v.name for v in variants] for name, variants in EXPERIMENTS.items()}
+    first = rows(base)
+    second = rows(other) if other is not None else None
+    for metric in metrics:
+        if second is None:
+            table = against_first(first, metric, order)
+        else:
+            table = between(first, second, metric, reference=base.name)
+        click.echo(markdown(table, counts))

@@ -108,4 +108,8 @@ def format_allocation(result: Mapping[str, Any], *, title: str = "") -> str:
                  f"in {result.get('rounds', '?')} rounds")
     lines.append(f"communication    {result.get('comm_steps', 0)} steps, "
                  f"{result.get('messages', 0)} messages, {result.get('bytes', 0)} bytes")
+    if "pairwise_steps" in result:
+        lines.append(f"paper's measures {result['pairwise_steps']} pairwise steps (sends "
+                     f"with changed data), {result.get('bytes_dense', 0)} bytes as dense "
+                     "matrices")
     return "\n".join(lines)

@@ -311,7 +311,9 @@ class ConsensusSwarm:
         paths = [n.final_path() for n in self.nodes]
         views = [n.winners_view() for n in self.nodes]
         result = build_result(self.algorithm, problem, paths, views, active, neighbours,
-                              converged, last_change, datagrams, nbytes, period)
+                              converged, last_change, datagrams, nbytes, period,
+                              # (measured in synchronous runs only)
+                              pairwise_steps=0, bytes_dense=0)
         return SwarmOutcome(result, period, datagrams, nbytes)
 
 

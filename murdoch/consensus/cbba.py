@@ -203,6 +203,12 @@ class CbbaAgent(BundleBuilding):
         return True
 
     # -- phase 2 ------------------------------------------------------------------------
+    def sent_data(self) -> tuple[tuple[tuple[int, int, float], ...], tuple[()]]:
+        """The allocation data `message` carries (its entries; no members' times), to tell
+        a send that carries news from a repeat."""
+        y = self.y
+        return tuple((j, m, y[j]) for j, m in enumerate(self.z) if m != NONE), ()
+
     def message(self, now: float) -> ConsensusMessage:
         s = self.s[:-1]
         s[self.index] = now

@@ -29,7 +29,7 @@ def compiled_cbba_unsupported(scenario: Scenario) -> str | None:
     """Why the compiled run cannot take this scenario, or None when it can."""
     if any(t.agents_required != 1 for t in scenario.tasks):
         return "group tasks (CBBA rejects them)"
-    if any(t.discount < 0.0 for t in scenario.tasks):
+    if scenario.cost == "discount" and any(t.discount < 0.0 for t in scenario.tasks):
         return "negative discount (scores that rise with time have no direct-travel bound)"
     if not scenario.agents or not scenario.tasks:
         return "no agents or no tasks"
@@ -43,8 +43,8 @@ class KernelArrays:
     """What both compiled runs take besides the problem: the communication graph as
     neighbour lists and in CSR form (nbr_idx[nbr_ptr[i]:nbr_ptr[i + 1]] are agent i's) with
     each agent's out-degree and the graph's diameter; the tasks' rows (window start, latest
-    start, duration, score reference time, reward, discount) and their prerequisites in CSR
-    form."""
+    start, duration, score reference time, reward, discount, linear-cost flag) and their
+    prerequisites in CSR form."""
 
     neighbours: Any
     nbr_ptr: np.ndarray
@@ -70,8 +70,9 @@ def kernel_arrays(scenario: Scenario, p: Problem) -> KernelArrays:
     # a full graph's diameter is 1 (graph_diameter's answer, without the search)
     diameter = (1 if scenario.comm_graph.edges is None
                 else graph_diameter(neighbours, [True] * n))
+    linear = np.full(m, 1.0 if p.lists.linear else 0.0)
     tasks = np.stack([p.window_start, p.window_end, p.duration, p.score_ref, p.reward,
-                      p.discount])
+                      p.discount, linear])
     pre_ptr = np.zeros(m + 1, dtype=np.int64)
     for j, pre in enumerate(p.prereqs):
         pre_ptr[j + 1] = pre_ptr[j] + len(pre)
@@ -92,14 +93,14 @@ def allocate_compiled(scenario: Scenario, max_rounds: int = 1000) -> AllocationR
     table, lut = rule_arrays()
     base = encoded_size(0, n, 0)
     per_entry = encoded_size(1, n, 0) - base
-    paths_a, plen, z, _y, _t, rounds, steps, messages, nbytes, converged = run_cbba(
+    paths_a, plen, z, _y, _t, rounds, steps, messages, nbytes, converged, pairs = run_cbba(
         p.agent_task_dist, p.task_task_dist, a.tasks, a.pre_ptr, a.pre_idx, p.speed,
         p.availability, p.eligible, p.gain_bound, min(p.max_depth, m), a.nbr_ptr, a.nbr_idx,
         a.out_degree, a.diameter, max_rounds, table, lut, base, per_entry)
     paths = [paths_a[i, :plen[i]].tolist() for i in range(n)]
     views = [[frozenset() if w < 0 else frozenset((w,)) for w in row] for row in z.tolist()]
     result = build_result("cbba", p, paths, views, active, a.neighbours, bool(converged),
-                          int(steps), int(messages), int(nbytes), int(rounds))
+                          int(steps), int(messages), int(nbytes), int(rounds), int(pairs))
     return replace(result, extra={"engine": ENGINE_COMPILED})
 
 

@@ -14,8 +14,9 @@ without the tighter bounds the agents inherit from ancestor paths (so the kernel
 few more tasks, and picks the same one); each agent's gains are kept until its path changes,
 but paths met earlier are not remembered.
 
-Layout: `tasks` is (6, M): window start, latest start (raw, no tolerance), duration, score
-reference time, reward, discount; task j's prerequisites are pre_idx[pre_ptr[j]:pre_ptr[j+1]];
+Layout: `tasks` is (7, M): window start, latest start (raw, no tolerance), duration, score
+reference time, reward, discount, linear cost flag (the paper's cost); task j's
+prerequisites are pre_idx[pre_ptr[j]:pre_ptr[j+1]];
 the state is one row per agent (y, z, bundle in insertion order, path in execution order and
 its start times). Each phase is its own small function (which also compiles faster).
 Compiled on first use and cached on disk next to this module (``cache=True``).
@@ -32,6 +33,9 @@ _EPS = 1e-9  # the latest-start tolerance of `scoring._EPS`
 _NONE = -1
 # rows of `tasks`
 _WS, _WE, _DUR, _REF, _REW, _DISC = 0, 1, 2, 3, 4, 5
+# 1.0 when every score is the paper's linear reward - ((start - ref) + duration) (the same
+# in every column): a delay d then costs exactly d, and `Problem.gain_bound` is its bound
+_LIN = 6
 # rows of the per-path work array (what `gains.PathGains.__init__` computes)
 _READY, _CUM, _OLD, _LAM, _ROOM = 0, 1, 2, 3, 4
 
@@ -132,6 +136,7 @@ def _gain(c: int, at_row: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr
     ref_c = tasks[_REF, c]
     rew_c = tasks[_REW, c]
     disc_c = tasks[_DISC, c]
+    linear = tasks[_LIN, c] > 0.0
     best = -math.inf
     at = 0
     for q in range(first, n_path + 1):
@@ -149,7 +154,10 @@ def _gain(c: int, at_row: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr
             start = lower
         if start > w_e:
             continue
-        total = rew_c * math.exp(-disc_c * (start - ref_c))
+        if linear:
+            total = rew_c - d_c - (start - ref_c)
+        else:
+            total = rew_c * math.exp(-disc_c * (start - ref_c))
         if total <= best:
             continue
         if q < n_path:
@@ -159,7 +167,10 @@ def _gain(c: int, at_row: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr
                     continue
                 if d0 > work[_ROOM, q]:
                     continue
-                change = work[_OLD, q] * math.expm1(-work[_LAM, q] * d0)
+                if linear:
+                    change = -d0
+                else:
+                    change = work[_OLD, q] * math.expm1(-work[_LAM, q] * d0)
                 base = work[_CUM, q]
                 feasible = True
                 for k in range(q + 1, n_path):
@@ -169,7 +180,10 @@ def _gain(c: int, at_row: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr
                     if delay > work[_ROOM, k]:
                         feasible = False
                         break
-                    change += work[_OLD, k] * math.expm1(-work[_LAM, k] * delay)
+                    if linear:
+                        change -= delay
+                    else:
+                        change += work[_OLD, k] * math.expm1(-work[_LAM, k] * delay)
                 if not feasible:
                     continue
                 total += change
@@ -369,10 +383,11 @@ def run_cbba(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
              out_degree: np.ndarray, diameter: int, max_rounds: int, table: np.ndarray,
              lut: np.ndarray, msg_base: int, msg_entry: int
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, int,
-                        int, int, bool]:
+                        int, int, bool, int]:
     """Synchronous CBBA to convergence. Returns (paths (N, M + 1), path lengths, winners z
     (N, M), bids y (N, M), start times (N, M + 1), rounds, comm_steps, messages, bytes,
-    converged)."""
+    converged, pairwise steps: the sends among those messages whose (y, z) entries differ
+    from the sender's previous round's)."""
     n, m = at_dist.shape
     y = np.zeros((n, m))
     z = np.full((n, m), _NONE, dtype=np.int64)
@@ -397,6 +412,8 @@ def run_cbba(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
     blen_before = blen.copy()
     sent_msgs = 0  # transmissions so far, and through the last round with a change
     sent_bytes = 0
+    sent_pairs = 0
+    pairwise = 0
     messages = 0
     nbytes = 0
     rnd = 0
@@ -431,6 +448,11 @@ def run_cbba(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
                     entries += 1
             sent_msgs += d
             sent_bytes += d * (msg_base + entries * msg_entry)
+            # y_sent, z_sent still hold what k sent last round (nothing before round 1)
+            for j in range(m):
+                if z[k, j] != z_sent[k, j] or (z[k, j] != _NONE and y[k, j] != y_sent[k, j]):
+                    sent_pairs += d
+                    break
         # -- phase 2: everyone sends, then each merges its neighbours' messages in order
         for i in range(n):
             for j in range(m):
@@ -469,8 +491,9 @@ def run_cbba(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
             last_change = rnd
             messages = sent_msgs
             nbytes = sent_bytes
+            pairwise = sent_pairs
             quiet = 0
         else:
             quiet += 1
     converged = quiet >= diameter + 1
-    return path, plen, z, y, times, rnd, last_change, messages, nbytes, converged
+    return path, plen, z, y, times, rnd, last_change, messages, nbytes, converged, pairwise

@@ -30,9 +30,10 @@ stays out of it while that partner is in the group (see `refresh_times`).
 Options: task quitting (leave a group task still incomplete `quit_after` rounds after joining
 it, do not rejoin until more agents have joined, and give the task up for good after
 `quit_limit` quits of it, so that quitting ends) and team reward (a group-task bid adds
-``team_reward * others / (L_j - 1)`` for the others already in it). Prerequisites must be on
-the agent's own path before the dependent task. Bids are warped as in CBBA (never above the
-bid of the task added before).
+``team_reward * others / (L_j - 1)`` for the others already in it, or with team mode
+"total" is the agent's gain times the members it completes with: itself and the others).
+Prerequisites must be on the agent's own path before the dependent task. Bids are warped as
+in CBBA (never above the bid of the task added before).
 """
 
 from __future__ import annotations
@@ -58,12 +59,28 @@ def zeros(rows: int, cols: int) -> Matrix:
     return [[0.0] * cols for _ in range(rows)]
 
 
+# how team reward enters a group-task bid (on tasks with a team_reward): "bonus" adds
+# team_reward * others / (L_j - 1); "total" bids what the whole group earns, the agent's
+# own gain for each member, itself and the others already in the group (the paper's "total
+# value for a successful task rather than just their individual contribution")
+TEAM_MODES = ("bonus", "total")
+
+
+def team_bound_bonus(ub: float, others: int) -> float:
+    """What the "total" team reward can add to a bid whose own gain is at most `ub`, with
+    `others` already in the group (a rounding margin included); 0 when ub <= 0."""
+    if not ub > 0.0 or others <= 0:
+        return 0.0
+    return ub * others + 1e-9 * (1.0 + ub * (1 + others))
+
+
 @dataclass(frozen=True)
 class CbgaOptions:
     task_quitting: bool = True
     team_reward: bool = True
     # an agent quits one group task at most this many times, then gives it up for the run
     quit_limit: int = 5
+    team_mode: str = "bonus"  # one of TEAM_MODES
 
 
 class CbgaAgent(BundleBuilding):
@@ -187,6 +204,7 @@ class CbgaAgent(BundleBuilding):
         single = self.single
         rows = self.x
         team = self.options.team_reward
+        total = self.options.team_mode == "total"
         required, team_reward = lst.required, lst.team_reward
         held = set(self.bundle)  # (a bundle only grows during a build)
         out = []
@@ -210,7 +228,10 @@ class CbgaAgent(BundleBuilding):
                         banned[j] = -1  # others have joined since this agent quit: bid again
                 nb = self.partners_time(j)
                 size = required[j]
-                if team and size > 1:
+                if team and size > 1 and total:
+                    if team_reward[j] > 0.0:
+                        bonus = team_bound_bonus(ub, min(others, size - 1))
+                elif team and size > 1:
                     bonus = team_reward[j] * min(others, size - 1) / (size - 1)
             out.append((j, ub, nb, single[j], bonus))
         return out
@@ -476,7 +497,11 @@ class CbgaAgent(BundleBuilding):
         lst = self.problem.lists
         size = lst.required[j]
         bid = gain
-        if team and size > 1:
+        if team and size > 1 and self.options.team_mode == "total":
+            if lst.team_reward[j] > 0.0:
+                others = min(len(members), size - 1)
+                bid = min(bid * float(1 + others), cap)
+        elif team and size > 1:
             others = min(len(members), size - 1)
             bid = min(bid + lst.team_reward[j] * others / (size - 1), cap)
         if not self.problem.task_equipment[j]:
@@ -529,6 +554,20 @@ class CbgaAgent(BundleBuilding):
                 if at > 0 and row[m] > 0:
                     starts += 1
         return entries, starts
+
+    def sent_data(self) -> tuple[tuple[tuple[int, int, float], ...],
+                                 tuple[tuple[int, int, float], ...]]:
+        """The allocation data `message` carries: its entries and members' times."""
+        entries = []
+        starts = []
+        single = self.single
+        for j, (row, trow) in enumerate(zip(self.x, self.t, strict=True)):
+            for m, v in enumerate(row):
+                if v != 0:
+                    entries.append((j, m, v))
+                    if not single[j] and trow[m] > 0:
+                        starts.append((j, m, trow[m]))
+        return tuple(entries), tuple(starts)
 
     def message(self, now: float) -> ConsensusMessage:
         s = self.s[:-1]

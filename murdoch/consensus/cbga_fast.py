@@ -42,7 +42,7 @@ def compiled_cbga_unsupported(scenario: Scenario, options: CbgaOptions | None = 
     one the kernel lacks can say so)."""
     if not scenario.agents or not scenario.tasks:
         return "no agents or no tasks"
-    if any(t.discount < 0.0 for t in scenario.tasks):
+    if scenario.cost == "discount" and any(t.discount < 0.0 for t in scenario.tasks):
         return "negative discount (scores that rise with time have no direct-travel bound)"
     if len(_items(scenario)) > _MAX_ITEMS:
         return f"more than {_MAX_ITEMS} kinds of equipment"
@@ -78,7 +78,7 @@ def _run(scenario: Scenario, options: CbgaOptions | None, max_rounds: int
         p.availability, p.eligible, p.gain_bound, min(p.max_depth, m), p.required,
         p.team_reward, p.quit_after, task_eq, agent_eq, opts.task_quitting, opts.team_reward,
         opts.quit_limit, a.nbr_ptr, a.nbr_idx, a.out_degree, a.diameter, max_rounds, table,
-        lut, base, per_entry)
+        lut, base, per_entry, opts.team_mode == "total")
     return p, a.neighbours, out
 
 
@@ -87,14 +87,14 @@ def allocate_compiled_cbga(scenario: Scenario, options: CbgaOptions | None = Non
     """Run synchronous CBGA to convergence with the compiled kernel (the caller checks
     `compiled_cbga_unsupported` first)."""
     p, neighbours, out = _run(scenario, options, max_rounds)
-    paths_a, plen, x, rounds, steps, messages, nbytes, converged = out
+    paths_a, plen, x, rounds, steps, messages, nbytes, converged, pairs = out
     n = p.n_agents
     paths = [paths_a[i, :plen[i]].tolist() for i in range(n)]
     members = x > 0.0
     views = [[frozenset(np.flatnonzero(row).tolist()) for row in members[i]]
              for i in range(n)]
     result = build_result("cbga", p, paths, views, [True] * n, neighbours, bool(converged),
-                          int(steps), int(messages), int(nbytes), int(rounds))
+                          int(steps), int(messages), int(nbytes), int(rounds), int(pairs))
     return replace(result, extra={"engine": ENGINE_COMPILED})
 
 

@@ -15,8 +15,9 @@ bid found, as the agents do, but without the tighter bounds the agents inherit f
 paths; an agent's gains are kept until its path or its start times change (and per
 not-before time), but paths met earlier are not remembered.
 
-Layout: `tasks` is (6, M): window start, latest start (raw), duration, score reference time,
-reward, discount; task j's prerequisites are pre_idx[pre_ptr[j]:pre_ptr[j+1]]; equipment is
+Layout: `tasks` is (7, M): window start, latest start (raw), duration, score reference time,
+reward, discount, linear cost flag (the paper's cost); task j's prerequisites are
+pre_idx[pre_ptr[j]:pre_ptr[j+1]]; equipment is
 a bit mask per agent and per task. Agent i's beliefs are x[i] (M, N: bids, 0 = not a member)
 and t[i] (M, N: when each member can be at a group task on its own, 0 = unknown), its
 timestamps s[i] (N + 1, the last one -inf), its bundle (insertion order) and path (execution
@@ -39,6 +40,9 @@ _EPS = 1e-9  # the latest-start tolerance of `scoring._EPS`
 _NONE = -1
 # rows of `tasks`
 _WS, _WE, _DUR, _REF, _REW, _DISC = 0, 1, 2, 3, 4, 5
+# 1.0 when every score is the paper's linear reward - ((start - ref) + duration) (the same
+# in every column): a delay d then costs exactly d, and `Problem.gain_bound` is its bound
+_LIN = 6
 # rows of the per-path work array (what `gains.PathGains.__init__` computes)
 _READY, _CUM, _OLD, _LAM, _ROOM = 0, 1, 2, 3, 4
 
@@ -197,6 +201,7 @@ def _gain(c: int, not_before: float, at_row: np.ndarray, tt: np.ndarray, tasks: 
     ref_c = tasks[_REF, c]
     rew_c = tasks[_REW, c]
     disc_c = tasks[_DISC, c]
+    linear = tasks[_LIN, c] > 0.0
     best = -math.inf
     at = 0
     for q in range(first, n_path + 1):
@@ -214,7 +219,10 @@ def _gain(c: int, not_before: float, at_row: np.ndarray, tt: np.ndarray, tasks: 
             start = lower
         if start > w_e:
             continue
-        total = rew_c * math.exp(-disc_c * (start - ref_c))
+        if linear:
+            total = rew_c - d_c - (start - ref_c)
+        else:
+            total = rew_c * math.exp(-disc_c * (start - ref_c))
         if total <= best:
             continue
         if q < n_path:
@@ -224,7 +232,10 @@ def _gain(c: int, not_before: float, at_row: np.ndarray, tt: np.ndarray, tasks: 
                     continue
                 if d0 > work[_ROOM, q]:
                     continue
-                change = work[_OLD, q] * math.expm1(-work[_LAM, q] * d0)
+                if linear:
+                    change = -d0
+                else:
+                    change = work[_OLD, q] * math.expm1(-work[_LAM, q] * d0)
                 base = work[_CUM, q]
                 feasible = True
                 for k in range(q + 1, n_path):
@@ -234,7 +245,10 @@ def _gain(c: int, not_before: float, at_row: np.ndarray, tt: np.ndarray, tasks: 
                     if delay > work[_ROOM, k]:
                         feasible = False
                         break
-                    change += work[_OLD, k] * math.expm1(-work[_LAM, k] * delay)
+                    if linear:
+                        change -= delay
+                    else:
+                        change += work[_OLD, k] * math.expm1(-work[_LAM, k] * delay)
                 if not feasible:
                     continue
                 total += change
@@ -304,11 +318,38 @@ def _complete(j: int, xi: np.ndarray, required: np.ndarray, task_eq: np.ndarray,
 
 
 @njit(cache=True)
+def _sent_changed(k: int, x: np.ndarray, t: np.ndarray, x_prev: np.ndarray,
+                  t_prev: np.ndarray, single: np.ndarray) -> bool:
+    """Whether agent k's message (its non-zero bids, and its members' times on group rows)
+    differs from the one it sent last round (`x_prev`, `t_prev`: zeros before round 1)."""
+    m, n = x.shape[1], x.shape[2]
+    for j in range(m):
+        for q in range(n):
+            v = x[k, j, q]
+            if v != x_prev[k, j, q]:
+                return True
+            if v != 0.0 and not single[j]:
+                a = t[k, j, q]
+                b = t_prev[k, j, q]
+                if (a > 0.0) != (b > 0.0) or (a > 0.0 and a != b):
+                    return True
+    return False
+
+
+@njit(cache=True)
+def _team_bound(ub: float, others: int) -> float:
+    """`cbga.team_bound_bonus`: what team mode "total" can add to a bid bounded by ub."""
+    if not ub > 0.0 or others <= 0:
+        return 0.0
+    return ub * others + 1e-9 * (1.0 + ub * (1 + others))
+
+
+@njit(cache=True)
 def _group_bid(i: int, j: int, xi: np.ndarray, gain: float, cap: float, team: bool,
                banned: np.ndarray, yielded: np.ndarray, yset: np.ndarray,
                required: np.ndarray, team_reward: np.ndarray, task_eq: np.ndarray,
                agent_eq: np.ndarray, vals: np.ndarray, order: np.ndarray,
-               chosen: np.ndarray, drop: np.ndarray) -> tuple[bool, float]:
+               chosen: np.ndarray, drop: np.ndarray, team_total: bool) -> tuple[bool, float]:
     """`CbgaAgent._group_bid`: (valid, bid); `drop` marks the members it pushes out.
     Clears a yield once the partners it crossed have left the group."""
     n = xi.shape[1]
@@ -329,7 +370,12 @@ def _group_bid(i: int, j: int, xi: np.ndarray, gain: float, cap: float, team: bo
             yset[j, q] = False
     size = required[j]
     bid = gain
-    if team and size > 1:
+    if team and size > 1 and team_total:
+        if team_reward[j] > 0.0:
+            others = min(n_members, size - 1)
+            b2 = bid * float(1 + others)
+            bid = b2 if b2 <= cap else cap
+    elif team and size > 1:
         others = min(n_members, size - 1)
         b2 = bid + team_reward[j] * others / (size - 1)
         bid = b2 if b2 <= cap else cap
@@ -370,7 +416,7 @@ def _build(i: int, now: float, xi: np.ndarray, ti: np.ndarray, bundle: np.ndarra
            avail: float, eligible: np.ndarray, bound: np.ndarray, single: np.ndarray,
            latest: np.ndarray, groups: bool, required: np.ndarray, team_reward: np.ndarray,
            task_eq: np.ndarray, agent_eq: np.ndarray, team: bool, quit_limit: int,
-           max_depth: int, work: np.ndarray) -> None:
+           max_depth: int, work: np.ndarray, team_total: bool) -> None:
     """Agent i's bundle building (`BundleBuilding.build_bundle` with
     `CbgaAgent._add_best`); the arrays are agent i's rows."""
     m, n = xi.shape
@@ -427,7 +473,10 @@ def _build(i: int, now: float, xi: np.ndarray, ti: np.ndarray, bundle: np.ndarra
                             banned[j] = -1
                     nb = _partners_time(i, j, xi, ti, latest)
                     size = required[j]
-                    if team and size > 1:
+                    if team and size > 1 and team_total:
+                        if team_reward[j] > 0.0:
+                            bonus = _team_bound(ub, min(others, size - 1))
+                    elif team and size > 1:
                         bonus = team_reward[j] * min(others, size - 1) / (size - 1)
                 cand_j[n_cand] = j
                 cand_ub[n_cand] = ub
@@ -523,7 +572,7 @@ def _build(i: int, now: float, xi: np.ndarray, ti: np.ndarray, bundle: np.ndarra
             else:
                 valid, bid = _group_bid(i, j, xi, g, cap, team, banned, yielded, yset,
                                         required, team_reward, task_eq, agent_eq, vals,
-                                        order, chosen, drop)
+                                        order, chosen, drop, team_total)
                 if not valid:
                     continue
             if bid > best or (bid == best and j < best_j):
@@ -918,10 +967,12 @@ def run_cbga(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
              agent_eq: np.ndarray, quitting: bool, team: bool, quit_limit: int,
              nbr_ptr: np.ndarray, nbr_idx: np.ndarray, out_degree: np.ndarray, diameter: int,
              max_rounds: int, table: np.ndarray, lut: np.ndarray, msg_base: int,
-             msg_entry: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int, int, int,
-                                      bool]:
+             msg_entry: int, team_total: bool
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int, int, int, bool, int]:
     """Synchronous CBGA to convergence. Returns (paths (N, M + 1), path lengths, every
-    agent's X (N, M, N), rounds, comm_steps, messages, bytes, converged)."""
+    agent's X (N, M, N), rounds, comm_steps, messages, bytes, converged, pairwise steps: the
+    sends among those messages whose entries or members' times differ from the sender's
+    previous round's)."""
     n, m = at_dist.shape
     single = required == 1
     n_groups = 0
@@ -966,6 +1017,8 @@ def run_cbga(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
     blen_before = blen.copy()
     sent_msgs = 0
     sent_bytes = 0
+    sent_pairs = 0
+    pairwise = 0
     messages = 0
     nbytes = 0
     rnd = 0
@@ -1006,7 +1059,7 @@ def run_cbga(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
                        gain_val[i], gain_pos[i], gain_nb[i], gain_ok[i], at_dist[i], tt,
                        tasks, pre_ptr, pre_idx, speed[i], avail[i], eligible[i],
                        gain_bound[i], single, latest, groups, required, team_reward,
-                       task_eq, agent_eq, team, quit_limit, max_depth, work)
+                       task_eq, agent_eq, team, quit_limit, max_depth, work, team_total)
         # -- what the round's messages cost (`CbgaAgent.sent_counts`)
         for k in range(n):
             d = out_degree[k]
@@ -1022,6 +1075,8 @@ def run_cbga(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
                             n_starts += 1
             sent_msgs += d
             sent_bytes += d * (msg_base + (entries + n_starts) * msg_entry)
+            if _sent_changed(k, x, t, x_sent, t_sent, single):
+                sent_pairs += d
         # -- phase 2: everyone sends, then each merges its neighbours' messages in order
         _copy(x_sent, x)
         _copy(t_sent, t)
@@ -1073,6 +1128,7 @@ def run_cbga(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
             last_change = rnd
             messages = sent_msgs
             nbytes = sent_bytes
+            pairwise = sent_pairs
             quiet = 0
         else:
             quiet += 1
@@ -1083,4 +1139,4 @@ def run_cbga(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
                              required, task_eq, agent_eq):
                 pending = True
     converged = quiet >= diameter + 1 and not pending
-    return path, plen, x, rnd, last_change, messages, nbytes, converged
+    return path, plen, x, rnd, last_change, messages, nbytes, converged, pairwise

@@ -36,7 +36,13 @@ from dataclasses import dataclass
 from itertools import combinations, product
 
 from murdoch.consensus.scenario import Scenario
-from murdoch.consensus.scoring import _EPS, Problem, build_problem, evaluate_plan
+from murdoch.consensus.scoring import (
+    _EPS,
+    Problem,
+    build_problem,
+    evaluate_plan,
+    task_value,
+)
 
 _TOL = 1e-9
 
@@ -81,7 +87,7 @@ def agent_sequences(p: Problem, agent: int, tasks: list[int], limit: int
                 start = ws
             if start > lst.window_end[j] + _EPS:
                 continue
-            gain = lst.reward[j] * math.exp(-lst.discount[j] * (start - lst.score_ref[j]))
+            gain = task_value(lst, j, start)
             new_path = (*path, j)
             new_mask = mask | (1 << j)
             out.append(_Seq(new_mask, new_path, score + gain))
@@ -146,7 +152,7 @@ def solve_exact(scenario: Scenario | Problem, node_limit: int = 2_000_000) -> Ex
     p = scenario if isinstance(scenario, Problem) else build_problem(scenario)
     if any(p.prereqs):
         raise ValueError("the exact solver does not handle prerequisites")
-    if (p.discount < 0).any():
+    if p.cost == "discount" and (p.discount < 0).any():
         raise ValueError("the exact solver needs non-negative discounts")
     n, m = p.n_agents, p.n_tasks
     if m > 60:

@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -181,20 +181,28 @@ class RunRecord:
     converged: bool
     conflict_free: bool
     solve_s: float
+    pairwise_steps: int = 0
+    bytes_dense: int = 0
+    cost: str = "discount"
+    team_mode: str = "bonus"
 
 
 def run_one(experiment: str, variant_index: int, n_agents: int, run: int, seed: int,
-            clock: Callable[[], float] = time.perf_counter, refine: bool = False
-            ) -> RunRecord:
+            clock: Callable[[], float] = time.perf_counter, refine: bool = False,
+            cost: str = "discount", team_mode: str = "bonus") -> RunRecord:
     """Generate one scenario and allocate it (the unit of work of a sweep); with `refine`
-    the improvement phase follows and the variant is named '<name> +refine'."""
+    the improvement phase follows and the variant is named '<name> +refine'. `cost`
+    (`scenario.COSTS`) is how tasks score, `team_mode` (`cbga.TEAM_MODES`) how the variants
+    with team reward bid; the geometry depends on neither."""
     variant = EXPERIMENTS[experiment][variant_index]
-    scenario = variant.make(n_agents, run_seed(seed, n_agents, run))
+    scenario = replace(variant.make(n_agents, run_seed(seed, n_agents, run)), cost=cost)
+    options = replace(variant.options, team_mode=team_mode)
     t0 = clock()
-    result = allocate(scenario, variant.algorithm, variant.options,  # type: ignore[arg-type]
+    result = allocate(scenario, variant.algorithm, options,  # type: ignore[arg-type]
                       refine=refine)
     elapsed = clock() - t0
     name = f"{variant.name} +refine" if refine else variant.name
     return RunRecord(experiment, name, n_agents, run, result.total_score,
                      result.comm_steps, result.messages, result.bytes, result.converged,
-                     result.conflict_free, elapsed)
+                     result.conflict_free, elapsed, result.pairwise_steps,
+                     result.bytes_dense, cost, team_mode)

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 
-from murdoch.consensus.scoring import _EPS, Problem
+from murdoch.consensus.scoring import _EPS, LINEAR_MARGIN, Problem, task_value
 
 _NEG_INF = -math.inf
 _ROBUST_S = 1e-6  # an infeasibility by more than this is not a rounding effect
@@ -36,6 +36,7 @@ class PathGains:
         "_cum",
         "_lam",
         "_late",
+        "_linear",
         "_old",
         "_p",
         "_ready",
@@ -71,7 +72,7 @@ class PathGains:
             total_wait += wait if wait > 0.0 else 0.0
             cum.append(total_wait)
             disc = lst.discount[j]
-            old.append(lst.reward[j] * math.exp(-disc * (t - lst.score_ref[j])))
+            old.append(task_value(lst, j, t))
             lam.append(disc)
             room.append(lst.window_end[j] - t + _EPS)
             ready.append(t + lst.duration[j])
@@ -84,6 +85,8 @@ class PathGains:
         self._room = room
         # a path task already past its latest start makes every delaying insertion late
         self._late = any(r < 0.0 for r in room)
+        # the paper's cost: a linear score, so a delay d costs exactly d (see `_evaluate`)
+        self._linear = lst.linear
         self._cache: dict[int, tuple[float, float, int]] = {}
         # per task, no insertion gains more (see `upper_bound`)
         # task -> (its not-before time, the bound)
@@ -108,7 +111,8 @@ class PathGains:
         """No insertion of c (with this not-before time) gains more, on this path or on any
         path grown from it by insertions; inf when unknown.
 
-        A task's own score falls with its start, delays of the path's tasks only cost,
+        A task's own score falls with its start (exponentially, or linearly with the
+        paper's cost), delays of the path's tasks only cost,
         and an insertion never lets a task start earlier than it could before: the
         positions before it are unchanged, the one right after it is reached through it
         (triangle inequality) and the later ones start no earlier. So the earliest start
@@ -126,14 +130,18 @@ class PathGains:
     def _bound_from(self, c: int, floor: float) -> float:
         lst = self._p.lists
         disc = lst.discount[c]
-        if disc < 0.0:
+        if disc < 0.0 and not lst.linear:
             return math.inf
         start = floor - 1e-9 * (1.0 + abs(floor))
         if start > lst.window_end[c] + _EPS:
             return _NEG_INF
         if start < lst.window_start[c]:
             start = lst.window_start[c]
-        return lst.reward[c] * math.exp(-disc * (start - lst.score_ref[c])) * (1.0 + 1e-9)
+        own = task_value(lst, c, start)
+        if lst.linear:
+            # additive: a relative margin would lower a negative bound
+            return own + LINEAR_MARGIN * (1.0 + abs(own))
+        return own * (1.0 + 1e-9)
 
     def _evaluate(self, c: int, not_before: float) -> tuple[float, int, float, float]:
         """(gain, position, earliest start at any position, smallest margin by which an
@@ -146,6 +154,7 @@ class PathGains:
         cum, old, lam, room = self._cum, self._old, self._lam, self._room
         n_path = len(times)
         late = self._late
+        linear = self._linear
         exp, expm1 = math.exp, math.expm1
         lower = not_before
         first = 0
@@ -180,7 +189,10 @@ class PathGains:
                 if start - we < miss:
                     miss = start - we
                 continue
-            total = reward * exp(-disc * (start - ref))
+            if linear:
+                total = reward - dur - (start - ref)
+            else:
+                total = reward * exp(-disc * (start - ref))
             if total <= best:
                 continue  # delays only lower it further
             if q < n_path:
@@ -195,7 +207,10 @@ class PathGains:
                         if d0 - room[q] < miss:
                             miss = d0 - room[q]
                         continue
-                    change = old[q] * expm1(-lam[q] * d0)
+                    if linear:
+                        change = -d0
+                    else:
+                        change = old[q] * expm1(-lam[q] * d0)
                     base = cum[q]
                     feasible = True
                     for k in range(q + 1, n_path):
@@ -207,7 +222,10 @@ class PathGains:
                             if delay - room[k] < miss:
                                 miss = delay - room[k]
                             break
-                        change += old[k] * expm1(-lam[k] * delay)
+                        if linear:
+                            change -= delay
+                        else:
+                            change += old[k] * expm1(-lam[k] * delay)
                     if not feasible:
                         continue
                     total += change

@@ -13,10 +13,9 @@ rounding (`test_consensus_refine_pairs.py` compares both on random plans).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
-from murdoch.consensus.scoring import _EPS, Problem
+from murdoch.consensus.scoring import _EPS, Problem, task_value
 
 
 def joint_score(p: Problem, paths: Sequence[Sequence[int]]) -> tuple[float, list[bool]]:
@@ -96,6 +95,5 @@ def joint_score(p: Problem, paths: Sequence[Sequence[int]]) -> tuple[float, list
     total = 0.0
     for j in range(m):
         if completed[j]:
-            total += len(group[j]) * (lst.reward[j] * math.exp(
-                -lst.discount[j] * (start_of[j] - lst.score_ref[j])))
+            total += len(group[j]) * task_value(lst, j, start_of[j])
     return total, completed

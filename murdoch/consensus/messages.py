@@ -8,6 +8,10 @@ Bids and times are float64 so that equal bids stay equal on every agent.
 CBGA adds, for group tasks only, each member's planned start time ``(task, agent, start)``, so
 that group members can wait for each other when they plan.
 
+`dense_encoded_size` is what the same information would cost as dense (tasks x places)
+matrices, the form the paper's sparse entries replace; nothing is sent that way, the number
+is reported beside the sparse bytes (`bytes_dense`).
+
 Binary layout (big-endian): kind u8, sender u16, time f64, entry count u16, stamp count u16,
 start count u16, then entries (task u16, agent u16, bid f64), stamps (f64 per agent, -inf =
 never heard) and starts (task u16, agent u16, start f64).
@@ -42,6 +46,18 @@ class ConsensusMessage:
 
 def encoded_size(n_entries: int, n_stamps: int, n_starts: int = 0) -> int:
     return _HEADER.size + (n_entries + n_starts) * _ENTRY.size + n_stamps * _STAMP.size
+
+
+_DENSE_CELL = struct.Struct(">Hd")  # a winner (agent index) and its bid
+
+
+def dense_encoded_size(n_tasks: int, width: int, n_stamps: int, starts: bool) -> int:
+    """The size of the same message in the dense form the CBGA paper compares its sparse
+    entries with (its figure 3): every task's `width` (max L_j) winner places sent whether
+    filled or not, as a winner index (u16) and a bid (f64) each, and with `starts` a
+    start time (f64) per place too; the same header and stamps as `encoded_size`."""
+    cell = _DENSE_CELL.size + (_STAMP.size if starts else 0)
+    return _HEADER.size + n_tasks * width * cell + n_stamps * _STAMP.size
 
 
 def encode(msg: ConsensusMessage) -> bytes:

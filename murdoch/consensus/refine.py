@@ -43,7 +43,13 @@ import numpy as np
 from murdoch.consensus.joint_score import joint_score
 from murdoch.consensus.pair_replan import PairReplan
 from murdoch.consensus.scenario import Scenario
-from murdoch.consensus.scoring import Problem, build_problem, evaluate_plan, path_starts
+from murdoch.consensus.scoring import (
+    Problem,
+    build_problem,
+    evaluate_plan,
+    path_starts,
+    task_value,
+)
 from murdoch.consensus.sync_runner import AllocationResult, build_result, graph_diameter
 
 Plan = tuple[tuple[int, ...], ...]
@@ -105,7 +111,7 @@ class PlanScorer:
                     lst = p.lists
                     v = 0.0
                     for j, t in zip(path, starts, strict=True):
-                        v += lst.reward[j] * math.exp(-lst.discount[j] * (t - lst.score_ref[j]))
+                        v += task_value(lst, j, t)
             self._paths[key] = v
         return v
 
@@ -559,7 +565,10 @@ def refine_allocation(scenario: Scenario, plain: AllocationResult,
     res = build_result(plain.algorithm, p, plan, views, [True] * p.n_agents, neighbours,
                        plain.converged and out.converged, plain.comm_steps + out.rounds,
                        plain.messages + out.messages, plain.bytes + out.bytes,
-                       plain.rounds + out.rounds)
+                       plain.rounds + out.rounds,
+                       # the phase's sends each carry new paths or proposals; it has
+                       # one encoding, so its bytes count in both forms
+                       plain.pairwise_steps + out.messages, plain.bytes_dense + out.bytes)
     extra["refine"] = {"plain_score": plain.total_score, "rounds": out.rounds,
                        "messages": out.messages, "bytes": out.bytes, "steps": out.steps,
                        "moves": out.moves, "converged": out.converged}

@@ -14,6 +14,11 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+# how a task started at time s scores (`scoring.py`): "discount" is
+# reward * exp(-discount * (s - ref)); "paper" is the CBGA paper's linear cost,
+# reward - ((s - ref) + duration), s being the group's latest arrival for a group task
+COSTS = ("discount", "paper")
+
 
 class ScenarioError(ValueError):
     """A scenario file or dictionary that does not match the format."""
@@ -70,6 +75,7 @@ class Scenario:
     time_windows: bool = True
     max_depth: int | None = None  # bundle limit; None = number of tasks
     comm_graph: CommGraph = field(default_factory=CommGraph)
+    cost: str = "discount"  # one of COSTS: how a task's score falls with its start
 
     @property
     def bundle_limit(self) -> int:
@@ -180,6 +186,10 @@ def parse_scenario(data: object, source: str = "<scenario>") -> Scenario:
                                   or max_depth < 1):
         raise r.fail("max_depth", "a positive integer or null", max_depth)
 
+    cost = top.get("cost", "discount")
+    if cost not in COSTS:
+        raise r.fail("cost", " or ".join(repr(c) for c in COSTS), cost)
+
     raw_agents = top.get("agents")
     if not isinstance(raw_agents, list) or not raw_agents:
         raise r.fail("agents", "a non-empty list of agent objects", raw_agents)
@@ -263,7 +273,8 @@ def parse_scenario(data: object, source: str = "<scenario>") -> Scenario:
         graph = CommGraph(directed, tuple(edges))
 
     return Scenario(name=name, agents=tuple(agents), tasks=tuple(tasks),
-                    time_windows=time_windows, max_depth=max_depth, comm_graph=graph)
+                    time_windows=time_windows, max_depth=max_depth, comm_graph=graph,
+                    cost=cost)
 
 
 def _check_unique(r: _Reader, key: str, ids: list[str]) -> None:
@@ -298,6 +309,8 @@ def scenario_to_dict(s: Scenario) -> dict[str, Any]:
 
     out: dict[str, Any] = {"name": s.name, "time_windows": s.time_windows,
                            "max_depth": s.max_depth}
+    if s.cost != "discount":
+        out["cost"] = s.cost
     if s.comm_graph.edges is not None:
         out["comm_graph"] = {"directed": s.comm_graph.directed,
                              "edges": [list(e) for e in s.comm_graph.edges]}

@@ -5,13 +5,17 @@ possible: when the agent has arrived (straight-line travel at its speed), not be
 opens, and not before its prerequisites (which must be earlier on the same path) have finished.
 With time windows a task scores ``reward * exp(-discount * (start - window_start))`` and the
 path is feasible only if every start is at most the window's latest start; without time windows
-the reference time is 0 and there is no latest start.
+the reference time is 0 and there is no latest start. With the scenario's ``cost: "paper"`` a
+task scores ``reward - ((start - reference) + duration)`` instead (the CBGA paper's eq. 7/8:
+the reward less the time until the group's latest arrival and the task's duration, in
+seconds; `discount` is not used). Both fall with the start; the linear one can go negative.
 
 Marginal gains of inserting a task into a path are in `gains.py`.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,6 +23,9 @@ import numpy as np
 from murdoch.consensus.scenario import Scenario
 
 _EPS = 1e-9
+# what a linear score's upper bound adds, relative to 1 + |bound|: the bound and the gain
+# it bounds are computed along different paths and may differ in their last bits
+LINEAR_MARGIN = 1e-9
 
 
 @dataclass(frozen=True)
@@ -37,6 +44,7 @@ class _Lists:
     eligible: list[list[bool]]
     required: list[int]
     team_reward: list[float]
+    linear: bool  # the paper's cost: reward - ((start - ref) + duration)
     # per task: window start, latest start + tolerance, duration, score reference time,
     # reward, discount (what an insertion evaluation reads)
     task_params: list[tuple[float, float, float, float, float, float]]
@@ -70,6 +78,7 @@ class Problem:
     quit_after: np.ndarray  # (M,) inf = never
     team_reward: np.ndarray  # (M,)
     max_depth: int
+    cost: str  # `scenario.COSTS`; "paper" scores linearly (`linear` in `lists`)
     gain_bound: np.ndarray  # (N, M): no insertion can gain more (direct travel, no delays)
     lists: _Lists  # the same numbers as Python lists, for the scalar path walk
 
@@ -108,14 +117,19 @@ def build_problem(s: Scenario) -> Problem:
     tt_dist = (np.linalg.norm(task_pos[:, None, :] - task_pos[None, :, :], axis=2)
                if m else np.zeros((0, 0)))
     earliest = np.maximum(ws[None, :], availability[:, None] + at_dist / speed[:, None])
-    bound = np.where(earliest <= we[None, :] + _EPS,
-                     reward[None, :] * np.exp(-discount[None, :] * (earliest - ref[None, :])),
-                     -np.inf)
+    linear = s.cost == "paper"
+    if linear:
+        # a linear score: an additive margin (a relative one would lower a negative bound)
+        own = reward[None, :] - duration[None, :] - (earliest - ref[None, :])
+        own = own + LINEAR_MARGIN * (1.0 + np.abs(own))
+    else:
+        own = reward[None, :] * np.exp(-discount[None, :] * (earliest - ref[None, :]))
+    bound = np.where(earliest <= we[None, :] + _EPS, own, -np.inf)
     required = np.array([t.agents_required for t in s.tasks], dtype=np.int64)
     lists = _Lists(at_dist.tolist(), tt_dist.tolist(), ws.tolist(), we.tolist(),
                    duration.tolist(), speed.tolist(), availability.tolist(), reward.tolist(),
                    discount.tolist(), ref.tolist(), bound.tolist(), eligible.tolist(),
-                   required.tolist(), [t.team_reward for t in s.tasks],
+                   required.tolist(), [t.team_reward for t in s.tasks], linear,
                    [(float(ws[j]), float(we[j]) + _EPS, float(duration[j]), float(ref[j]),
                      float(reward[j]), float(discount[j])) for j in range(m)])
     return Problem(
@@ -134,6 +148,7 @@ def build_problem(s: Scenario) -> Problem:
                              for t in s.tasks], dtype=float),
         team_reward=np.array([t.team_reward for t in s.tasks], dtype=float),
         max_depth=s.bundle_limit,
+        cost=s.cost,
         gain_bound=bound,
         lists=lists,
     )
@@ -141,7 +156,17 @@ def build_problem(s: Scenario) -> Problem:
 
 def task_scores(p: Problem, tasks: np.ndarray, starts: np.ndarray) -> np.ndarray:
     """Score of each task when started at the given time."""
+    if p.lists.linear:
+        return p.reward[tasks] - p.duration[tasks] - (starts - p.score_ref[tasks])
     return p.reward[tasks] * np.exp(-p.discount[tasks] * (starts - p.score_ref[tasks]))
+
+
+def task_value(lst: _Lists, j: int, start: float) -> float:
+    """`task_scores` of one task, in plain Python (the same operations as the insertion
+    gains of `gains.py` and the compiled kernels)."""
+    if lst.linear:
+        return lst.reward[j] - lst.duration[j] - (start - lst.score_ref[j])
+    return lst.reward[j] * math.exp(-lst.discount[j] * (start - lst.score_ref[j]))
 
 
 def path_times(p: Problem, agent: int, path: list[int],

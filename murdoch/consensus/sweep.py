@@ -26,6 +26,8 @@ class Job:
     run: int
     seed: int
     refine: bool = False
+    cost: str = "discount"
+    team_mode: str = "bonus"
 
 
 @dataclass(frozen=True)
@@ -45,6 +47,10 @@ class Summary:
     solve_ms_mean: float
     converged: int
     conflict_free: int
+    pairwise_mean: float = math.nan
+    pairwise_std: float = math.nan
+    bytes_dense_mean: float = math.nan
+    bytes_dense_std: float = math.nan
 
 
 def parse_agents(text: str) -> tuple[int, ...]:
@@ -68,9 +74,10 @@ def parse_agents(text: str) -> tuple[int, ...]:
 
 
 def jobs_for(experiment: str, agents: Sequence[int], runs: int, seed: int,
-             refine: bool = False) -> list[Job]:
+             refine: bool = False, cost: str = "discount", team_mode: str = "bonus"
+             ) -> list[Job]:
     variants = EXPERIMENTS[experiment]
-    return [Job(experiment, v, n, r, seed, refine)
+    return [Job(experiment, v, n, r, seed, refine, cost, team_mode)
             for n in agents for v in range(len(variants)) for r in range(runs)]
 
 
@@ -83,7 +90,8 @@ def load_kernels(cbba: bool, cbga: bool) -> None:
 
 
 def _run_chunk(chunk: list[Job]) -> list[RunRecord]:
-    return [run_one(j.experiment, j.variant_index, j.n_agents, j.run, j.seed, refine=j.refine)
+    return [run_one(j.experiment, j.variant_index, j.n_agents, j.run, j.seed, refine=j.refine,
+                    cost=j.cost, team_mode=j.team_mode)
             for j in chunk]
 
 
@@ -145,25 +153,32 @@ def summarise(records: Iterable[RunRecord]) -> list[Summary]:
         tm, ts = _mean_std([float(r.steps) for r in done])
         mm, ms = _mean_std([float(r.messages) for r in done])
         bm, bs = _mean_std([float(r.bytes) for r in done])
+        pm, ps = _mean_std([float(r.pairwise_steps) for r in done])
+        dm, ds = _mean_std([float(r.bytes_dense) for r in done])
         out.append(Summary(exp, variant, n, len(rs), sm, ss, tm, ts, mm, ms, bm, bs,
                            1000 * sum(r.solve_s for r in rs) / len(rs),
-                           sum(r.converged for r in rs), sum(r.conflict_free for r in rs)))
+                           sum(r.converged for r in rs), sum(r.conflict_free for r in rs),
+                           pm, ps, dm, ds))
     return out
 
 
 def markdown_table(rows: Sequence[Summary]) -> str:
-    lines = ["| experiment | variant | agents | runs | score | steps* | messages* | bytes* |"
-             " solve ms | converged | conflict-free |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| experiment | variant | agents | runs | score | steps* | pairwise steps* "
+             "| messages* | bytes* | dense bytes* | solve ms | converged | conflict-free |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(
             f"| {r.experiment} | {r.variant} | {r.n_agents} | {r.runs} "
             f"| {r.score_mean:.0f} ± {r.score_std:.0f} | {r.steps_mean:.1f} ± {r.steps_std:.1f} "
+            f"| {r.pairwise_mean:.0f} ± {r.pairwise_std:.0f} "
             f"| {r.messages_mean:.0f} ± {r.messages_std:.0f} "
-            f"| {r.bytes_mean:.0f} ± {r.bytes_std:.0f} | {r.solve_ms_mean:.0f} "
+            f"| {r.bytes_mean:.0f} ± {r.bytes_std:.0f} "
+            f"| {r.bytes_dense_mean:.0f} ± {r.bytes_dense_std:.0f} | {r.solve_ms_mean:.0f} "
             f"| {r.converged}/{r.runs} | {r.conflict_free}/{r.runs} |")
     lines.append("")
-    lines.append("Mean ± standard deviation over runs; * over the runs that converged.")
+    lines.append("Mean ± standard deviation over runs; * over the runs that converged. Steps "
+                 "are rounds; pairwise steps are the sends that carried changed allocation "
+                 "data; dense bytes are the same messages as dense matrices.")
     return "\n".join(lines) + "\n"
 
 

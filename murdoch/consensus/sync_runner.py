@@ -8,8 +8,11 @@ Timestamps are round numbers.
 Measured: **comm_steps** = the last round in which any agent's bids (y, z, or CBGA's X and
 its group members' planned times) or bundle changed; **messages** = agent-to-neighbour
 transmissions in rounds 1..comm_steps; **bytes** = the encoded size (`messages.encode`) of
-those transmissions. The run stops once nothing has changed for (graph diameter + 1) rounds
-and no task-quitting timer is pending, or at
+those transmissions; **pairwise_steps** = those transmissions whose allocation data (the
+message's entries and members' times) differ from what the sender sent the round before
+(the CBGA paper's count of steps); **bytes_dense** = the same messages in the dense matrix
+form (`messages.dense_encoded_size`). The run stops once nothing has changed for (graph
+diameter + 1) rounds and no task-quitting timer is pending, or at
 `max_rounds` (then `converged` is false).
 """
 
@@ -25,7 +28,7 @@ from typing import Any, Literal
 from murdoch.consensus.cbba import CbbaAgent
 from murdoch.consensus.cbga import CbgaAgent, CbgaOptions
 from murdoch.consensus.conflict import NONE
-from murdoch.consensus.messages import encoded_size
+from murdoch.consensus.messages import dense_encoded_size, encoded_size
 from murdoch.consensus.scenario import Scenario, Task
 from murdoch.consensus.scoring import Problem, build_problem, evaluate_plan
 
@@ -49,6 +52,11 @@ class AllocationResult:
     messages: int
     bytes: int
     rounds: int
+    # sends in rounds 1..comm_steps whose allocation data differ from the sender's previous
+    # round's (the CBGA paper's steps), and the bytes of those rounds' messages in the dense
+    # form (`messages.dense_encoded_size`)
+    pairwise_steps: int = 0
+    bytes_dense: int = 0
     extra: dict[str, Any] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
@@ -66,6 +74,8 @@ class AllocationResult:
             "messages": self.messages,
             "bytes": self.bytes,
             "rounds": self.rounds,
+            "pairwise_steps": self.pairwise_steps,
+            "bytes_dense": self.bytes_dense,
         }
 
 
@@ -95,8 +105,13 @@ def graph_diameter(neighbours: Sequence[Sequence[int]], active: Sequence[bool]) 
 def build_result(algorithm: str, problem: Problem, paths: list[list[int]],
                  views: list[list[frozenset[int]]] | None, active: list[bool],
                  neighbours: Sequence[Sequence[int]], converged: bool, comm_steps: int,
-                 messages: int, nbytes: int, rounds: int) -> AllocationResult:
+                 messages: int, nbytes: int, rounds: int, pairwise_steps: int = 0,
+                 bytes_dense: int | None = None) -> AllocationResult:
+    """The result of a run (`bytes_dense` None: `messages` consensus messages of the
+    algorithm, at `dense_message_size` each)."""
     s = problem.scenario
+    if bytes_dense is None:
+        bytes_dense = messages * dense_message_size(algorithm, problem)
     ev = evaluate_plan(problem, paths)
     groups = ev.group
     conflict_free = all(len(g) <= int(problem.required[j]) for j, g in enumerate(groups))
@@ -122,7 +137,16 @@ def build_result(algorithm: str, problem: Problem, paths: list[list[int]],
         algorithm=algorithm, assignment=assignment, start_times=start_times,
         total_score=ev.total_score, unassigned=unassigned, incomplete=incomplete,
         conflict_free=bool(conflict_free), agreed=agreed, converged=converged,
-        comm_steps=comm_steps, messages=messages, bytes=nbytes, rounds=rounds)
+        comm_steps=comm_steps, messages=messages, bytes=nbytes, rounds=rounds,
+        pairwise_steps=pairwise_steps, bytes_dense=bytes_dense)
+
+
+def dense_message_size(algorithm: str, problem: Problem) -> int:
+    """One consensus message of this run in the dense form: CBBA's (y, z) vectors; CBGA's
+    (tasks x max L_j) winners and bids, with start times when there are group tasks."""
+    width = int(problem.required.max()) if problem.n_tasks else 1
+    starts = algorithm == "cbga" and width > 1
+    return dense_encoded_size(problem.n_tasks, width, problem.n_agents, starts)
 
 
 def components(neighbours: Sequence[Sequence[int]], active: Sequence[bool]) -> list[set[int]]:
@@ -170,7 +194,10 @@ class SyncRunner:
         self.round = 0
         self.last_change = 0
         self.quiet = 0
-        self.per_round: list[tuple[int, int]] = []  # (messages, bytes) per round
+        # (messages, bytes, sends carrying changed data) per round
+        self.per_round: list[tuple[int, int, int]] = []
+        # what each agent sent last round (`sent_data`; nothing before round 1)
+        self._last_sent: list[object] = [((), ())] * n
         self.agents: list[CbbaAgent | CbgaAgent] = (
             [CbbaAgent(self.problem, i) for i in range(n)] if algorithm == "cbba"
             else [CbgaAgent(self.problem, i, self.options) for i in range(n)])
@@ -219,6 +246,7 @@ class SyncRunner:
     def _count_messages(self) -> None:
         msgs = 0
         nbytes = 0
+        pairs = 0
         n = self.problem.n_agents
         for k, a in enumerate(self.agents):
             d = self.out_degree[k]
@@ -231,7 +259,11 @@ class SyncRunner:
                 entries, starts = a.sent_counts()
             msgs += d
             nbytes += d * encoded_size(entries, n, starts)
-        self.per_round.append((msgs, nbytes))
+            data = a.sent_data()
+            if data != self._last_sent[k]:
+                pairs += d
+            self._last_sent[k] = data
+        self.per_round.append((msgs, nbytes, pairs))
 
     def _consensus_cbba(self, now: float) -> None:
         # what every agent sends this round (lists are replaced, never shared)
@@ -281,12 +313,14 @@ class SyncRunner:
 
     def result(self) -> AllocationResult:
         steps = self.last_change
-        msgs = sum(m for m, _ in self.per_round[:steps])
-        nbytes = sum(b for _, b in self.per_round[:steps])
+        msgs = sum(r[0] for r in self.per_round[:steps])
+        nbytes = sum(r[1] for r in self.per_round[:steps])
+        pairs = sum(r[2] for r in self.per_round[:steps])
         paths = [list(a.path) if self.active[i] else [] for i, a in enumerate(self.agents)]
         views = [a.winners_view() for a in self.agents]
         return build_result(self.algorithm, self.problem, paths, views, self.active,
-                            self.neighbours, self.done(), steps, msgs, nbytes, self.round)
+                            self.neighbours, self.done(), steps, msgs, nbytes, self.round,
+                            pairs)
 
     # -- dynamic changes ----------------------------------------------------------------
     def add_tasks(self, tasks: Sequence[Task]) -> None:

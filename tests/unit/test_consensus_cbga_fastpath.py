@@ -271,3 +271,44 @@ def test_sweep_runs_cbga_compiled() -> None:
 
 def test_kernel_loads() -> None:
     assert load_compiled_cbga()
+
+
+# -- the paper's cost and the "total" team reward -----------------------------------------
+
+
+@pytest.mark.parametrize(("experiment", "variant"), CBGA_VARIANTS)
+def test_recorded_experiments_identical_with_the_paper_cost(experiment: str, variant: int
+                                                            ) -> None:
+    v = EXPERIMENTS[experiment][variant]
+    modes = ("bonus", "total") if v.options.team_reward else ("bonus",)
+    for agents in (3, 6):
+        for mode in modes:
+            s = dataclasses.replace(v.make(agents, run_seed(0, agents, 1)), cost="paper")
+            options = dataclasses.replace(v.options, team_mode=mode)
+            fast, ref = both(s, options)
+            assert_same(fast, ref, f"{experiment}/{variant}/{agents}/{mode}")
+
+
+@pytest.mark.parametrize("block", range(4))
+def test_random_scenarios_identical_with_the_paper_cost(block: int) -> None:
+    """4 x 50 seeded random scenarios scored with the paper's linear cost (scores that go
+    negative included), half of them with the "total" team reward."""
+    for n in range(50):
+        seed = 50_000 + 1000 * block + n
+        rng = np.random.default_rng(seed)
+        s, options, rounds = random_scenario(rng, f"p{seed}")
+        s = dataclasses.replace(s, cost="paper")
+        options = dataclasses.replace(options, team_mode="total" if n % 2 else "bonus")
+        assert compiled_cbga_unsupported(s, options) is None
+        fast, ref = both(s, options, rounds)
+        assert_same(fast, ref, f"seed {seed}")
+
+
+def test_final_bids_identical_with_the_paper_cost_and_total_team_reward() -> None:
+    for seed in range(30):
+        s, options, rounds = random_scenario(np.random.default_rng(70_000 + seed), f"q{seed}")
+        s = dataclasses.replace(s, cost="paper")
+        options = dataclasses.replace(options, team_reward=True, team_mode="total")
+        runner = SyncRunner(s, "cbga", options, rounds)
+        runner.run()
+        assert compiled_cbga_bids(s, options, rounds) == agent_bids(runner), seed

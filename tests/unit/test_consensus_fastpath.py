@@ -161,3 +161,25 @@ def test_group_tasks_still_rejected() -> None:
 
 def test_kernel_loads() -> None:
     assert load_compiled_cbba()
+
+
+@pytest.mark.parametrize("block", range(3))
+def test_random_scenarios_identical_with_the_paper_cost(block: int) -> None:
+    """3 x 60 seeded random scenarios scored with the paper's linear cost (negative scores
+    included: far tasks, long durations, open windows)."""
+    for n in range(60):
+        seed = 50_000 + 1000 * block + n
+        s, rounds = random_scenario(np.random.default_rng(seed), f"p{seed}")
+        s = dataclasses.replace(s, cost="paper")
+        assert compiled_cbba_unsupported(s) is None
+        fast, ref = both(s, rounds)
+        assert_same(fast, ref, f"seed {seed}")
+
+
+def test_fig5_identical_with_the_paper_cost() -> None:
+    v = EXPERIMENTS["fig5"][0]
+    for agents in (3, 6, 10):
+        s = dataclasses.replace(v.make(agents, run_seed(0, agents, 0)), cost="paper")
+        fast, ref = both(s)
+        assert_same(fast, ref, f"fig5/{agents}")
+        assert fast.pairwise_steps <= fast.messages
