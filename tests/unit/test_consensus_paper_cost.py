@@ -24,8 +24,8 @@ import pytest
 from click.testing import CliRunner
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from sibling import load_sibling
 
-from murdoch.consensus import gains as gains_module
 from murdoch.consensus.cbga import CbgaAgent, CbgaOptions
 from murdoch.consensus.exact import solve_exact
 from murdoch.consensus.experiments import EXPERIMENTS, TaskSpec, make_scenario, run_seed
@@ -177,9 +177,8 @@ def test_negative_scores_keep_a_valid_bound_and_are_not_bid() -> None:
         assert r.total_score == pytest.approx(85.0)
 
 
-def _without_pruning(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(gains_module, "_ROBUST_S", math.inf)
-    monkeypatch.setattr(PathGains, "_bound_from", lambda self, c, floor: math.inf)
+_without_pruning = load_sibling(__file__, "test_consensus_gains.py")._without_pruning
+brute_force = load_sibling(__file__, "test_consensus_exact.py").brute_force
 
 
 CASES = [("fig5", 0, 6, 3), ("fig5", 1, 7, 4), ("fig5", 2, 5, 1), ("fig7", 2, 8, 2),
@@ -204,33 +203,13 @@ def test_pruned_bundles_equal_full_evaluation(experiment: str, variant: int, age
 
 @pytest.mark.parametrize("groups", [False, True])
 def test_exact_solver_takes_the_paper_cost(groups: bool) -> None:
-    import itertools
-
-    from murdoch.consensus.scoring import evaluate_plan
-
     for k in range(15):
         rng = np.random.default_rng([5, k, int(groups)])
         n = int(rng.integers(2, 4))
         s = dataclasses.replace(small_problem(rng, n, 4, SHAPES[k % len(SHAPES)],
                                               groups=groups), cost="paper")
         p = build_problem(s)
-        best = 0.0
-        options = []
-        for j in range(p.n_tasks):
-            opts: list[tuple[int, ...]] = [()]
-            for combo in itertools.combinations(range(p.n_agents), int(p.required[j])):
-                if all(p.eligible[i, j] for i in combo):
-                    opts.append(combo)
-            options.append(opts)
-        for pick in itertools.product(*options):
-            sets: list[list[int]] = [[] for _ in range(p.n_agents)]
-            for j, combo in enumerate(pick):
-                for i in combo:
-                    sets[i].append(j)
-            if any(len(q) > p.max_depth for q in sets):
-                continue
-            for orders in itertools.product(*[itertools.permutations(q) for q in sets]):
-                best = max(best, evaluate_plan(p, [list(o) for o in orders]).total_score)
+        best = brute_force(p)
         sol = solve_exact(p)
         assert sol.total_score == pytest.approx(best, abs=1e-6), k
         plain = allocate(s, "cbga" if groups else "cbba")
