@@ -236,14 +236,14 @@ def plot_robots(
     ys = range(len(names))
     base = [0.0] * len(names)
     for k, kind in enumerate(kinds):
-        values = [kinds_per_robot.get(n, {}).get(kind, 0) for n in names]
-        left.barh(ys, values, left=base, color=KIND_COLOURS[k % len(KIND_COLOURS)],
+        counts = [kinds_per_robot.get(n, {}).get(kind, 0) for n in names]
+        left.barh(ys, counts, left=base, color=KIND_COLOURS[k % len(KIND_COLOURS)],
                   label=kind, height=0.7)
-        for y, (b, v) in enumerate(zip(base, values, strict=True)):
-            if v:
-                left.text(b + v / 2, y, str(v), ha="center", va="center", fontsize=7,
+        for y, (b, c) in enumerate(zip(base, counts, strict=True)):
+            if c:
+                left.text(b + c / 2, y, str(c), ha="center", va="center", fontsize=7,
                           color="white")
-        base = [b + v for b, v in zip(base, values, strict=True)]
+        base = [b + c for b, c in zip(base, counts, strict=True)]
     left.set_yticks(list(ys))
     left.set_yticklabels(names)
     left.invert_yaxis()

@@ -323,16 +323,12 @@ def _robots_ready(server: Any, ports: dict[str, int]) -> bool:
 def _task_spec(planned: Any) -> Any:
     """The MURDOCH announcement of one planned task of the task source."""
     from behaviors.library import TASKS
-    from murdoch.auction.messages import TaskSpec
     from murdoch.auction.timing import USER_TASK
 
     kind = planned.kind
-    t = USER_TASK
-    return TaskSpec(kind, TASKS[kind].subjects, planned.params,
-                    duration_s=float(planned.params.get("duration_s", 0.0)),
-                    bid_window_s=t.bid_window_s, renew_period_s=t.renew_period_s,
-                    contract_timeout_s=t.contract_timeout_s, abandon_after_s=t.abandon_after_s,
-                    timeout_s=float(planned.params["duration_s"]) + 600.0)
+    return USER_TASK.task(kind, TASKS[kind].subjects, planned.params,
+                          duration_s=float(planned.params.get("duration_s", 0.0)),
+                          timeout_s=float(planned.params["duration_s"]) + 600.0)
 
 
 def run_experiment(

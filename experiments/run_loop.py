@@ -585,7 +585,7 @@ class RunLoop:
             return
         st.closed = True
         why = "run ended: box at the goal" if st.goal_outcome == "reached" else "run ended"
-        for task_id in self.node.auctioneer.open_tasks():
+        for task_id in self.node.open_tasks():
             self.node.cancel(task_id, why)
         for task_id in sorted(st.introduced - st.finished):
             self.rec.event(end_t, ev.TASK_OUTCOME, task=task_id, outcome=ev.FAILED,

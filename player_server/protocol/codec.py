@@ -56,7 +56,7 @@ def encode_payload(body: Any) -> bytes:
         encoder = type(body).xdr_encode
     except AttributeError:
         raise EncodeError(f"{type(body).__name__} is not a message body") from None
-    return encoder(body)  # type: ignore[no-any-return]
+    return encoder(body)
 
 
 def encode_with_payload(interf: int, index: int, msg_type: int, subtype: int, payload: bytes,

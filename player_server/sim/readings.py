@@ -19,7 +19,7 @@ def fast_constructor(cls: type) -> Callable[..., Any]:
            f"    return o\n")
     ns: dict[str, Any] = {"_new": object.__new__, "_cls": cls}
     exec(src, ns)
-    return ns["make"]  # type: ignore[no-any-return]
+    return ns["make"]
 
 
 @dataclass(frozen=True)

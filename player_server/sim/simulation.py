@@ -625,10 +625,10 @@ class Simulation:
         n_range = sum(o.size for o in origins)
         bplan = pending = None
         if cams:
-            key = tuple(cams)
-            bplan = self._blob_plans.get(key)
+            cam_key = tuple(cams)
+            bplan = self._blob_plans.get(cam_key)
             if bplan is None:
-                bplan = self._blob_plans[key] = BlobPlan.build(key, self._arrays)
+                bplan = self._blob_plans[cam_key] = BlobPlan.build(cam_key, self._arrays)
             t_pos, t_head = self._target_poses(frame)
             pan, _, zoom = self._ptz_arrays()
             pending = bplan.pending(frame, t_pos, t_head, pan, zoom, self._target_hidden)
