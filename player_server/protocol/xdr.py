@@ -35,6 +35,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import Annotated, Any, ClassVar, TypeVar
 
+from player_server.frozen import frozen_constructor
 from player_server.protocol.errors import DecodeError, EncodeError
 
 
@@ -157,27 +158,6 @@ def _flatten(spec: Any, expr: str) -> tuple[str, list[str]]:
     return codes, exprs
 
 
-def _fast_constructor(cls: type) -> Callable[..., Any]:
-    """A positional constructor that fills the slots directly.
-
-    A frozen dataclass's ``__init__`` goes through ``object.__setattr__`` per field; the
-    decoder builds millions of bodies, and setting the slot descriptors directly is about
-    three times faster while producing an equal, equally frozen object.
-    """
-    names = [f.name for f in dataclasses.fields(cls)]
-    if "__slots__" not in cls.__dict__ or any(n not in cls.__dict__ for n in names):
-        return cls
-    ns: dict[str, Any] = {"_new": object.__new__, "_cls": cls}
-    body = []
-    for i, n in enumerate(names):
-        ns[f"_s{i}"] = cls.__dict__[n].__set__
-        body.append(f"    _s{i}(o, a{i})")
-    args = ", ".join(f"a{i}" for i in range(len(names)))
-    src = f"def make({args}):\n    o = _new(_cls)\n" + "\n".join(body) + "\n    return o"
-    exec(src, ns)
-    return ns["make"]
-
-
 def _rebuild(spec: Any, values: str, start: int, ns: dict[str, Any]) -> tuple[str, int]:
     """Source expression rebuilding a fixed member from a tuple of unpacked values."""
     if isinstance(spec, Scalar):
@@ -207,7 +187,7 @@ def _compile(cls: type, specs: list[tuple[str, Any]]) -> None:
         "_enc_string": _enc_string,
         "_dec_string": _dec_string,
         "_cls": cls,
-        "_make": _fast_constructor(cls),
+        "_make": frozen_constructor(cls),
     }
     enc = ["def encode(o):", "    parts = []"]
     dec = ["def decode(b, off):"]
