@@ -28,20 +28,22 @@ from player_server.protocol.common import Pose2d, Pose3d
 from player_server.protocol.constants import Interface, MsgType
 from player_server.protocol.errors import EncodeError
 from player_server.protocol.header import HEADER_STRUCT
+from player_server.protocol.xdr import COUNT_WORDS, WIRE_U32, wire_layout
 
 _CMD = int(MsgType.CMD)
-_COUNTS = struct.Struct(">II")
-_U32 = struct.Struct(">I")
+_COUNTS = COUNT_WORDS
+_U32 = struct.Struct(">" + WIRE_U32.code)
+# the layouts of the bodies read by hand, from the protocol's declarations
 #: position2d DATA_STATE: pos (px, py, pa), vel (px, py, pa), stall
-_POS_STATE = struct.Struct(">6dI")
+_POS_STATE = wire_layout(am.Position2dData)
 #: laser DATA_SCAN up to the ranges: min_angle, max_angle, resolution, max_range, count x2
-_LASER_HEAD = struct.Struct(">4f2I")
+_LASER_HEAD = wire_layout(sm.LaserData, upto="ranges")
 #: blobfinder DATA_BLOBS up to the blobs: width, height, count x2
-_BLOBS_HEAD = struct.Struct(">4I")
+_BLOBS_HEAD = wire_layout(sm.BlobfinderData, upto="blobs")
 #: one blob: id, color, area, x, y, left, right, top, bottom, range
-_BLOB = struct.Struct(">9If")
+_BLOB = wire_layout(sm.BlobfinderBlob)
 #: power DATA_STATE: valid, volts, percent, joules, watts, charging
-_POWER_STATE = struct.Struct(">I4fi")
+_POWER_STATE = wire_layout(am.PowerData)
 _POS_DATA_STATE = c.PLAYER_POSITION2D_DATA_STATE
 _SONAR_DATA_RANGES = c.PLAYER_SONAR_DATA_RANGES
 _LASER_DATA_SCAN = c.PLAYER_LASER_DATA_SCAN
@@ -65,7 +67,7 @@ class _FloatArrays:
             st = self._struct = struct.Struct(f">{count}f")
         return st.unpack_from(buf, offset)
 #: header + position2d CMD VEL body (pose2d velocity, motor state) in one struct
-_CMD_VEL = struct.Struct(HEADER_STRUCT.format + "dddI")
+_CMD_VEL = struct.Struct(HEADER_STRUCT.format + wire_layout(am.Position2dCmdVel).format[1:])
 _CMD_VEL_SIZE = _CMD_VEL.size - HEADER_STRUCT.size
 
 

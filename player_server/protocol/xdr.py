@@ -295,6 +295,31 @@ def _compile(cls: type, specs: list[tuple[str, Any]]) -> None:
     cls.xdr_decode_raw = staticmethod(raw_decode)  # type: ignore[attr-defined]
 
 
+COUNT_WORDS = _COUNT
+"""The two count words in front of every counted array, byte array and string."""
+
+
+def wire_layout(cls: type, upto: str | None = None) -> struct.Struct:
+    """The declared wire layout of `cls` as one big-endian ``struct.Struct``.
+
+    Every member must be fixed-size, or, with `upto`, every member before the counted array
+    `upto`, whose two count words end the layout (the head a reader unpacks before the
+    elements). Readers that take bodies apart by hand take their layouts from here, so they
+    and the declarations cannot drift apart."""
+    codes = ""
+    for name, spec in _field_specs(cls):
+        if name == upto:
+            if not isinstance(spec, Array | Bytes | String):
+                raise TypeError(f"{cls.__name__}.{name} is not a counted array")
+            return struct.Struct(">" + codes + "II")
+        if not _is_fixed(spec):
+            raise TypeError(f"{cls.__name__}.{name} has no fixed size")
+        codes += _flatten(spec, name)[0]
+    if upto is not None:
+        raise TypeError(f"{cls.__name__} has no member {upto!r}")
+    return struct.Struct(">" + codes)
+
+
 def xdr_struct(cls: type[T]) -> type[T]:
     """Class decorator: compile the wire codec of a frozen dataclass."""
     if not dataclasses.is_dataclass(cls):
