@@ -19,8 +19,8 @@ from murdoch.consensus.conflict import NONE, Action, resolve, rule_arrays
 
 def test_each_kernel_names_the_parts_it_was_built_against() -> None:
     digest = hashlib.sha256(Path(kernel_parts.__file__).read_bytes()).hexdigest()
-    assert cbba_kernel.PARTS_SHA256 == digest, "update PARTS_SHA256 in cbba_kernel.py"
-    assert cbga_kernel.PARTS_SHA256 == digest, "update PARTS_SHA256 in cbga_kernel.py"
+    assert digest == cbba_kernel.PARTS_SHA256, "update PARTS_SHA256 in cbba_kernel.py"
+    assert digest == cbga_kernel.PARTS_SHA256, "update PARTS_SHA256 in cbga_kernel.py"
 
 
 def test_the_compiled_conflict_rule_agrees_with_the_reference_everywhere() -> None:
