@@ -172,6 +172,58 @@ def _rebuild(spec: Any, values: str, start: int, ns: dict[str, Any]) -> tuple[st
     return f"{key}({', '.join(parts)})", i
 
 
+def _compile_variable(i: int, member: tuple[str, Any], enc: list[str], dec: list[str],
+                      ns: dict[str, Any]) -> None:
+    """Source lines encoding and decoding the variable-size member `i` (arrays, byte
+    arrays, strings, nested structs of variable size)."""
+    name, spec = member
+    skey = f"_X{i}"
+    ns[skey] = spec
+    if isinstance(spec, Array) and isinstance(spec.elem, Scalar):
+        # inlined: the sensor arrays are the bulk of every data round
+        limit = spec.max_count if spec.max_count is not None else _MAX_DEFAULT_COUNT
+        code = spec.elem.code
+        enc.append(f"    parts.append(_enc_array({skey}, o.{name}))")
+        dec.append("    n, n2 = _unpack_count(b, off)")
+        dec.append(f"    if n != n2 or n > {limit}:")
+        dec.append(f"        _read_counts({skey}, b, off)")
+        dec.append(f"    st = _array_struct({code!r}, n)")
+        dec.append(f"    f_{name} = st.unpack_from(b, off + 8)")
+        dec.append("    off += 8 + st.size")
+    elif isinstance(spec, Array):
+        # arrays of structs: the elements' unwrapped codecs (errors surface through
+        # this class's wrapper)
+        limit = spec.max_count if spec.max_count is not None else _MAX_DEFAULT_COUNT
+        ekey = f"_E{i}"
+        ns[ekey] = spec.elem.xdr_decode_raw
+        ns[f"_EE{i}"] = spec.elem.xdr_encode_raw
+        enc.append(f"    n = len(o.{name})")
+        enc.append(f"    if n > {limit}:")
+        enc.append(f"        _check_count(n, {skey})")
+        enc.append("    parts.append(_COUNT.pack(n, n))")
+        enc.append(f"    parts.append(b''.join(map(_EE{i}, o.{name})))")
+        dec.append("    n, n2 = _unpack_count(b, off)")
+        dec.append(f"    if n != n2 or n > {limit}:")
+        dec.append(f"        _read_counts({skey}, b, off)")
+        dec.append("    off += 8")
+        dec.append("    items = []")
+        dec.append("    for _ in range(n):")
+        dec.append(f"        item, off = {ekey}(b, off)")
+        dec.append("        items.append(item)")
+        dec.append(f"    f_{name} = tuple(items)")
+    elif isinstance(spec, Bytes):
+        enc.append(f"    parts.append(_enc_bytes({skey}, o.{name}))")
+        dec.append(f"    f_{name}, off = _dec_bytes({skey}, b, off)")
+    elif isinstance(spec, String):
+        enc.append(f"    parts.append(_enc_string({skey}, o.{name}))")
+        dec.append(f"    f_{name}, off = _dec_string({skey}, b, off)")
+    else:  # a variable-size nested struct
+        ns[f"_NE{i}"] = spec.xdr_encode_raw
+        ns[f"_ND{i}"] = spec.xdr_decode_raw
+        enc.append(f"    parts.append(_NE{i}(o.{name}))")
+        dec.append(f"    f_{name}, off = _ND{i}(b, off)")
+
+
 def _compile(cls: type, specs: list[tuple[str, Any]]) -> None:
     ns: dict[str, Any] = {
         "_COUNT": _COUNT,
@@ -219,52 +271,7 @@ def _compile(cls: type, specs: list[tuple[str, Any]]) -> None:
             i = j
             continue
         all_fixed = False
-        name, spec = specs[i]
-        skey = f"_X{i}"
-        ns[skey] = spec
-        if isinstance(spec, Array) and isinstance(spec.elem, Scalar):
-            # inlined: the sensor arrays are the bulk of every data round
-            limit = spec.max_count if spec.max_count is not None else _MAX_DEFAULT_COUNT
-            code = spec.elem.code
-            enc.append(f"    parts.append(_enc_array({skey}, o.{name}))")
-            dec.append("    n, n2 = _unpack_count(b, off)")
-            dec.append(f"    if n != n2 or n > {limit}:")
-            dec.append(f"        _read_counts({skey}, b, off)")
-            dec.append(f"    st = _array_struct({code!r}, n)")
-            dec.append(f"    f_{name} = st.unpack_from(b, off + 8)")
-            dec.append("    off += 8 + st.size")
-        elif isinstance(spec, Array):
-            # arrays of structs: the elements' unwrapped codecs (errors surface through
-            # this class's wrapper)
-            limit = spec.max_count if spec.max_count is not None else _MAX_DEFAULT_COUNT
-            ekey = f"_E{i}"
-            ns[ekey] = spec.elem.xdr_decode_raw
-            ns[f"_EE{i}"] = spec.elem.xdr_encode_raw
-            enc.append(f"    n = len(o.{name})")
-            enc.append(f"    if n > {limit}:")
-            enc.append(f"        _check_count(n, {skey})")
-            enc.append("    parts.append(_COUNT.pack(n, n))")
-            enc.append(f"    parts.append(b''.join(map(_EE{i}, o.{name})))")
-            dec.append("    n, n2 = _unpack_count(b, off)")
-            dec.append(f"    if n != n2 or n > {limit}:")
-            dec.append(f"        _read_counts({skey}, b, off)")
-            dec.append("    off += 8")
-            dec.append("    items = []")
-            dec.append("    for _ in range(n):")
-            dec.append(f"        item, off = {ekey}(b, off)")
-            dec.append("        items.append(item)")
-            dec.append(f"    f_{name} = tuple(items)")
-        elif isinstance(spec, Bytes):
-            enc.append(f"    parts.append(_enc_bytes({skey}, o.{name}))")
-            dec.append(f"    f_{name}, off = _dec_bytes({skey}, b, off)")
-        elif isinstance(spec, String):
-            enc.append(f"    parts.append(_enc_string({skey}, o.{name}))")
-            dec.append(f"    f_{name}, off = _dec_string({skey}, b, off)")
-        else:  # a variable-size nested struct
-            ns[f"_NE{i}"] = spec.xdr_encode_raw
-            ns[f"_ND{i}"] = spec.xdr_decode_raw
-            enc.append(f"    parts.append(_NE{i}(o.{name}))")
-            dec.append(f"    f_{name}, off = _ND{i}(b, off)")
+        _compile_variable(i, specs[i], enc, dec, ns)
         i += 1
     enc.append("    return b''.join(parts)")
     dec.append(f"    return _make({', '.join('f_' + n for n in names)}), off")
