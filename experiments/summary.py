@@ -144,6 +144,32 @@ def lowest_battery(events: Iterable[Mapping[str, Any]]) -> float | None:
     return battery_min
 
 
+def messages_by_kind(events: Iterable[Mapping[str, Any]]) -> dict[str, dict[str, int]]:
+    """Messages and bytes heard, by message kind."""
+    messages: dict[str, dict[str, int]] = {}
+    for e in events:
+        if e["kind"] == ev.MESSAGE:
+            m = messages.setdefault(str(e["msg_kind"]), {"count": 0, "bytes": 0})
+            m["count"] += 1
+            m["bytes"] += int(e["bytes"])
+    return messages
+
+
+def auction_latencies(events: Iterable[Mapping[str, Any]]) -> list[float]:
+    """Each award's latency: its own figure, else the task's first announcement to it."""
+    first_announce: dict[str, float] = {}
+    latencies: list[float] = []
+    for e in events:
+        if e["kind"] == ev.MESSAGE and e.get("msg_kind") == "announce" and "task" in e:
+            first_announce.setdefault(str(e["task"]), float(e["t"]))
+        elif e["kind"] == ev.AWARD:
+            if "latency_s" in e:
+                latencies.append(float(e["latency_s"]))
+            elif str(e["task"]) in first_announce:
+                latencies.append(float(e["t"]) - first_announce[str(e["task"])])
+    return latencies
+
+
 def summarize(events: Iterable[Mapping[str, Any]],
               process_records: Iterable[Mapping[str, Any]] = ()) -> dict[str, Any]:
     """The summary of a run from its events (simulated history) and its processes.jsonl
@@ -157,25 +183,8 @@ def summarize(events: Iterable[Mapping[str, Any]],
         if e["kind"] == ev.TASK_INTRODUCED:
             task_kind_of[str(e["task"])] = str(e["task_kind"])
 
-    # messages and bytes by kind
-    messages: dict[str, dict[str, int]] = {}
-    for e in evs:
-        if e["kind"] == ev.MESSAGE:
-            m = messages.setdefault(str(e["msg_kind"]), {"count": 0, "bytes": 0})
-            m["count"] += 1
-            m["bytes"] += int(e["bytes"])
-
-    # auction latency: the award's own figure, else first announce of the task -> award
-    first_announce: dict[str, float] = {}
-    latencies: list[float] = []
-    for e in evs:
-        if e["kind"] == ev.MESSAGE and e.get("msg_kind") == "announce" and "task" in e:
-            first_announce.setdefault(str(e["task"]), float(e["t"]))
-        elif e["kind"] == ev.AWARD:
-            if "latency_s" in e:
-                latencies.append(float(e["latency_s"]))
-            elif str(e["task"]) in first_announce:
-                latencies.append(float(e["t"]) - first_announce[str(e["task"])])
+    messages = messages_by_kind(evs)
+    latencies = auction_latencies(evs)
 
     # per robot
     per_robot: dict[str, Counter[str]] = defaultdict(Counter)
