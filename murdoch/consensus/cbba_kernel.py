@@ -30,10 +30,8 @@ from numba import njit
 
 from murdoch.consensus.kernel_parts import DUR, EPS, NONE, WE, WS, conflict_action, gain, prepare
 
-SOURCES_SHA256 = {
-    "kernel_parts.py": "48acf80e0cde01c59b7422d086ad54ef9789e4fcdad8d5835d7b9ab48604f2af",
-}
-"""The kernel files this module's compiled code was built from (see `kernel_parts`)."""
+PARTS_SHA256 = "0b2fb411f3f79ad3d2b9c6a309999826b45e020aecfc81a5acf3a3aacba6432a"
+"""The `kernel_parts.py` this module was written against (see its notes on numba's cache)."""
 
 
 @njit(cache=True)

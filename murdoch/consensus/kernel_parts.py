@@ -7,10 +7,9 @@ to one task (`conflict.resolve_lists`, with the table and look-up arrays of
 `conflict.rule_arrays`, so the rules themselves stay data in `conflict.py`).
 
 numba caches a compiled function by its own file only. Each kernel module therefore names the
-fingerprints of the kernel files it calls into (`SOURCES_SHA256`; `tools/kernel_fingerprints.py`
-rewrites them), and `test_consensus_kernel_parts.py` keeps them current: a change here
-changes the kernel files too, and numba recompiles them instead of reusing code built from
-the old parts.
+fingerprint of this file it was written against (`PARTS_SHA256`), and
+`test_consensus_kernel_parts.py` keeps them equal: a change here changes both kernel files
+too, and numba recompiles them instead of reusing code built from the old parts.
 """
 
 from __future__ import annotations

@@ -1,49 +1,26 @@
-"""The compiled runs are built against the kernel parts they name.
+"""The compiled runs are built against the shared kernel parts they name.
 
-numba caches a compiled function by its own file; a kernel that calls into another kernel
-module would keep running code built from that module's old version. Each kernel module names
-the fingerprint of every kernel file it calls into, so a change to a part must change the
-files that use it as well (and numba recompiles them).
+numba caches a compiled function by its own file; a kernel that calls `kernel_parts` would
+keep running code built from the old parts after they change. Each kernel module names the
+fingerprint of the parts it was written against, so a change to the parts must change the
+kernel files as well (and numba recompiles them).
 """
 
 from __future__ import annotations
 
-import importlib.util
-import re
+import hashlib
 from pathlib import Path
-from types import ModuleType
 
 import numpy as np
 
-from murdoch.consensus import kernel_parts
+from murdoch.consensus import cbba_kernel, cbga_kernel, kernel_parts
 from murdoch.consensus.conflict import NONE, Action, resolve, rule_arrays
 
-_TOOL = Path(__file__).resolve().parents[2] / "tools" / "kernel_fingerprints.py"
 
-
-def _tool() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("kernel_fingerprints", _TOOL)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-def test_each_kernel_names_current_fingerprints_of_every_kernel_it_uses() -> None:
-    tool = _tool()
-    assert tool.stale() == [], "run tools/kernel_fingerprints.py"
-    kernels = set(tool.ORDER)
-    named: dict[str, set[str]] = {}
-    for name in tool.ORDER:
-        text = (tool.KERNELS / name).read_text()
-        imported = {f"{m}.py" for m in re.findall(r"^from murdoch\.consensus\.(\w+) import",
-                                                     text, re.M)} & kernels
-        named[name] = {dep for dep, _ in tool._ENTRY.findall(text)}
-        # every kernel file it imports, and every one those name in turn
-        wanted = set(imported)
-        for dep in imported:
-            wanted |= named[dep]
-        assert named[name] == wanted, name
+def test_each_kernel_names_the_parts_it_was_built_against() -> None:
+    digest = hashlib.sha256(Path(kernel_parts.__file__).read_bytes()).hexdigest()
+    assert digest == cbba_kernel.PARTS_SHA256, "update PARTS_SHA256 in cbba_kernel.py"
+    assert digest == cbga_kernel.PARTS_SHA256, "update PARTS_SHA256 in cbga_kernel.py"
 
 
 def test_the_compiled_conflict_rule_agrees_with_the_reference_everywhere() -> None:
