@@ -28,22 +28,13 @@ class SensingPass:
         self.camera = camera
         self.caster = CompiledCaster()
         self._zeros = np.zeros(256)
-
-    def _key(self) -> tuple[str, str]:
-        return ("sensed", self.world.fidelity)
-
-    def done(self, part: str) -> dict[Any, Any] | None:
-        """This tick's readings of `part` ("ranges" or "blobs") so far (None: none yet)."""
-        w = self.world
-        if w._cache_tick != w.tick:
-            return None
-        done = w._cache.get(self._key())
-        return done[part] if done is not None else None  # type: ignore[index]
+        # the world's cache key of this tick's readings (the fidelity is fixed)
+        self.key = ("sensed", world.fidelity)
 
     def sensed(self) -> dict[str, dict[Any, Any]]:
         """This tick's readings of every active range sensor and blobfinder, computed together
         on first use."""
-        cache = self.world._cached(self._key(), lambda: {"ranges": {}, "blobs": {}})
+        cache = self.world._cached(self.key, lambda: {"ranges": {}, "blobs": {}})
         assert isinstance(cache, dict)
         rkeys = tuple(sorted(k for k in self.ranging.active if k not in cache["ranges"]))
         cams = sorted(i for i in self.camera.active if i not in cache["blobs"])

@@ -139,7 +139,9 @@ class Simulation:
         self.range_model = self.model(RangeModel)
         self.camera_model = self.model(CameraModel)
         self.tracking_model = self.model(TrackingModel)
-        self._advanced_after_power = tuple(m for m in self.models if m is not self.power_model)
+        # the models with per-tick state (after power, which the timings count apart)
+        self._advanced_after_power = tuple(m for m in self.models
+                                           if m.ticking and m is not self.power_model)
         self.sensing = SensingPass(self, self.range_model, self.camera_model)
         self.tick_arrays = TickArrays(self)
         self._build()
@@ -466,14 +468,14 @@ class Simulation:
 
     def sonar(self, robot: str) -> NDArray[np.float32]:
         """Sonar ranges (m), one per transducer, in the world file's transducer order."""
-        return self.range_model.sonar(robot)
+        return self.range_model.reading(robot, "sonar")
 
     def laser(self, robot: str) -> NDArray[np.float32]:
         """Laser ranges (m) from min_angle to max_angle (right to left)."""
-        return self.range_model.laser(robot)
+        return self.range_model.reading(robot, "laser")
 
     def ranger(self, robot: str) -> NDArray[np.float64]:
-        return self.range_model.ranger(robot)
+        return self.range_model.reading(robot, "ranger")
 
     def blobs(self, robot: str) -> tuple[Blob, ...]:
         """Blobs of the blobfinder's channel colours, by channel then area (largest first)."""

@@ -20,6 +20,8 @@ if TYPE_CHECKING:
 class DeviceModel(Protocol):
     kinds: ClassVar[tuple[str, ...]]
     """The world file's device names this model simulates (e.g. "sonar", "laser")."""
+    ticking: ClassVar[bool]
+    """Whether it keeps state that `advance` moves on each tick (the world skips the others)."""
 
     def __init__(self, world: Simulation) -> None: ...
 

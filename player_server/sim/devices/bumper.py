@@ -13,6 +13,7 @@ if TYPE_CHECKING:
 
 class BumperModel:
     kinds: ClassVar[tuple[str, ...]] = ("bumper",)
+    ticking: ClassVar[bool] = False
 
     def __init__(self, world: Simulation) -> None:
         self.world = world

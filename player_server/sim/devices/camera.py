@@ -26,6 +26,7 @@ if TYPE_CHECKING:
 
 class CameraModel:
     kinds: ClassVar[tuple[str, ...]] = ("camera", "blobfinder")
+    ticking: ClassVar[bool] = False
 
     def __init__(self, world: Simulation) -> None:
         self.world = world
@@ -41,9 +42,10 @@ class CameraModel:
     def blobs(self, robot: str) -> tuple[Blob, ...]:
         w = self.world
         st = w._device(robot, "blobfinder")
-        done = w.sensing.done("blobs")
-        if done is not None and st.index in done:
-            return done[st.index]
+        if w._cache_tick == w.tick:
+            done = w._cache.get(w.sensing.key)
+            if done is not None and st.index in done["blobs"]:  # type: ignore[index]
+                return done["blobs"][st.index]  # type: ignore[index]
         self.active.add(st.index)
         return w.sensing.sensed()["blobs"][st.index]
 

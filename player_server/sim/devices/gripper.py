@@ -29,6 +29,7 @@ class Paddles:
 
 class GripperModel:
     kinds: ClassVar[tuple[str, ...]] = ("gripper",)
+    ticking: ClassVar[bool] = True
 
     def __init__(self, world: Simulation) -> None:
         self.world = world

@@ -19,6 +19,7 @@ if TYPE_CHECKING:
 
 class Position2dModel:
     kinds: ClassVar[tuple[str, ...]] = ("position2d",)
+    ticking: ClassVar[bool] = False
 
     def __init__(self, world: Simulation) -> None:
         self.world = world

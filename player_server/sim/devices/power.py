@@ -13,6 +13,7 @@ if TYPE_CHECKING:
 
 class PowerModel:
     kinds: ClassVar[tuple[str, ...]] = ("power",)
+    ticking: ClassVar[bool] = True
 
     def __init__(self, world: Simulation) -> None:
         self.world = world

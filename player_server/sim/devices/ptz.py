@@ -29,6 +29,7 @@ class PtzHead:
 
 class PtzModel:
     kinds: ClassVar[tuple[str, ...]] = ("ptz",)
+    ticking: ClassVar[bool] = True
 
     def __init__(self, world: Simulation) -> None:
         self.world = world

@@ -25,6 +25,7 @@ RangeKey = tuple[int, str]
 
 class RangeModel:
     kinds: ClassVar[tuple[str, ...]] = ("sonar", "laser", "ranger")
+    ticking: ClassVar[bool] = False
 
     def __init__(self, world: Simulation) -> None:
         self.world = world
@@ -41,9 +42,10 @@ class RangeModel:
         w = self.world
         st = w._device(robot, kind)
         key = (st.index, kind)
-        done = w.sensing.done("ranges")
-        if done is not None and key in done:
-            return done[key]
+        if w._cache_tick == w.tick:
+            done = w._cache.get(w.sensing.key)
+            if done is not None and key in done["ranges"]:  # type: ignore[index]
+                return done["ranges"][key]  # type: ignore[index]
         self.active.add(key)
         return w.sensing.sensed()["ranges"][key]
 

@@ -18,6 +18,7 @@ _make_tracked = fast_constructor(TrackedObject)
 
 class TrackingModel:
     kinds: ClassVar[tuple[str, ...]] = ("fiducial",)
+    ticking: ClassVar[bool] = False
     """(and the world's overhead camera, which is not a robot's device)"""
 
     def __init__(self, world: Simulation) -> None:
