@@ -98,6 +98,40 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _stop_on_signals() -> threading.Event:
+    """An event set by SIGINT or SIGTERM; a second signal exits at once."""
+    stop = threading.Event()
+    signals_seen = [0]
+
+    def on_signal(signum: int, frame: FrameType | None) -> None:
+        signals_seen[0] += 1
+        stop.set()
+        if signals_seen[0] > 1:
+            raise SystemExit(130)
+
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
+    return stop
+
+
+def _step_until_stopped(link: Any, stop: threading.Event, max_ticks: int | None,
+                        name: str) -> None:
+    """Step the robot and its MURDOCH node until stopped (profiled when asked to)."""
+    profile_dir = os.environ.get(PROFILE_ENV)
+    profiler = cProfile.Profile(time.thread_time) if profile_dir else None
+    if profiler is not None:
+        profiler.enable()
+    ticks = 0
+    try:
+        while not stop.is_set() and (not max_ticks or ticks < max_ticks):
+            link.step()
+            ticks += 1
+    finally:
+        if profiler is not None and profile_dir:
+            profiler.disable()
+            profiler.dump_stats(os.path.join(profile_dir, f"{name}.prof"))
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     logging.basicConfig(level=args.log_level.upper(),
@@ -125,17 +159,7 @@ def main(argv: list[str] | None = None) -> int:
     elif args.events:
         stream = open(args.events, "a", encoding="utf-8")  # noqa: SIM115 (closed below)
     events = EventLog(stream)
-    stop = threading.Event()
-    signals_seen = [0]
-
-    def on_signal(signum: int, frame: FrameType | None) -> None:
-        signals_seen[0] += 1
-        stop.set()
-        if signals_seen[0] > 1:
-            raise SystemExit(130)
-
-    signal.signal(signal.SIGINT, on_signal)
-    signal.signal(signal.SIGTERM, on_signal)
+    stop = _stop_on_signals()
 
     if args.exit_when_done:
         def on_event(event: Event) -> None:
@@ -169,19 +193,7 @@ def main(argv: list[str] | None = None) -> int:
                 auction_log = open(args.auction_log, "a", encoding="utf-8")  # noqa: SIM115
             transport, sync = _team_transport(args, name, agent, client, world)
             link = MurdochLink(agent, transport, events, auction_log, tick_sync=sync)
-            profile_dir = os.environ.get(PROFILE_ENV)
-            profiler = cProfile.Profile(time.thread_time) if profile_dir else None
-            if profiler is not None:
-                profiler.enable()
-            ticks = 0
-            try:
-                while not stop.is_set() and (not args.max_ticks or ticks < args.max_ticks):
-                    link.step()
-                    ticks += 1
-            finally:
-                if profiler is not None and profile_dir:
-                    profiler.disable()
-                    profiler.dump_stats(os.path.join(profile_dir, f"{name}.prof"))
+            _step_until_stopped(link, stop, args.max_ticks, name)
         else:
             agent.run(stop, max_ticks=args.max_ticks or None)
     except ParamError as exc:

@@ -33,7 +33,6 @@ from behaviors.basis import (
     WatchForMotionWithLaser,
 )
 from behaviors.metrics import (
-    MetricFn,
     WeightedMetric,
     battery_fraction,
     colour_alignment,
@@ -43,6 +42,7 @@ from behaviors.metrics import (
     negative_distance,
     place_distance,
     spare_resources,
+    unseen_fallback,
     weighted_sum,
 )
 from behaviors.params import ParamError, colour_of, number
@@ -269,23 +269,10 @@ def _push_builder(name: str, aim: float) -> Builder:
     return build
 
 
-def _unseen_fallback(inner: MetricFn, unseen: float) -> MetricFn:
-    """A camera metric that scores `unseen` (instead of not bidding) when the colour is out
-    of view: a pusher that lost sight of the box can still find it, only worse placed."""
-
-    def metric(snapshot: Snapshot, params: Params, profile: RobotProfile) -> float | None:
-        if snapshot.camera is None:
-            return None
-        value = inner(snapshot, params, profile)
-        return unseen if value is None else value
-
-    return metric
-
-
 def _push_metrics(aim: float) -> tuple[WeightedMetric, ...]:
     return (
-        WeightedMetric("alignment", _unseen_fallback(colour_alignment(aim), -math.pi), 1.0),
-        WeightedMetric("proximity", _unseen_fallback(colour_proximity(), -3.0), 0.3),
+        WeightedMetric("alignment", unseen_fallback(colour_alignment(aim), -math.pi), 1.0),
+        WeightedMetric("proximity", unseen_fallback(colour_proximity(), -3.0), 0.3),
     )
 
 

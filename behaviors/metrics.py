@@ -144,3 +144,16 @@ def spare_resources(needed: frozenset[str], resources: frozenset[str]) -> Metric
         return -float(len((profile.subjects & resources) - needed))
 
     return metric
+
+
+def unseen_fallback(inner: MetricFn, unseen: float) -> MetricFn:
+    """A camera metric that scores `unseen` (instead of not bidding) when the colour is out
+    of view: a pusher that lost sight of the box can still find it, only worse placed."""
+
+    def metric(snapshot: Snapshot, params: Params, profile: RobotProfile) -> float | None:
+        if snapshot.camera is None:
+            return None
+        value = inner(snapshot, params, profile)
+        return unseen if value is None else value
+
+    return metric

@@ -20,19 +20,82 @@ import json
 import logging
 import random
 from collections import deque
-from collections.abc import Callable
-from typing import IO, Any
+from collections.abc import Callable, Mapping
+from typing import IO, Any, Protocol
 
-from behaviors.events import TASK_DONE, TASK_FAILED, TASK_STOPPED
+from behaviors.events import TASK_DONE, TASK_FAILED, TASK_STOPPED, Event, EventSink
 from behaviors.library import TASKS
 from behaviors.params import ParamError
-from murdoch.auction.messages import TaskSpec
+from murdoch.auction.bidder import Contract
+from murdoch.auction.messages import Announce, AuctionEvent, Outcome
 from murdoch.auction.timing import SUB_TASK
+from murdoch.member import TeamMember
 from murdoch.node import Node
+from murdoch.transport import Clock, Transport
 from murdoch.user_agent import RandomizedBackoff
 from player_server.protocol.team_clock import Declaration, decode_table
 
 log = logging.getLogger("murdoch-robot.link")
+
+
+class AgentTime(Protocol):
+    @property
+    def time_s(self) -> float: ...
+
+
+class LinkedAgent(Protocol):
+    """What the link needs from the robot it allocates for (`behaviors.agent.RobotAgent`)."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def ticks(self) -> int: ...
+
+    def subjects(self) -> frozenset[str]: ...
+
+    def status(self) -> AgentTime: ...
+
+    def evaluate(self, task: str, params: Mapping[str, object]) -> float | None: ...
+
+    def start_task(self, task: str, params: Mapping[str, object], task_id: str = "") -> None: ...
+
+    def stop_task(self, reason: str = "stopped") -> None: ...
+
+    def step(self) -> None: ...
+
+
+class EventSource(Protocol):
+    """Where the robot's behaviour events come from (`behaviors.events.EventLog`)."""
+
+    def add_sink(self, sink: EventSink) -> None: ...
+
+
+class ClockChannel(Protocol):
+    """The team clock device: the table of datagram counts in, this robot's count out."""
+
+    @property
+    def data(self) -> bytes: ...
+
+    def send(self, data: bytes) -> None: ...
+
+
+class SentCounts(Protocol):
+    @property
+    def sent_count(self) -> int: ...
+
+    @property
+    def sender_key(self) -> str: ...
+
+
+class TickTransport(Protocol):
+    """A transport that holds datagrams until the tick they belong to (`murdoch.multicast`)."""
+
+    @property
+    def core(self) -> SentCounts: ...
+
+    def settle_tick(self, tick: int, table: Mapping[str, int], *, wait_clock: Clock,
+                    give_up_after_s: float = 60.0) -> int: ...
 
 
 class TickSync:
@@ -44,7 +107,7 @@ class TickSync:
     step, the robot declares its own count (opaque command) before it asks for the next
     round."""
 
-    def __init__(self, clock_proxy: Any, transport: Any, interval_s: float,
+    def __init__(self, clock_proxy: ClockChannel, transport: TickTransport, interval_s: float,
                  wait_clock: Callable[[], float], give_up_after_s: float = 60.0) -> None:
         self.proxy = clock_proxy
         self.transport = transport
@@ -78,7 +141,7 @@ class TickSync:
 class MurdochLink:
     """Glue between one `RobotAgent` and one MURDOCH `Node` (owner thread only)."""
 
-    def __init__(self, agent: Any, transport: Any, events: Any,
+    def __init__(self, agent: LinkedAgent, transport: Transport, events: EventSource,
                  auction_log: IO[str] | None = None, *, subtask_patience_s: float = 60.0,
                  tick_sync: TickSync | None = None) -> None:
         self.agent = agent
@@ -94,19 +157,19 @@ class MurdochLink:
         self._patience_s = subtask_patience_s
         self._auction_log = auction_log
         events.add_sink(self._on_event)
-        self.node = Node(
+        self.node: TeamMember = Node(
             transport, self._now, agent_id=agent.name, subjects=agent.subjects(),
             metric=self._metric, on_start=self._on_start, on_stop=self._on_stop,
             on_outcome=self._on_outcome, observer=self._observe,
             backoff=RandomizedBackoff(random.Random(agent.name), base_s=2.0, cap_s=10.0),
         )
 
-    def _observe(self, event: Any) -> None:
+    def _observe(self, event: AuctionEvent) -> None:
         if self._auction_log is not None:
             self._auction_log.write(json.dumps(event.to_dict(), default=str) + "\n")
             self._auction_log.flush()
 
-    def _on_outcome(self, outcome: Any) -> None:
+    def _on_outcome(self, outcome: Outcome) -> None:
         # an outcome of a sub-task this robot announced (e.g. a pushing task for the box)
         if self._subtasks.get(outcome.name) == outcome.task_id:
             del self._subtasks[outcome.name]
@@ -120,7 +183,7 @@ class MurdochLink:
     def _now(self) -> float:
         return float(self.agent.status().time_s)
 
-    def _metric(self, announce: Any) -> float | None:
+    def _metric(self, announce: Announce) -> float | None:
         """The robot's score for an announced task; None: it cannot do it (no bid).
 
         A task the robot does not know, or parameters it refuses, mean no bid; a metric that
@@ -138,26 +201,24 @@ class MurdochLink:
             log.exception("the metric of %s raised on %s", announce.name, announce.task_id)
             return None
 
-    def _on_start(self, contract: Any) -> None:
+    def _on_start(self, contract: Contract) -> None:
         a = contract.announce
         self._current = a.task_id
         self._current_params = dict(a.params)
         self.agent.start_task(a.name, dict(a.params), a.task_id)
 
-    def _on_stop(self, contract: Any, reason: str) -> None:
+    def _on_stop(self, contract: Contract, reason: str) -> None:
         if self._current == contract.task_id:
             self._current = None
             self.agent.stop_task(reason)
             self._cancel_subtasks(reason)
 
     def _cancel_subtasks(self, reason: str) -> None:
-        now = self._now()
         for task_id in list(self._subtasks.values()):
-            for subjects, message in self.node.auctioneer.cancel(task_id, now, reason):
-                self.node.transport.publish(subjects, message)
+            self.node.cancel(task_id, reason)
         self._subtasks.clear()
 
-    def _on_event(self, event: Any) -> None:
+    def _on_event(self, event: Event) -> None:
         # called from agent.step(), on this same thread
         if event.kind in self._done_kinds and event.task_id:
             reason = dict(event.detail).get("reason", "")
@@ -184,12 +245,8 @@ class MurdochLink:
                     "colour": self._current_params.get("colour", "orange")}
                 if self._heading_rad is not None:
                     params["heading_rad"] = round(self._heading_rad, 3)
-                t = SUB_TASK
-                sub = TaskSpec(name, spec.subjects, params, duration_s=8.0,
-                               bid_window_s=t.bid_window_s, renew_period_s=t.renew_period_s,
-                               contract_timeout_s=t.contract_timeout_s,
-                               abandon_after_s=t.abandon_after_s, timeout_s=60.0,
-                               parent=parent)
+                sub = SUB_TASK.task(name, spec.subjects, params, duration_s=8.0, timeout_s=60.0,
+                                    parent=parent)
                 self._subtasks[name] = self.node.announce(sub, patience_s=self._patience_s)
 
     def step(self) -> None:

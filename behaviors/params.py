@@ -4,16 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-COLOUR_NAMES: dict[str, int] = {
-    "red": 0xFF0000,
-    "green": 0x00FF00,
-    "blue": 0x0000FF,
-    "yellow": 0xFFFF00,
-    "cyan": 0x00FFFF,
-    "magenta": 0xFF00FF,
-    "orange": 0xFF8000,
-    "white": 0xFFFFFF,
-}
+from worlds.colours import parse_colour
 
 
 class ParamError(ValueError):
@@ -21,25 +12,15 @@ class ParamError(ValueError):
 
 
 def colour_of(value: object) -> int:
-    """0xRRGGBB from an int, "#rrggbb", "0xrrggbb" or a colour name."""
-    if isinstance(value, bool):
-        raise ParamError(f"colour: expected 0xRRGGBB, '#rrggbb' or a name, found {value!r}")
-    if isinstance(value, int):
-        if 0 <= value <= 0xFFFFFF:
-            return value
+    """0xRRGGBB from an int, "#rrggbb", "0xrrggbb" or a colour name: the spellings a world
+    file accepts (`worlds.parse_colour`, one table for both)."""
+    if isinstance(value, int) and not isinstance(value, bool) and not 0 <= value <= 0xFFFFFF:
         raise ParamError(f"colour: expected 0..0xFFFFFF, found {value:#x}")
-    if isinstance(value, str):
-        text = value.strip().lower()
-        if text in COLOUR_NAMES:
-            return COLOUR_NAMES[text]
-        for prefix in ("#", "0x"):
-            if text.startswith(prefix):
-                try:
-                    return colour_of(int(text[len(prefix):], 16))
-                except ValueError:
-                    break
-        raise ParamError(f"colour: expected 0xRRGGBB, '#rrggbb' or a name, found {value!r}")
-    raise ParamError(f"colour: expected 0xRRGGBB, '#rrggbb' or a name, found {value!r}")
+    try:
+        return parse_colour(value)
+    except ValueError:
+        raise ParamError(
+            f"colour: expected 0xRRGGBB, '#rrggbb' or a name, found {value!r}") from None
 
 
 def number(params: Mapping[str, object], key: str, default: float | None = None) -> float:

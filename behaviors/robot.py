@@ -22,7 +22,7 @@ from behaviors.events import EventLog
 from behaviors.profile import Charger, OverheadView, RobotProfile, subjects_for
 from behaviors.sensing import FrameOffset, PlayerRobotIO
 from player_server.client import PlayerClient
-from worlds import WorldSpec
+from worlds import BoxSpec, ObjectSpec, WorldSpec
 
 
 def profile_from(
@@ -40,7 +40,8 @@ def profile_from(
     fov = math.radians(60.0)
     max_speed, max_turn = 0.5, 1.5
     if world is not None:
-        landmarks = tuple((b.colour, b.pose.x, b.pose.y) for b in (*world.objects, *world.boxes))
+        coloured: tuple[BoxSpec | ObjectSpec, ...] = (*world.objects, *world.boxes)
+        landmarks = tuple((b.colour, b.pose.x, b.pose.y) for b in coloured)
         chargers = tuple(Charger(c.name, c.x, c.y, c.radius_m) for c in world.chargers)
         robot = next((r for r in world.robots if r.name == name), None)
         if robot is not None:

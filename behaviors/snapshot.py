@@ -11,47 +11,15 @@ bearings are counter-clockwise positive (a blob on the right has a negative bear
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Any, TypeVar
+from typing import Any
 
-T = TypeVar("T")
+from player_server.frozen import frozen_constructor
 
-
-def slot_maker(cls: type[T]) -> Callable[..., T]:
-    """A positional constructor for a frozen, slotted dataclass that fills the slots directly.
-
-    The generated ``__init__`` of a frozen dataclass calls ``object.__setattr__`` once per
-    field; per-tick readings are built every data round, so they are made another way: as
-    an instance of a plain twin class with the same slots (whose attributes are stored by
-    ordinary, specialised assignments), which then becomes a ``cls`` (``__class__`` is
-    assigned; the layouts are identical). The object is equal to, and as frozen as,
-    ``cls(*args)``. Defaults are not applied: every field must be passed, in declaration
-    order.
-    """
-    names = [f.name for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
-    args = ", ".join(f"a{i}" for i in range(len(names)))
-    twin = type(f"_{cls.__name__}Slots", (), {"__slots__": tuple(names)})
-    ns: dict[str, Any] = {"_new": object.__new__, "_cls": cls, "_twin": twin}
-    lines = [f"def make({args}):", "    o = _new(_twin)"]
-    lines += [f"    o.{name} = a{i}" for i, name in enumerate(names)]
-    lines += ["    o.__class__ = _cls", "    return o"]
-    exec("\n".join(lines), ns)
-    make: Callable[..., T] = ns["make"]
-    try:
-        make(*range(len(names)))
-    except TypeError:  # not layout-compatible (e.g. a base with slots): set each slot
-        ns = {"_new": object.__new__, "_cls": cls}
-        lines = [f"def make({args}):", "    o = _new(_cls)"]
-        for i, name in enumerate(names):
-            ns[f"_s{i}"] = cls.__dict__[name].__set__
-            lines.append(f"    _s{i}(o, a{i})")
-        lines.append("    return o")
-        exec("\n".join(lines), ns)
-        make = ns["make"]
-    return make
+# per-tick readings are built every data round without the frozen __init__
+slot_maker = frozen_constructor
 
 
 @dataclass(frozen=True, slots=True)

@@ -54,21 +54,13 @@ def summary_lines(s: Mapping[str, Any]) -> list[str]:
 
 
 def next_steps(experiment: str, run_root: Path) -> list[str]:
-    """Commands worth trying after a run of `experiment`."""
-    steps = [f"murdoch report {run_root}            # rebuild summary and plots"]
-    if experiment == "boxpush":
-        steps += [
-            "murdoch run boxpush --until 10m --switch-off p1@40s --switch-on p1@150s",
-            "murdoch run boxpush --meshcat           # watch it live in the browser",
-        ]
-    else:
-        steps += [
-            "murdoch run longterm --until 1h --kill p3@30m --restart p3@45m",
-            "murdoch run longterm --until 20m --meshcat   # watch it live in the browser",
-            "murdoch run boxpush --until 10m        # the paper's box-pushing task",
-        ]
-    steps.append("murdoch allocate consensus-small       # CBBA on a bundled scenario")
-    return steps
+    """Commands worth trying after a run of `experiment` (its plug-in's, else longterm's)."""
+    from experiments.plugins import EXPERIMENTS
+
+    plugin = EXPERIMENTS.get(experiment, EXPERIMENTS["longterm"])
+    return [f"murdoch report {run_root}            # rebuild summary and plots",
+            *plugin.next_steps(),
+            "murdoch allocate consensus-small       # CBBA on a bundled scenario"]
 
 
 def end_of_run_lines(

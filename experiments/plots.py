@@ -236,14 +236,14 @@ def plot_robots(
     ys = range(len(names))
     base = [0.0] * len(names)
     for k, kind in enumerate(kinds):
-        values = [kinds_per_robot.get(n, {}).get(kind, 0) for n in names]
-        left.barh(ys, values, left=base, color=KIND_COLOURS[k % len(KIND_COLOURS)],
+        counts = [kinds_per_robot.get(n, {}).get(kind, 0) for n in names]
+        left.barh(ys, counts, left=base, color=KIND_COLOURS[k % len(KIND_COLOURS)],
                   label=kind, height=0.7)
-        for y, (b, v) in enumerate(zip(base, values, strict=True)):
-            if v:
-                left.text(b + v / 2, y, str(v), ha="center", va="center", fontsize=7,
+        for y, (b, c) in enumerate(zip(base, counts, strict=True)):
+            if c:
+                left.text(b + c / 2, y, str(c), ha="center", va="center", fontsize=7,
                           color="white")
-        base = [b + v for b, v in zip(base, values, strict=True)]
+        base = [b + c for b, c in zip(base, counts, strict=True)]
     left.set_yticks(list(ys))
     left.set_yticklabels(names)
     left.invert_yaxis()
@@ -306,10 +306,20 @@ def plot_box_distance(evs: list[Mapping[str, Any]], radius_m: float | None = Non
     return fig
 
 
+def save(fig: Figure, path: Path) -> Path:
+    """Write `fig` to `path` and free it."""
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
 def write_plots(
     evs: Iterable[Mapping[str, Any]], out_dir: Path, robots: Iterable[str] = ()
 ) -> list[Path]:
-    """Write the PNGs of `PLOT_FILES` into `out_dir`; returns their paths."""
+    """Write the PNGs of `PLOT_FILES`, then the run's experiment's own, into `out_dir`;
+    returns their paths."""
+    from experiments.plugins import experiment
+
     evs = [e for e in evs if e["kind"] != ev.POSES]
     end_s = max((float(e["t"]) for e in evs), default=0.0)
     out_dir = Path(out_dir)
@@ -321,14 +331,9 @@ def write_plots(
          plot_allocation(evs, end_s, robots), plot_robots(evs, end_s, robots)),
         strict=True,
     ):
-        path = out_dir / filename
-        fig.savefig(path)
-        plt.close(fig)
-        paths.append(path)
-    if any(e["kind"] == ev.BOX_PROGRESS for e in evs):
-        fig = plot_box_distance(evs)
-        path = out_dir / BOX_PLOT
-        fig.savefig(path)
-        plt.close(fig)
-        paths.append(path)
+        paths.append(save(fig, out_dir / filename))
+    run_start = next((e for e in evs if e["kind"] == ev.RUN_START), None)
+    plugin = experiment(run_start.get("experiment") if run_start is not None else None)
+    if plugin is not None:
+        paths += plugin.plots(evs, out_dir)
     return paths

@@ -164,7 +164,7 @@ def _ranges(values: Any, digits: int = 3) -> list[float]:
     """Non-negative finite ranges rounded to millimetres (unusable readings become 0)."""
     a = np.asarray(values, dtype=np.float64)
     a = np.where(np.isfinite(a) & (a >= 0.0), a, 0.0)
-    return np.round(a, digits).tolist()  # type: ignore[no-any-return]
+    return np.round(a, digits).tolist()
 
 
 class RunRecording:

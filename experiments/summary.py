@@ -13,8 +13,8 @@ from collections import Counter, defaultdict
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-from experiments import boxpush as bp
 from experiments import events as ev
+from experiments.plugins import experiment
 
 SCHEMA_VERSION = 1
 
@@ -117,58 +117,57 @@ def waits(events: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
     return {**_latency_stats(values), "never_awarded": len(introduced)}
 
 
-def push_phases(events: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
-    """boxpush: pushes (awards) per end per pusher, before the first switch-off, while
-    alone (until the next switch-on) and after it; with one switch-off and -on, whether
-    the returning pusher's main end changed (`role_swap`)."""
-    evs = list(events)
-    kind_of = {str(e["task"]): str(e["task_kind"]) for e in evs
-               if e["kind"] == ev.TASK_INTRODUCED}
-    off = next((e for e in evs if e["kind"] == ev.ROBOT_SWITCH_OFF), None)
-    on = next((e for e in evs if e["kind"] == ev.ROBOT_SWITCH_ON
-               and (off is None or float(e["t"]) >= float(off["t"]))), None)
-    t_off = float(off["t"]) if off is not None else None
-    t_on = float(on["t"]) if on is not None else None
-
-    def phase(t: float) -> str:
-        if t_off is None or t < t_off:
-            return "before" if t_off is not None else "run"
-        if t_on is None or t < t_on:
-            return "alone"
-        return "after"
-
-    pushes: dict[str, dict[str, Counter[str]]] = defaultdict(lambda: defaultdict(Counter))
-    for e in evs:
-        if e["kind"] == ev.AWARD:
-            end = bp.PUSH_ENDS.get(kind_of.get(str(e["task"]), ""))
-            if end is not None:
-                pushes[phase(float(e["t"]))][str(e["robot"])][end] += 1
-    out: dict[str, Any] = {
-        "phases": {p: {r: dict(sorted(c.items())) for r, c in sorted(by.items())}
-                   for p, by in pushes.items()},
-        "switch_off_t_s": t_off, "switch_on_t_s": t_on, "role_swap": None,
-    }
-    if off is not None and on is not None and str(on["robot"]) == str(off["robot"]):
-        robot = str(off["robot"])
-
-        def main_end(p: str) -> str | None:
-            c = pushes.get(p, {}).get(robot, Counter())
-            ranked = c.most_common(2)
-            if not ranked or (len(ranked) > 1 and ranked[0][1] == ranked[1][1]):
-                return None
-            return ranked[0][0]
-
-        before, after = main_end("before"), main_end("after")
-        out["role_swap"] = {"robot": robot, "end_before": before, "end_after": after,
-                            "swapped": before is not None and after is not None
-                            and before != after}
-    return out
+def memory_by_process(records: Iterable[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Per process: its pid, first, last and peak resident memory and how often sampled."""
+    processes: dict[str, dict[str, Any]] = {}
+    for e in records:
+        if e["kind"] == ev.PROCESS:
+            name = str(e["name"])
+            rss = int(e["rss_bytes"])
+            peak = int(e.get("peak_rss_bytes", rss))
+            p = processes.setdefault(
+                name, {"pid": e["pid"], "rss_first_bytes": rss, "peak_rss_bytes": 0}
+            )
+            p["rss_last_bytes"] = rss
+            p["peak_rss_bytes"] = max(p["peak_rss_bytes"], peak, rss)
+            p["samples"] = p.get("samples", 0) + 1
+    return processes
 
 
-def box_track(events: Iterable[Mapping[str, Any]]) -> list[tuple[float, float]]:
-    """boxpush: (t, the box's distance to the goal) from the referee's samples."""
-    return [(float(e["t"]), float(e["distance_m"])) for e in events
-            if e["kind"] == ev.BOX_PROGRESS]
+def lowest_battery(events: Iterable[Mapping[str, Any]]) -> float | None:
+    """The lowest battery level any robot reported (None: no reports)."""
+    battery_min: float | None = None
+    for e in events:
+        if e["kind"] == ev.BATTERY and e["percent"]:
+            low = min(float(v) for v in e["percent"].values())
+            battery_min = low if battery_min is None else min(battery_min, low)
+    return battery_min
+
+
+def messages_by_kind(events: Iterable[Mapping[str, Any]]) -> dict[str, dict[str, int]]:
+    """Messages and bytes heard, by message kind."""
+    messages: dict[str, dict[str, int]] = {}
+    for e in events:
+        if e["kind"] == ev.MESSAGE:
+            m = messages.setdefault(str(e["msg_kind"]), {"count": 0, "bytes": 0})
+            m["count"] += 1
+            m["bytes"] += int(e["bytes"])
+    return messages
+
+
+def auction_latencies(events: Iterable[Mapping[str, Any]]) -> list[float]:
+    """Each award's latency: its own figure, else the task's first announcement to it."""
+    first_announce: dict[str, float] = {}
+    latencies: list[float] = []
+    for e in events:
+        if e["kind"] == ev.MESSAGE and e.get("msg_kind") == "announce" and "task" in e:
+            first_announce.setdefault(str(e["task"]), float(e["t"]))
+        elif e["kind"] == ev.AWARD:
+            if "latency_s" in e:
+                latencies.append(float(e["latency_s"]))
+            elif str(e["task"]) in first_announce:
+                latencies.append(float(e["t"]) - first_announce[str(e["task"])])
+    return latencies
 
 
 def summarize(events: Iterable[Mapping[str, Any]],
@@ -184,25 +183,8 @@ def summarize(events: Iterable[Mapping[str, Any]],
         if e["kind"] == ev.TASK_INTRODUCED:
             task_kind_of[str(e["task"])] = str(e["task_kind"])
 
-    # messages and bytes by kind
-    messages: dict[str, dict[str, int]] = {}
-    for e in evs:
-        if e["kind"] == ev.MESSAGE:
-            m = messages.setdefault(str(e["msg_kind"]), {"count": 0, "bytes": 0})
-            m["count"] += 1
-            m["bytes"] += int(e["bytes"])
-
-    # auction latency: the award's own figure, else first announce of the task -> award
-    first_announce: dict[str, float] = {}
-    latencies: list[float] = []
-    for e in evs:
-        if e["kind"] == ev.MESSAGE and e.get("msg_kind") == "announce" and "task" in e:
-            first_announce.setdefault(str(e["task"]), float(e["t"]))
-        elif e["kind"] == ev.AWARD:
-            if "latency_s" in e:
-                latencies.append(float(e["latency_s"]))
-            elif str(e["task"]) in first_announce:
-                latencies.append(float(e["t"]) - first_announce[str(e["task"])])
+    messages = messages_by_kind(evs)
+    latencies = auction_latencies(evs)
 
     # per robot
     per_robot: dict[str, Counter[str]] = defaultdict(Counter)
@@ -224,20 +206,7 @@ def summarize(events: Iterable[Mapping[str, Any]],
         elif e["kind"] == ev.TASK_OUTCOME:
             by_task_kind[task_kind_of.get(str(e["task"]), "unknown")][ev.counted_outcome(e)] += 1
 
-    # processes: peak and first/last resident memory
-    processes: dict[str, dict[str, Any]] = {}
-    for e in [*evs, *wall_records]:
-        if e["kind"] == ev.PROCESS:
-            name = str(e["name"])
-            rss = int(e["rss_bytes"])
-            peak = int(e.get("peak_rss_bytes", rss))
-            p = processes.setdefault(
-                name, {"pid": e["pid"], "rss_first_bytes": rss, "peak_rss_bytes": 0}
-            )
-            p["rss_last_bytes"] = rss
-            p["peak_rss_bytes"] = max(p["peak_rss_bytes"], peak, rss)
-            p["samples"] = p.get("samples", 0) + 1
-
+    processes = memory_by_process([*evs, *wall_records])
     sim_s = max((float(e["t"]) for e in evs), default=0.0)
     run_end = next((e for e in reversed(evs) if e["kind"] == ev.RUN_END), None)
     run_start = next((e for e in evs if e["kind"] == ev.RUN_START), None)
@@ -247,35 +216,16 @@ def summarize(events: Iterable[Mapping[str, Any]],
         wall_s = float(run_wall["wall_s"])
     elif run_end is not None and "wall_s" in run_end:  # runs recorded before processes.jsonl
         wall_s = float(run_end["wall_s"])
-    battery_min: float | None = None
-    for e in evs:
-        if e["kind"] == ev.BATTERY and e["percent"]:
-            low = min(float(v) for v in e["percent"].values())
-            battery_min = low if battery_min is None else min(battery_min, low)
+    battery_min = lowest_battery(evs)
 
     trips, trips_per_robot = charging_cycles(evs)
     for robot, n in trips_per_robot.items():
         per_robot[robot]["charging_trips"] = n
     problems = terminal_state_problems(evs)
-    reached = next((e for e in evs if e["kind"] == ev.GOAL_REACHED), None)
-    unachievable = next((e for e in evs if e["kind"] == ev.GOAL_UNACHIEVABLE), None)
-    goal: dict[str, Any] | None = None
-    if reached is not None or unachievable is not None or (
-        run_start is not None and run_start.get("experiment") == "boxpush"
-    ):
-        goal = {
-            "reached": reached is not None,
-            "reached_t_s": round(float(reached["t"]), 3) if reached is not None else None,
-            "box_distance_m": reached.get("distance_m") if reached is not None else None,
-            "unachievable": unachievable is not None,
-            "unachievable_reason": unachievable.get("reason") if unachievable else None,
-            "switch_offs": kinds[ev.ROBOT_SWITCH_OFF],
-            "switch_ons": kinds[ev.ROBOT_SWITCH_ON],
-            "goal_moves": kinds[ev.GOAL_MOVED],
-            "final_distance_m": track[-1][1] if (track := box_track(evs)) else None,
-            "pushes": push_phases(evs),
-        }
-    return {
+    # the run's experiment adds its own sections (boxpush: "goal")
+    plugin = experiment(run_start.get("experiment") if run_start else None)
+    sections = plugin.summary_sections(evs) if plugin is not None else {}
+    summary = {
         "schema": SCHEMA_VERSION,
         "experiment": run_start.get("experiment") if run_start else None,
         "seed": run_start.get("seed") if run_start else None,
@@ -300,7 +250,7 @@ def summarize(events: Iterable[Mapping[str, Any]],
         "robot_failures": kinds[ev.ROBOT_FAILURE],
         "robot_restarts": kinds[ev.ROBOT_RESTART],
         "alarms": kinds[ev.ALARM],
-        "goal": goal,
+        "goal": None,
         "lowest_battery_percent": battery_min,
         "messages": {
             "by_kind": dict(sorted(messages.items())),
@@ -317,3 +267,5 @@ def summarize(events: Iterable[Mapping[str, Any]],
         },
         "event_counts": dict(sorted(kinds.items())),
     }
+    summary.update(sections)
+    return summary

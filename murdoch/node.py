@@ -54,6 +54,8 @@ Observer = Callable[[AuctionEvent], None]
 
 
 class Node:
+    """MURDOCH's team member (`murdoch.member.TeamMember`): auctions and bids over a bus."""
+
     def __init__(
         self,
         transport: Transport,
@@ -140,7 +142,19 @@ class Node:
         self._deliver_outcomes()
         self._sync()
 
+    @_locked
+    def open_tasks(self) -> tuple[str, ...]:
+        """The tasks this node introduced that have not ended yet."""
+        return self.auctioneer.open_tasks()
+
     # -- executor side
+    @property
+    def executing(self) -> str | None:
+        """The task this node's robot is executing under contract (None: none)."""
+        bidder = self.bidder
+        contract = bidder.contract if bidder is not None else None
+        return contract.task_id if contract is not None else None
+
     @_locked
     def progress(self, task_id: str, fraction: float, note: str = "") -> None:
         if self.bidder is not None:

@@ -44,13 +44,27 @@ import dataclasses
 import json
 import math
 import re
-import types
 import typing
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar, NamedTuple, Protocol
 
 from murdoch.subjects import SubjectError, SubjectSet, subject_set
+from murdoch.wire_values import (
+    COMPACT_PIECES,
+    Converter,
+    FlatBuilder,
+    FlatReader,
+    WireError,
+    compile_converter,
+    flat_builder,
+    flat_reader,
+    is_flat,
+    json_string,
+    reject_constant,
+    thaw,
+    unique_members,
+)
 
 WIRE_VERSION = 3
 MAX_TICK = (1 << 53) - 1
@@ -71,13 +85,6 @@ MAC_SUFFIX_BYTES = len(MAC_KEY) + MAC_HEX_DIGITS + 2
 _HEADER_SCAN_BYTES = 400
 _HEX = frozenset(b"0123456789abcdef")
 _TOP_MEMBERS = frozenset({"h", "b", "mac"})
-_FLAT_VALUE = (
-    rb'("[^"\\\x00-\x1f]*"|-?(?:0|[1-9][0-9]*)(?:\.[0-9]+)?(?:[eE][-+]?[0-9]+)?'
-    rb"|null|true|false)"
-)
-"""One JSON scalar in the compact form senders write: a string without escapes, a number,
-null, true or false (anything else goes through the JSON decoder)."""
-_FLAT_HINTS = (str, int, float, bool, type(None))
 _PLAIN_HEADER = re.compile(
     rb'\{"h":\[3,"(([a-z0-9][a-z0-9._-]{0,31})","([!#-Z^-~]{1,80})","([!#-Z^-~]{0,80}))",'
     rb'(0|[1-9][0-9]{0,18}),"([a-z0-9._:/,-]*)",(-1|0|[1-9][0-9]{0,15}),"([!#-Z^-~]{0,80})"\],'
@@ -105,15 +112,6 @@ def signed_length(data: bytes) -> int:
     if not _HEX.issuperset(data[at + len(MAC_KEY) : -2]):
         return -1
     return at
-
-
-class WireError(ValueError):
-    """A datagram or message that cannot be encoded or decoded; `reason` names the counter."""
-
-    def __init__(self, reason: str, detail: str) -> None:
-        super().__init__(f"{reason}: {detail}")
-        self.reason = reason
-        self.detail = detail
 
 
 class Message(Protocol):
@@ -174,135 +172,6 @@ class Header(NamedTuple):
     epoch: str = ""
 
 
-def freeze(value: Any) -> Any:
-    """Lists to tuples and dicts to read-only mappings, all the way down."""
-    if isinstance(value, list):
-        return tuple(freeze(v) for v in value)
-    if isinstance(value, dict):
-        return types.MappingProxyType({k: freeze(v) for k, v in value.items()})
-    return value
-
-
-_PLAIN = (str, int, bool, type(None))
-
-
-def _thaw(value: Any) -> Any:
-    if type(value) in _PLAIN:
-        return value
-    if isinstance(value, Mapping):
-        return {str(k): _thaw(v) for k, v in value.items()}
-    if isinstance(value, tuple | list | frozenset | set):
-        items = sorted(value) if isinstance(value, frozenset | set) else value
-        return [_thaw(v) for v in items]
-    if isinstance(value, float) and not math.isfinite(value):
-        raise WireError("bad_fields", f"non-finite number {value!r}")
-    return value
-
-
-Converter = Callable[[Any], Any]
-
-
-def _fail(name: str, expected: str, value: Any) -> WireError:
-    return WireError("bad_fields", f"{name}: expected {expected}, found {value!r}"[:200])
-
-
-def compile_converter(hint: Any, name: str) -> Converter:
-    """A function that checks a decoded JSON value against `hint` and returns its message form."""
-    if hint is Any:
-        return freeze
-    origin = typing.get_origin(hint)
-    args = typing.get_args(hint)
-    if origin in (typing.Union, types.UnionType):
-        options = [compile_converter(arg, name) for arg in args]
-        accepts_none = type(None) in args
-
-        def convert_union(value: Any) -> Any:
-            if value is None and accepts_none:
-                return None
-            for option in options:
-                try:
-                    return option(value)
-                except WireError:
-                    continue
-            raise _fail(name, str(hint), value)
-
-        return convert_union
-    if hint is type(None):
-
-        def convert_none(value: Any) -> Any:
-            if value is None:
-                return None
-            raise _fail(name, "null", value)
-
-        return convert_none
-    if hint is bool:
-
-        def convert_bool(value: Any) -> Any:
-            if value is True or value is False:
-                return value
-            raise _fail(name, "bool", value)
-
-        return convert_bool
-    if hint is int:
-
-        def convert_int(value: Any) -> Any:
-            if type(value) is int:
-                return value
-            raise _fail(name, "int", value)
-
-        return convert_int
-    if hint is float:
-
-        def convert_float(value: Any) -> Any:
-            kind = type(value)
-            if kind is float:
-                if math.isfinite(value):
-                    return value
-            elif kind is int:
-                try:
-                    return float(value)
-                except OverflowError:
-                    pass
-            raise _fail(name, "finite number", value)
-
-        return convert_float
-    if hint is str:
-
-        def convert_str(value: Any) -> Any:
-            if type(value) is str:
-                return value
-            raise _fail(name, "string", value)
-
-        return convert_str
-    if origin is tuple:
-        if len(args) == 2 and args[1] is Ellipsis:
-            item = compile_converter(args[0], name)
-
-            def convert_seq(value: Any) -> Any:
-                if type(value) is not list:
-                    raise _fail(name, "list", value)
-                return tuple([item(v) for v in value])
-
-            return convert_seq
-        items = [compile_converter(a, name) for a in args]
-
-        def convert_fixed(value: Any) -> Any:
-            if type(value) is not list or len(value) != len(items):
-                raise _fail(name, f"list of {len(items)}", value)
-            return tuple([c(v) for c, v in zip(items, value, strict=True)])
-
-        return convert_fixed
-    if origin in (Mapping, dict) or hint in (Mapping, dict):
-
-        def convert_map(value: Any) -> Any:
-            if type(value) is not dict:
-                raise _fail(name, "object", value)
-            return freeze(value)
-
-        return convert_map
-    raise TypeError(f"{name}: annotation {hint} cannot be carried on the wire")
-
-
 class Codec:
     """Encodes and decodes the message classes it was built with."""
 
@@ -320,17 +189,17 @@ class Codec:
         self._tokens: set[str] = set()
         self._checked_kinds: set[str] = set()
         self._builders: dict[str, Callable[[Mapping[str, Any]], Any]] = {}
-        self._flat: dict[str, _FlatReader] = {}
+        self._flat: dict[str, FlatReader] = {}
         """Kinds whose fields are all scalars: their bodies are read without the JSON
         decoder when they have the compact form senders write."""
-        self._flat_builders: dict[str, _FlatBuilder] = {}
+        self._flat_builders: dict[str, FlatBuilder] = {}
         self._flat_keys: dict[str, tuple[str, ...]] = {}
         self._plain_idents: dict[bytes, tuple[str, str, str]] = {}
         self._plain_epochs: dict[bytes, str] = {}
         """Kind, sender and instance of headers read by `_PLAIN_HEADER`, as text."""
         self._plain_subjects: dict[bytes, SubjectSet] = {}
         self._decoder = json.JSONDecoder(
-            parse_constant=_reject_constant, object_pairs_hook=_unique_members
+            parse_constant=reject_constant, object_pairs_hook=unique_members
         )
         self._encoder = json.JSONEncoder(separators=(",", ":"), allow_nan=False)
         for cls in message_types:
@@ -355,10 +224,10 @@ class Codec:
             self._builders[kind] = self._builder(cls, kind)
             if all(f.init for f in dataclasses.fields(cls)):
                 self._flat_keys[kind] = tuple(f'"{n}":' for n in names)
-                if all(_is_flat(hints[n]) for n in names):
-                    self._flat[kind] = self._flat_reader(kind)
-                if all(_is_flat(hints[n]) or hints[n] in _COMPACT_PIECES for n in names):
-                    self._flat_builders[kind] = self._flat_builder(cls, kind)
+                if all(is_flat(hints[n]) for n in names):
+                    self._flat[kind] = flat_reader(self._field_order[kind])
+                if all(is_flat(hints[n]) or hints[n] in COMPACT_PIECES for n in names):
+                    self._flat_builders[kind] = flat_builder(cls, kind, self._converters[kind])
 
     @property
     def kinds(self) -> frozenset[str]:
@@ -379,7 +248,7 @@ class Codec:
         kind = getattr(message, "KIND", None)
         if not isinstance(kind, str) or not isinstance(message, self._types.get(kind, ())):
             raise WireError("unknown_kind", f"{type(message).__name__} is not in this codec")
-        return {name: _thaw(getattr(message, name)) for name in self._field_order[kind]}
+        return {name: thaw(getattr(message, name)) for name in self._field_order[kind]}
 
     # -- encoding
     def encode_frame(
@@ -448,7 +317,7 @@ class Codec:
             value = getattr(message, name)
             kind_of = type(value)
             if kind_of is str:
-                text = _json_string(value)
+                text = json_string(value)
             elif kind_of is float:
                 if not math.isfinite(value):
                     raise WireError("bad_fields", f"{kind}: non-finite number {value!r}")
@@ -462,7 +331,7 @@ class Codec:
             elif value is False:
                 text = "false"
             elif kind_of is tuple and all(type(item) is str for item in value):
-                text = "[" + ",".join([_json_string(item) for item in value]) + "]"
+                text = "[" + ",".join([json_string(item) for item in value]) + "]"
             elif not value and isinstance(value, Mapping):
                 text = "{}"
             else:
@@ -678,62 +547,6 @@ class Codec:
             raise WireError("unknown_kind", f"kind {kind!r}")
         return build(body)
 
-    def _flat_reader(self, kind: str) -> _FlatReader:
-        """Reads the values of a scalar-only body in the compact form (its fields in
-        declaration order); None for any other form, which the JSON decoder then judges."""
-        names = self._field_order[kind]
-        pattern = re.compile(
-            rb"\{" + b",".join(b'"%s":' % n.encode("ascii") + _FLAT_VALUE for n in names)
-            + rb"\}"
-        )
-        fullmatch = pattern.fullmatch
-        scalar = _json_scalar
-
-        def read(data: bytes, start: int, end: int) -> list[Any] | None:
-            found = fullmatch(data, start, end)
-            if found is None:
-                return None
-            try:
-                return [scalar(token) for token in found.groups()]
-            except ValueError:  # undecodable text, or an integer too long for int()
-                return None  # the JSON decoder reports it
-
-        return read
-
-    def _flat_builder(self, cls: type, kind: str) -> _FlatBuilder:
-        """Reads a scalar-only body in the compact form straight into a message: one
-        pattern whose pieces admit only values of each field's type, each converted by a
-        builtin (the general path handles any other form and every error's wording)."""
-        hints = typing.get_type_hints(cls)
-        pieces = []
-        readers: list[Callable[[bytes], Any]] = []
-        for name, convert in self._converters[kind].items():
-            hint = hints[name]
-            piece, reader = _TYPED_PIECES.get(hint) or _COMPACT_PIECES.get(hint) or (None, None)
-            if piece is None or reader is None:
-                piece, reader = _FLAT_VALUE, _then(_json_scalar, convert)
-            pieces.append(b'"%s":' % name.encode("ascii") + piece)
-            readers.append(reader)
-        fullmatch = re.compile(rb"\{" + b",".join(pieces) + rb"\}").fullmatch
-        typed = tuple(readers)
-
-        def build(data: bytes, start: int, end: int) -> Any:
-            found = fullmatch(data, start, end)
-            if found is None:
-                return None
-            try:
-                values = [read(token) for read, token in zip(typed, found.groups(), strict=True)]
-            except ValueError:
-                return None  # the general path says what is wrong
-            try:
-                return cls(*values)
-            except (TypeError, ValueError, OverflowError) as exc:
-                if isinstance(exc, WireError):
-                    raise
-                raise WireError("bad_fields", f"{kind}: {exc}") from None
-
-        return build
-
     def _builder(self, cls: type, kind: str) -> Callable[[Mapping[str, Any]], Any]:
         converters = self._converters[kind]
         names = self._field_names[kind]
@@ -756,101 +569,3 @@ class Codec:
         return build
 
 
-_FlatReader = Callable[[bytes, int, int], "list[Any] | None"]
-_FlatBuilder = Callable[[bytes, int, int], Any]
-
-
-def _finite_float(token: bytes) -> float:
-    value = float(token)
-    if value - value != 0.0:
-        raise ValueError("not finite")
-    return value
-
-
-def _json_bool(token: bytes) -> bool:
-    return token == b"true"
-
-
-def _then(first: Callable[[bytes], Any], second: Converter) -> Callable[[bytes], Any]:
-    return lambda token: second(first(token))
-
-
-_NUMBER = rb"(-?(?:0|[1-9][0-9]*)(?:\.[0-9]+)?(?:[eE][-+]?[0-9]+)?)"
-_TYPED_PIECES: dict[Any, tuple[bytes, Callable[[bytes], Any]]] = {
-    str: (rb'"([^"\\\x00-\x1f]*)"', bytes.decode),
-    int: (rb"(-?(?:0|[1-9][0-9]*))", int),
-    float: (_NUMBER, _finite_float),
-    bool: (rb"(true|false)", _json_bool),
-}
-"""Pattern pieces that admit only JSON values of one field type (strings without escapes),
-with the builtin that makes the value."""
-
-
-def _strings(token: bytes | None) -> tuple[str, ...]:
-    if token is None:
-        return ()
-    return tuple([part.decode() for part in token[1:-1].split(b'","')])
-
-
-def _no_members(token: bytes) -> Mapping[str, Any]:
-    del token
-    return types.MappingProxyType({})
-
-
-def _no_items(token: bytes) -> tuple[()]:
-    del token
-    return ()
-
-
-_COMPACT_PIECES: dict[Any, tuple[bytes, Callable[[Any], Any]]] = {
-    tuple[str, ...]: (rb'\[("[^"\\\x00-\x1f]*"(?:,"[^"\\\x00-\x1f]*")*)?\]', _strings),
-    Mapping[str, Any]: (rb"(\{\})", _no_members),
-    tuple[tuple[str, float], ...]: (rb"(\[\])", _no_items),
-}
-"""Containers read without the JSON decoder in their common compact forms: a list of
-strings without escapes, an empty object (no parameters), an empty list (no metrics); any
-other value of these fields goes through the decoder."""
-
-
-def _is_flat(hint: Any) -> bool:
-    """Whether values of `hint` are JSON scalars (str, int, float, bool, None, unions)."""
-    if hint in _FLAT_HINTS:
-        return True
-    if typing.get_origin(hint) in (typing.Union, types.UnionType):
-        return all(arg in _FLAT_HINTS for arg in typing.get_args(hint))
-    return False
-
-
-def _json_scalar(token: bytes) -> Any:
-    """The value of one token matched by `_FLAT_VALUE`, as `json` would decode it."""
-    first = token[0]
-    if first == 0x22:  # '"': no escapes inside (the pattern allows none)
-        return token[1:-1].decode("utf-8")
-    if token == b"null":
-        return None
-    if token == b"true":
-        return True
-    if token == b"false":
-        return False
-    if b"." in token or b"e" in token or b"E" in token:
-        return float(token)
-    return int(token)
-
-
-def _json_string(value: str) -> str:
-    """`value` as a JSON string, exactly as the (ASCII-only) JSON encoder writes it."""
-    if value.isascii() and value.isprintable() and '"' not in value and "\\" not in value:
-        return f'"{value}"'
-    written: str = json.encoder.encode_basestring_ascii(value)
-    return written
-
-
-def _reject_constant(name: str) -> Any:
-    raise WireError("malformed", f"constant {name}")
-
-
-def _unique_members(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-    result = dict(pairs)
-    if len(result) != len(pairs):
-        raise WireError("malformed", "repeated member name")
-    return result

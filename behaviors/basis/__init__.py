@@ -5,7 +5,7 @@ None keeps state between ticks; anything that must be remembered (the pose or la
 the start of a task stage) reaches them through `Snapshot.mark`.
 """
 
-from behaviors.basis.avoid import AvoidWithLaser, AvoidWithSonar
+from behaviors.basis.avoid import Avoid, AvoidWithLaser, AvoidWithSonar
 from behaviors.basis.boxwatch import BoxAlignmentFromLaser, GoalFromCamera
 from behaviors.basis.colour import KeepDistanceToColour, ViewOfEnd, VisualServoToColour
 from behaviors.basis.dock import DockAtCharger
@@ -15,6 +15,7 @@ from behaviors.basis.push import PushWithBumpers
 from behaviors.basis.watch import WatchForMotionWithLaser
 
 __all__ = [
+    "Avoid",
     "AvoidWithLaser",
     "AvoidWithSonar",
     "BackOff",

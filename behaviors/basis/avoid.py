@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 from behaviors.proposal import INACTIVE, Proposal
 from behaviors.snapshot import RangeScan, Snapshot
@@ -47,21 +48,38 @@ def _avoid(
     return Proposal(True, speed, turn, urgency, "obstacle", nearest)
 
 
-@dataclass(frozen=True, slots=True)
-class AvoidWithSonar:
-    """Turn away from anything closer than `safe_range_m` in the front sonar sectors."""
+# the range devices an avoid behaviour can read, and how wide a front it watches on each
+RANGE_DEVICES: dict[str, float] = {"sonar": math.radians(80.0), "laser": math.radians(70.0)}
 
+
+@dataclass(frozen=True, slots=True)
+class Avoid:
+    """Turn away from anything closer than `safe_range_m` in the front sectors of one range
+    device (`device`: "sonar" or "laser"); the front is the device's own width unless given."""
+
+    device: str
     safe_range_m: float = 0.5
-    front_half_angle_rad: float = math.radians(80.0)
+    front_half_angle_rad: float | None = None
     ignore_half_angle_rad: float = 0.0
     max_speed_mps: float = 0.3
     max_turn_radps: float = 1.0
     max_age_s: float = 0.5
-    name: str = "avoid-obstacles-with-sonar"
+    name: str = ""
+
+    def __post_init__(self) -> None:
+        if self.device not in RANGE_DEVICES:
+            raise ValueError(f"avoid: device must be one of {sorted(RANGE_DEVICES)}, "
+                             f"found {self.device!r}")
+        if self.front_half_angle_rad is None:
+            object.__setattr__(self, "front_half_angle_rad", RANGE_DEVICES[self.device])
+        if not self.name:
+            object.__setattr__(self, "name", f"avoid-obstacles-with-{self.device}")
 
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
+        scan = snapshot.sonar if self.device == "sonar" else snapshot.laser
+        assert self.front_half_angle_rad is not None  # set in __post_init__
         return _avoid(
-            snapshot.sonar,
+            scan,
             now,
             safe_range_m=self.safe_range_m,
             front_half_angle_rad=self.front_half_angle_rad,
@@ -72,26 +90,11 @@ class AvoidWithSonar:
         )
 
 
-@dataclass(frozen=True, slots=True)
-class AvoidWithLaser:
-    """Turn away from anything closer than `safe_range_m` in the front laser sectors."""
+def AvoidWithSonar(**options: Any) -> Avoid:
+    """`Avoid` reading the sonar ring."""
+    return Avoid("sonar", **options)
 
-    safe_range_m: float = 0.5
-    front_half_angle_rad: float = math.radians(70.0)
-    ignore_half_angle_rad: float = 0.0
-    max_speed_mps: float = 0.3
-    max_turn_radps: float = 1.0
-    max_age_s: float = 0.5
-    name: str = "avoid-obstacles-with-laser"
 
-    def decide(self, snapshot: Snapshot, now: float) -> Proposal:
-        return _avoid(
-            snapshot.laser,
-            now,
-            safe_range_m=self.safe_range_m,
-            front_half_angle_rad=self.front_half_angle_rad,
-            ignore_half_angle_rad=self.ignore_half_angle_rad,
-            max_speed_mps=self.max_speed_mps,
-            max_turn_radps=self.max_turn_radps,
-            max_age_s=self.max_age_s,
-        )
+def AvoidWithLaser(**options: Any) -> Avoid:
+    """`Avoid` reading the laser scan."""
+    return Avoid("laser", **options)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 import statistics
 from collections import Counter, defaultdict
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -263,7 +263,7 @@ def print_report(r: Mapping[str, Any], echo: Callable[[str], None]) -> None:
     echo("all invariants held" if r["all_held"] else "error: an invariant broke")
 
 
-def _plots(out: Path, r: Mapping[str, Any], samples: list[Mapping[str, Any]],
+def _plots(out: Path, r: Mapping[str, Any], samples: Sequence[Mapping[str, Any]],
            faults: list[dict[str, Any]], end_t: float) -> None:
     import matplotlib
 

@@ -27,7 +27,8 @@ from types import MappingProxyType
 from typing import Any, ClassVar, NamedTuple
 
 from murdoch.subjects import IDLE, SubjectSet, check_subject, subject_set
-from murdoch.wire import Codec, freeze
+from murdoch.wire import Codec
+from murdoch.wire_values import freeze
 
 REPORT_STATUSES = ("completed", "failed", "declined", "abandoned")
 OUTCOME_STATUSES = ("completed", "failed", "unachievable")

@@ -8,7 +8,11 @@ a run).
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+from typing import Any
+
+from murdoch.auction.messages import TaskSpec
 
 
 @dataclass(frozen=True)
@@ -22,6 +26,14 @@ class AuctionTiming:
     abandon_after_s: float
     """A winner that hears no renewal this long gives the task up."""
 
+    def task(self, name: str, subjects: Iterable[str], params: Mapping[str, Any], *,
+             duration_s: float, timeout_s: float | None, parent: str | None = None) -> TaskSpec:
+        """A task announced with these timings."""
+        return TaskSpec(name, frozenset(subjects), params, duration_s=duration_s,
+                        bid_window_s=self.bid_window_s, renew_period_s=self.renew_period_s,
+                        contract_timeout_s=self.contract_timeout_s,
+                        abandon_after_s=self.abandon_after_s, timeout_s=timeout_s,
+                        parent=parent)
 
 
 USER_TASK = AuctionTiming(bid_window_s=1.0, renew_period_s=2.0, contract_timeout_s=10.0,

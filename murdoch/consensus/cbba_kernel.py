@@ -29,15 +29,10 @@ import math
 import numpy as np
 from numba import njit
 
-_EPS = 1e-9  # the latest-start tolerance of `scoring._EPS`
-_NONE = -1
-# rows of `tasks`
-_WS, _WE, _DUR, _REF, _REW, _DISC = 0, 1, 2, 3, 4, 5
-# 1.0 when every score is the paper's linear reward - ((start - ref) + duration) (the same
-# in every column): a delay d then costs exactly d, and `Problem.gain_bound` is its bound
-_LIN = 6
-# rows of the per-path work array (what `gains.PathGains.__init__` computes)
-_READY, _CUM, _OLD, _LAM, _ROOM = 0, 1, 2, 3, 4
+from murdoch.consensus.kernel_parts import DUR, EPS, NONE, WE, WS, conflict_action, gain, prepare
+
+PARTS_SHA256 = "8a5d1efb25b5e0cf5499e367a9802172fb29968ab1cf187436e905eeb2320c44"
+"""The `kernel_parts.py` this module was written against (see its notes on numba's cache)."""
 
 
 @njit(cache=True)
@@ -56,141 +51,21 @@ def _path_starts(at_row: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr:
             start = ready + at_row[j] / speed
         else:
             start = ready + tt[prev, j] / speed
-        if tasks[_WS, j] > start:
-            start = tasks[_WS, j]
+        if tasks[WS, j] > start:
+            start = tasks[WS, j]
         for e in range(pre_ptr[j], pre_ptr[j + 1]):
             f = finish[pre_idx[e]]
             if math.isnan(f):
                 ok = False
             elif f > start:
                 start = f
-        if start > tasks[_WE, j] + _EPS:
+        if start > tasks[WE, j] + EPS:
             ok = False
         out[n] = start
-        ready = start + tasks[_DUR, j]
+        ready = start + tasks[DUR, j]
         finish[j] = ready
         prev = j
     return ok
-
-
-@njit(cache=True)
-def _prepare(at_row: np.ndarray, tt: np.ndarray, tasks: np.ndarray, speed: float,
-             avail: float, path: np.ndarray, times: np.ndarray, n_path: int,
-             work: np.ndarray, pos_of: np.ndarray) -> bool:
-    """What `gains.PathGains.__init__` computes once per path (and each task's position on
-    it, -1 when absent); returns its `_late`."""
-    for j in range(pos_of.shape[0]):
-        pos_of[j] = -1
-    work[_READY, 0] = avail
-    total_wait = 0.0
-    late = False
-    for n in range(n_path):
-        j = path[n]
-        pos_of[j] = n
-        t = times[n]
-        if n == 0:
-            d = at_row[j]
-        else:
-            d = tt[path[n - 1], j]
-        wait = t - (work[_READY, n] + d / speed)
-        total_wait += wait if wait > 0.0 else 0.0
-        work[_CUM, n] = total_wait
-        dj = tasks[_DISC, j]
-        work[_OLD, n] = tasks[_REW, j] * math.exp(-dj * (t - tasks[_REF, j]))
-        work[_LAM, n] = dj
-        room = tasks[_WE, j] - t + _EPS
-        work[_ROOM, n] = room
-        if room < 0.0:
-            late = True
-        work[_READY, n + 1] = t + tasks[_DUR, j]
-    return late
-
-
-@njit(cache=True)
-def _gain(c: int, at_row: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np.ndarray,
-          pre_idx: np.ndarray, speed: float, path: np.ndarray, times: np.ndarray,
-          n_path: int, late: bool, work: np.ndarray, pos_of: np.ndarray
-          ) -> tuple[float, int]:
-    """`gains.PathGains._evaluate` with not-before time 0: (best gain, its position)."""
-    lower = 0.0
-    first = 0
-    if pre_ptr[c + 1] > pre_ptr[c]:
-        # after every prerequisite, which must all be on the path
-        last = -1
-        done = -math.inf
-        for e in range(pre_ptr[c], pre_ptr[c + 1]):
-            q = pre_idx[e]
-            if pos_of[q] < 0:
-                return -math.inf, 0
-            if pos_of[q] > last:
-                last = pos_of[q]
-            f = times[pos_of[q]] + tasks[_DUR, q]
-            if f > done:
-                done = f
-        first = last + 1
-        if done > lower:
-            lower = done
-    w_s = tasks[_WS, c]
-    w_e = tasks[_WE, c] + _EPS
-    d_c = tasks[_DUR, c]
-    ref_c = tasks[_REF, c]
-    rew_c = tasks[_REW, c]
-    disc_c = tasks[_DISC, c]
-    linear = tasks[_LIN, c] > 0.0
-    best = -math.inf
-    at = 0
-    for q in range(first, n_path + 1):
-        r = work[_READY, q]
-        if r > w_e:
-            break
-        if q == 0:
-            d = at_row[c]
-        else:
-            d = tt[path[q - 1], c]
-        start = r + d / speed
-        if start < w_s:
-            start = w_s
-        if start < lower:
-            start = lower
-        if start > w_e:
-            continue
-        if linear:
-            total = rew_c - d_c - (start - ref_c)
-        else:
-            total = rew_c * math.exp(-disc_c * (start - ref_c))
-        if total <= best:
-            continue
-        if q < n_path:
-            d0 = start + d_c + tt[path[q], c] / speed - times[q]
-            if d0 > 0.0:
-                if late:
-                    continue
-                if d0 > work[_ROOM, q]:
-                    continue
-                if linear:
-                    change = -d0
-                else:
-                    change = work[_OLD, q] * math.expm1(-work[_LAM, q] * d0)
-                base = work[_CUM, q]
-                feasible = True
-                for k in range(q + 1, n_path):
-                    delay = d0 - (work[_CUM, k] - base)
-                    if delay <= 0.0:
-                        break
-                    if delay > work[_ROOM, k]:
-                        feasible = False
-                        break
-                    if linear:
-                        change -= delay
-                    else:
-                        change += work[_OLD, k] * math.expm1(-work[_LAM, k] * delay)
-                if not feasible:
-                    continue
-                total += change
-        if total > best:
-            best = total
-            at = q
-    return best, at
 
 
 @njit(cache=True)
@@ -214,7 +89,7 @@ def _build(i: int, y: np.ndarray, z: np.ndarray, bundle: np.ndarray, blen: np.nd
         held[bundle[b]] = True
     while blen[i] < max_depth:
         n_path = plen[i]
-        late = _prepare(at_row, tt, tasks, speed, avail, path, times, n_path, work, pos_of)
+        late = prepare(at_row, tt, tasks, speed, avail, path, times, n_path, work, pos_of)
         cap = y[bundle[blen[i] - 1]] if blen[i] > 0 else math.inf
         # candidates by upper bound, highest first (ties: lower index first), as
         # `CbbaAgent._add_best` filters and orders them
@@ -249,7 +124,7 @@ def _build(i: int, y: np.ndarray, z: np.ndarray, bundle: np.ndarray, blen: np.nd
                 g = gain_val[j]
                 pos = gain_pos[j]
             else:
-                g, pos = _gain(j, at_row, tt, tasks, pre_ptr, pre_idx, speed, path, times,
+                g, pos = gain(j, 0.0, at_row, tt, tasks, pre_ptr, pre_idx, speed, path, times,
                                n_path, late, work, pos_of)
                 gain_val[j] = g
                 gain_pos[j] = pos
@@ -302,39 +177,14 @@ def _merge(i: int, k: int, now: float, y: np.ndarray, z: np.ndarray, s: np.ndarr
         yi = y[j]
         if zk == zi and yk == yi:
             continue
-        if zk == k:
-            sc = 0
-        elif zk == i:
-            sc = 1
-        elif zk == _NONE:
-            sc = 3
-        else:
-            sc = 2
-        if zi == i:
-            rc = 0
-        elif zi == k:
-            rc = 1
-        elif zi == _NONE:
-            rc = 4
-        elif sc == 2 and zi != zk:
-            rc = 3
-        else:
-            rc = 2
-        zk_at = zk if zk >= 0 else n  # the last stamp (-inf) stands for "no winner"
-        zi_at = zi if zi >= 0 else n
-        sk_zk = s_k[zk_at]
-        si_zk = s[zk_at]
-        beats = yk > yi or (yk == yi and zk != _NONE and (zi == _NONE or zk < zi))
-        code = ((1 if beats else 0) + (2 if sk_zk > si_zk else 0)
-                + (4 if s_k[zi_at] > s[zi_at] else 0) + (8 if si_zk > sk_zk else 0))
-        action = lut[table[sc, rc], code]
+        action = conflict_action(i, k, yi, zi, yk, zk, s, s_k, table, lut)
         if action == 1:
             y[j] = yk
             z[j] = zk
             changed = True
-        elif action == 2 and (yi != 0.0 or zi != _NONE):
+        elif action == 2 and (yi != 0.0 or zi != NONE):
             y[j] = 0.0
-            z[j] = _NONE
+            z[j] = NONE
             changed = True
     for q in range(n):
         if s_k[q] > s[q]:
@@ -361,7 +211,7 @@ def _release(i: int, y: np.ndarray, z: np.ndarray, bundle: np.ndarray, blen: np.
             drop[bundle[r]] = True
             if r > b:
                 y[bundle[r]] = 0.0
-                z[bundle[r]] = _NONE
+                z[bundle[r]] = NONE
         blen[i] = b
         kept = 0
         for q in range(plen[i]):
@@ -390,7 +240,7 @@ def run_cbba(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
     from the sender's previous round's)."""
     n, m = at_dist.shape
     y = np.zeros((n, m))
-    z = np.full((n, m), _NONE, dtype=np.int64)
+    z = np.full((n, m), NONE, dtype=np.int64)
     s = np.full((n, n + 1), -math.inf)
     bundle = np.zeros((n, m), dtype=np.int64)
     blen = np.zeros(n, dtype=np.int64)
@@ -444,13 +294,13 @@ def run_cbba(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
                 continue
             entries = 0
             for j in range(m):
-                if z[k, j] != _NONE:
+                if z[k, j] != NONE:
                     entries += 1
             sent_msgs += d
             sent_bytes += d * (msg_base + entries * msg_entry)
             # y_sent, z_sent still hold what k sent last round (nothing before round 1)
             for j in range(m):
-                if z[k, j] != z_sent[k, j] or (z[k, j] != _NONE and y[k, j] != y_sent[k, j]):
+                if z[k, j] != z_sent[k, j] or (z[k, j] != NONE and y[k, j] != y_sent[k, j]):
                     sent_pairs += d
                     break
         # -- phase 2: everyone sends, then each merges its neighbours' messages in order

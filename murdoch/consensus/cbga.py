@@ -39,149 +39,35 @@ in CBBA (never above the bid of the task added before).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from itertools import compress
 from operator import itemgetter, ne, or_
 
 from murdoch.consensus.cbba import (
-    BundleBuilding,
     merge_timestamps,
     message_stamps,
 )
-from murdoch.consensus.conflict import NONE, resolve_lists
+from murdoch.consensus.cbga_rows import CbgaRows
+from murdoch.consensus.cbga_state import (
+    TEAM_MODES,
+    CbgaOptions,
+    Matrix,
+    team_bound_bonus,
+    zeros,
+)
+from murdoch.consensus.conflict import NONE
 from murdoch.consensus.messages import KIND_CBGA, ConsensusMessage
-from murdoch.consensus.scoring import _EPS, Problem, path_starts
+from murdoch.consensus.scoring import Problem, path_starts
 
-Matrix = list[list[float]]
-
-
-def zeros(rows: int, cols: int) -> Matrix:
-    return [[0.0] * cols for _ in range(rows)]
+__all__ = ["TEAM_MODES", "CbgaAgent", "CbgaOptions", "Matrix", "team_bound_bonus", "zeros"]
 
 
-# how team reward enters a group-task bid (on tasks with a team_reward): "bonus" adds
-# team_reward * others / (L_j - 1); "total" bids what the whole group earns, the agent's
-# own gain for each member, itself and the others already in the group (the paper's "total
-# value for a successful task rather than just their individual contribution")
-TEAM_MODES = ("bonus", "total")
-
-
-def team_bound_bonus(ub: float, others: int) -> float:
-    """What the "total" team reward can add to a bid whose own gain is at most `ub`, with
-    `others` already in the group (a rounding margin included); 0 when ub <= 0."""
-    if not ub > 0.0 or others <= 0:
-        return 0.0
-    return ub * others + 1e-9 * (1.0 + ub * (1 + others))
-
-
-@dataclass(frozen=True)
-class CbgaOptions:
-    task_quitting: bool = True
-    team_reward: bool = True
-    # an agent quits one group task at most this many times, then gives it up for the run
-    quit_limit: int = 5
-    team_mode: str = "bonus"  # one of TEAM_MODES
-
-
-class CbgaAgent(BundleBuilding):
-    """One agent's CBGA state: X (M x N), T (M x N), timestamps, bundle, path, quit
-    bookkeeping (plain lists: the problems are small)."""
+class CbgaAgent(CbgaRows):
+    """One CBGA agent: its state (`CbgaState`), group timing (`CbgaTimes`), bundle building
+    (phase 1) and consensus on X, T and the timestamps (phase 2)."""
 
     kind = KIND_CBGA
 
-    def __init__(self, problem: Problem, index: int, options: CbgaOptions | None = None
-                 ) -> None:
-        self._init_agent(problem, index)
-        self.options = options or CbgaOptions()
-        self.x = zeros(problem.n_tasks, problem.n_agents)
-        # when each believed member can be at each group task on its own (0 = unknown)
-        self.t = zeros(problem.n_tasks, problem.n_agents)
-        self.assigned_at = [math.nan] * problem.n_tasks
-        # task quitting: per task, the other members seen when this agent last quit it (it
-        # stays out until the group is larger; -1 = no ban) and how often it quit it
-        self.banned = [-1] * problem.n_tasks
-        self.quits = [0] * problem.n_tasks
-        self.yielding: dict[int, bool] = {}  # a late group task kept one round (see below)
-        # group tasks given up to a higher-index partner -> the other members then
-        self.yielded: dict[int, frozenset[int]] = {}
-        self._partners: dict[int, float] | None = None
-        self._candidates: list[tuple[int, float, float, bool, float]] | None = None
-        self._refresh_static()
-
-    def _refresh_static(self) -> None:
-        p = self.problem
-        self.single: list[bool] = [int(r) == 1 for r in p.required]
-        self.single_idx = [j for j, one in enumerate(self.single) if one]
-        self.group_idx = [j for j, one in enumerate(self.single) if not one]
-        self._latest = [w + _EPS for w in p.lists.window_end]
-        self._no_equipment = [not e for e in p.task_equipment]
-
-    def state_key(self) -> tuple[tuple[tuple[float, ...], ...], tuple[tuple[float, ...], ...],
-                                 tuple[int, ...]]:
-        """What `comm_steps` watches: bids, group members' times and bundle."""
-        return tuple(map(tuple, self.x)), tuple(map(tuple, self.t)), tuple(self.bundle)
-
-    # -- equipment ----------------------------------------------------------------------
-    def select_group(self, j: int, bids: dict[int, float]) -> list[int]:
-        """The group task j keeps from candidate (agent -> bid) pairs: strongest first (equal
-        bids: higher agent index first), each taken while the group has room and can still
-        cover the task's equipment with one new item per remaining place. With agents that
-        carry one item each this keeps the paper's rule: a newcomer replaces only the
-        weakest member with the same equipment, and only with a higher bid."""
-        p = self.problem
-        need = p.task_equipment[j]
-        size = p.lists.required[j]
-        order = sorted(bids, key=lambda m: (-bids[m], -m))
-        if not need:
-            return order[:size]
-        chosen: list[int] = []
-        covered: set[str] = set()
-        for m in order:
-            if len(chosen) >= size:
-                break
-            eq = p.agent_equipment[m]
-            if len(need - covered - eq) > size - len(chosen) - 1:
-                continue
-            chosen.append(m)
-            covered |= eq
-        return chosen
-
-    def complete(self, j: int) -> bool:
-        members = [m for m, v in enumerate(self.x[j]) if v > 0]
-        if len(members) < self.problem.lists.required[j]:
-            return False
-        covered: set[str] = set()
-        for m in members:
-            covered |= self.problem.agent_equipment[m]
-        return self.problem.task_equipment[j] <= covered
-
     # -- phase 1 ------------------------------------------------------------------------
-    def partners_time(self, j: int) -> float:
-        """The latest planned start of the other members of group task j (0 when none).
-
-        A member that cannot itself be there inside the window is left out: it is the one
-        that makes the group late, and it gives the task up (its own `refresh_times` finds
-        its path infeasible). Only that member leaves; the punctual ones keep the task."""
-        if self.single[j]:
-            return 0.0
-        cache = self._partners
-        if cache is not None:
-            hit = cache.get(j)
-            if hit is not None:
-                return hit
-        i = self.index
-        latest = self._latest[j]
-        lb = 0.0
-        trow = self.t[j]
-        for m, v in enumerate(self.x[j]):
-            if v > 0 and m != i:
-                at = trow[m]
-                if lb < at <= latest:
-                    lb = at
-        if cache is not None:
-            cache[j] = lb
-        return lb
-
     def build_bundle(self, now: float = 0.0) -> bool:
         # during a build only this agent's own entries and the row of the task it adds
         # change: partners' times and the candidate tasks are worked out once
@@ -236,147 +122,6 @@ class CbgaAgent(BundleBuilding):
             out.append((j, ub, nb, single[j], bonus))
         return out
 
-    def not_before(self) -> list[float] | None:
-        """`partners_time` of every task (None without group tasks)."""
-        if not self.group_idx:
-            return None
-        return [self.partners_time(j) for j in range(self.problem.n_tasks)]
-
-    def _lower_bounds(self, path: list[int]) -> dict[int, float] | None:
-        if not self.group_idx:
-            return None
-        out = {}
-        cache = self._partners
-        single = self.single
-        for j in path:
-            if single[j]:
-                continue
-            lb = None if cache is None else cache.get(j)
-            if lb is None:
-                lb = self.partners_time(j)
-            if lb > 0:
-                out[j] = lb
-        return out
-
-    def _publish_times(self, ready: list[float] | None = None) -> None:
-        """Record when this agent can be at each of its group tasks on its own (what its
-        partners wait for); the group starts at the latest of its members' times. `ready`:
-        those times along the current path when already known (`path_starts`' ready_out
-        with the same lower bounds)."""
-        if not self.group_idx:
-            return
-        i = self.index
-        if ready is None:
-            ready = []
-            path_starts(self.problem, i, self.path, self._lower_bounds(self.path), ready)
-        t = self.t
-        for j in self.group_idx:
-            t[j][i] = 0.0
-        for j, at in zip(self.path, ready, strict=True):
-            if not self.single[j]:
-                t[j][i] = at
-
-    def refresh_times(self) -> bool:
-        """Re-plan start times against the partners' latest plans; drop a group task that
-        can no longer start in its window. True if anything changed.
-
-        Two members can wait on each other across two group tasks they hold in opposite
-        orders (each late for one task because it waits for the other at another). Ties go
-        to the higher agent index: a member made late by waiting for a lower-index partner
-        keeps its plan for one round so that the partner, made late by waiting for it,
-        gives its task up first; if the plan is still infeasible a round later it drops."""
-        if not self.group_idx or not self.active:
-            return False
-        dropped = self._drop_crossed_orders()
-        held = False
-        while True:
-            bad: list[int] = []
-            ready: list[float] = []
-            times, ok = path_starts(self.problem, self.index, self.path,
-                                    self._lower_bounds(self.path), ready, bad)
-            if ok:
-                break
-            j = self.path[bad[0]]
-            blamed = self._blamed_partner(bad[0])
-            if blamed is not None and blamed < self.index and not self.yielding.get(j):
-                self.yielding = {j: True}
-                held = True
-                break
-            self.x[j][self.index] = 0.0
-            self.bundle.remove(j)
-            self.path = [q for q in self.path if q != j]
-            dropped = True
-        if not held:
-            self.yielding = {}
-        moved = dropped or times != self.times
-        if moved:
-            self._set_path(self.path, times)
-        self._publish_times(ready)
-        if moved:
-            self.needs_build = True
-        return moved
-
-    def _crossed(self, path: list[int]) -> dict[int, set[int]]:
-        """Group tasks of `path` planned in the opposite order to a higher-index partner: if
-        both hold g and h, this agent doing g first and the partner h first (its own times
-        say so), each would wait for the other. Returns the later task of each such pair
-        and the partners it crosses."""
-        i = self.index
-        shared = [j for j in path if not self.single[j]]
-        later: dict[int, set[int]] = {}
-        if len(shared) < 2:
-            return later
-        x, t = self.x, self.t
-        n = self.problem.n_agents
-        for a, g in enumerate(shared):
-            if g in later:
-                continue
-            xg, tg = x[g], t[g]
-            for h in shared[a + 1:]:
-                if h in later:
-                    continue
-                xh, th = x[h], t[h]
-                partners = {m for m in range(i + 1, n)
-                            if xg[m] > 0 and xh[m] > 0 and tg[m] > 0 and th[m] > 0
-                            and th[m] < tg[m]}
-                if partners:
-                    later[h] = partners
-        return later
-
-    def _drop_crossed_orders(self) -> bool:
-        """Ties go to the higher index: of a pair of group tasks planned in the opposite
-        order to a higher-index partner, this agent drops the later one and does not rejoin
-        it while any partner it crossed is still in that group (several lower-index
-        members may give way at once, so the group's other members are not a reliable
-        sign that anything changed); True if it dropped any."""
-        i = self.index
-        drop = self._crossed(self.path)
-        for j, partners in drop.items():
-            self.yielded[j] = frozenset(partners)
-            self.x[j][i] = 0.0
-            self.bundle.remove(j)
-        if drop:
-            self._set_path([q for q in self.path if q not in drop], self.times)
-        return bool(drop)
-
-    def _blamed_partner(self, bad: int) -> int | None:
-        """The partner this agent last waited for on a group task before path[bad] (None
-        when it waited for nobody there)."""
-        if not self.group_idx:
-            return None
-        ready: list[float] = []
-        path_starts(self.problem, self.index, self.path[:bad], self._lower_bounds(self.path),
-                    ready)
-        for n in range(bad - 1, -1, -1):
-            g = self.path[n]
-            if not self.single[g] and self.partners_time(g) > ready[n]:
-                best, who = -math.inf, 0
-                for m, (v, at) in enumerate(zip(self.x[g], self.t[g], strict=True)):
-                    if v > 0 and m != self.index and at > best:
-                        best, who = at, m
-                return who
-        return None
-
     def _add_best(self, now: float) -> bool:
         """Algorithm 1, one step: insert the best task whose bid is valid (a single task
         outbidding its winner; a group task whose `select_group` keeps this agent); False
@@ -389,7 +134,6 @@ class CbgaAgent(BundleBuilding):
         i = self.index
         held = set(self.bundle)
         blocked = self._blocked
-        yielded = self.yielded
         single = self.single
         rows = self.x
         required = self.problem.lists.required
@@ -403,24 +147,7 @@ class CbgaAgent(BundleBuilding):
                 self._candidates = cands
         cap = rows[self.bundle[-1]][i] if self.bundle else math.inf
         team = self.options.team_reward
-        forced: list[tuple[float, int, float]] = []
-        order: list[tuple[float, int, float]] = []
-        for j, ub, nb, one, bonus in cands:
-            if blocked[j] or j in held:
-                continue
-            if yielded and not one and j in yielded:
-                forced.append((0.0, j, nb))
-                continue
-            hit = known_bounds.get(j)  # `PathGains.upper_bound`, inlined
-            if hit is not None and hit[0] == nb and hit[1] < ub:
-                ub = hit[1]
-            if bonus:
-                ub += bonus
-            if cap < ub:
-                ub = cap
-            if ub > 0.0:
-                order.append((-ub, j, nb))
-        order.sort()
+        forced, order = self._bid_order(cands, held, cap, known_bounds)
         best = -math.inf
         best_j = -1
         best_pos = 0
@@ -480,6 +207,33 @@ class CbgaAgent(BundleBuilding):
         if partners is not None:
             partners.pop(j, None)
         return True
+
+    def _bid_order(self, cands: list[tuple[int, float, float, bool, float]], held: set[int],
+                   cap: float, known_bounds: dict[int, tuple[float, float]]
+                   ) -> tuple[list[tuple[float, int, float]], list[tuple[float, int, float]]]:
+        """The tasks `_add_best` tries: group tasks with a pending yield (always), then the
+        others by their bid's upper bound, highest first (as (-bound, task, not-before))."""
+        blocked = self._blocked
+        yielded = self.yielded
+        forced: list[tuple[float, int, float]] = []
+        order: list[tuple[float, int, float]] = []
+        for j, ub, nb, one, bonus in cands:
+            if blocked[j] or j in held:
+                continue
+            if yielded and not one and j in yielded:
+                forced.append((0.0, j, nb))
+                continue
+            hit = known_bounds.get(j)  # `PathGains.upper_bound`, inlined
+            if hit is not None and hit[0] == nb and hit[1] < ub:
+                ub = hit[1]
+            if bonus:
+                ub += bonus
+            if cap < ub:
+                ub = cap
+            if ub > 0.0:
+                order.append((-ub, j, nb))
+        order.sort()
+        return forced, order
 
     def _group_bid(self, j: int, row: list[float], gain: float, cap: float, team: bool
                    ) -> tuple[float | None, list[int]]:
@@ -653,72 +407,6 @@ class CbgaAgent(BundleBuilding):
             self.needs_build = True
         return changed
 
-    def _merge_single_rows(self, k: int, rows: list[int], x_k: Matrix,
-                           s_k: list[float]) -> bool:
-        """CBBA's rules on single-agent rows (a row's one non-zero entry is y_j, z_j)."""
-        m_tasks = self.problem.n_tasks
-        y_i, y_k = [0.0] * m_tasks, [0.0] * m_tasks
-        z_i, z_k = [NONE] * m_tasks, [NONE] * m_tasks
-        for j in rows:
-            ri, rk = self.x[j], x_k[j]
-            y_i[j] = max(ri)
-            z_i[j] = ri.index(y_i[j]) if y_i[j] > 0 else NONE
-            y_k[j] = max(rk)
-            z_k[j] = rk.index(y_k[j]) if y_k[j] > 0 else NONE
-        y_new, z_new = list(y_i), list(z_i)
-        if not resolve_lists(self.index, k, y_new, z_new, self.s, y_k, z_k, s_k):
-            return False
-        for j in rows:
-            if y_new[j] != y_i[j] or z_new[j] != z_i[j]:
-                row = [0.0] * len(self.x[j])
-                if z_new[j] != NONE:
-                    row[z_new[j]] = y_new[j]
-                self.x[j] = row
-        return True
-
-    def _merge_group_row(self, j: int, row_k: list[float], known: list[int],
-                         starts_k: list[float]) -> bool:
-        """Algorithm 2 for one group row. `known` lists the members the sender knows
-        better than this agent (the sender itself, and those it heard from more recently);
-        this agent's own entry is never taken from a sender."""
-        before = self.x[j]
-        row = list(before)
-        # phase 1: refresh what we believe from a sender who knows better; phase 2: add
-        # the sender's other members, then keep the group select_group picks. Both take
-        # the sender's entry for every member it knows better (bids are positive, 0 = not
-        # in the group), so the candidates are the row with those entries replaced.
-        for m in known:
-            row[m] = row_k[m]
-        if row != before:
-            size = self.problem.lists.required[j]
-            if not self._no_equipment[j]:
-                bids = {m: v for m, v in enumerate(row) if v > 0}
-                row = [0.0] * len(row)
-                for m in self.select_group(j, bids):
-                    row[m] = bids[m]
-            elif size < len(row) - row.count(0.0):
-                # select_group without equipment: the `size` strongest stay
-                ranked = sorted([m for m, v in enumerate(row) if v > 0],
-                                key=lambda m: (-row[m], -m))
-                for m in ranked[size:]:
-                    row[m] = 0.0
-            # (otherwise select_group keeps every candidate: the row stands)
-        # planned times follow whoever knows the member better; non-members have none
-        starts_before = self.t[j]
-        starts = [a if v > 0 else 0.0 for v, a in zip(row, starts_before, strict=True)]
-        i = self.index
-        starts[i] = starts_before[i]
-        for m in known:
-            v = row[m]
-            if v > 0 and row_k[m] == v:
-                starts[m] = starts_k[m]
-        changed = row != before or starts != starts_before
-        if changed:
-            self.x[j] = row
-            self.t[j] = starts
-        return changed
-
-    # -- releases -----------------------------------------------------------------------
     def release_outbid(self) -> bool:
         i = self.index
         for n, j in enumerate(self.bundle):

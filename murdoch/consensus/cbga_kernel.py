@@ -36,15 +36,10 @@ import math
 import numpy as np
 from numba import njit
 
-_EPS = 1e-9  # the latest-start tolerance of `scoring._EPS`
-_NONE = -1
-# rows of `tasks`
-_WS, _WE, _DUR, _REF, _REW, _DISC = 0, 1, 2, 3, 4, 5
-# 1.0 when every score is the paper's linear reward - ((start - ref) + duration) (the same
-# in every column): a delay d then costs exactly d, and `Problem.gain_bound` is its bound
-_LIN = 6
-# rows of the per-path work array (what `gains.PathGains.__init__` computes)
-_READY, _CUM, _OLD, _LAM, _ROOM = 0, 1, 2, 3, 4
+from murdoch.consensus.kernel_parts import DUR, EPS, NONE, WE, WS, conflict_action, gain, prepare
+
+PARTS_SHA256 = "8a5d1efb25b5e0cf5499e367a9802172fb29968ab1cf187436e905eeb2320c44"
+"""The `kernel_parts.py` this module was written against (see its notes on numba's cache)."""
 
 
 @njit(cache=True)
@@ -101,8 +96,8 @@ def _path_starts(i: int, xi: np.ndarray, ti: np.ndarray, single: np.ndarray,
             start = r + at_row[j] / speed
         else:
             start = r + tt[prev, j] / speed
-        if tasks[_WS, j] > start:
-            start = tasks[_WS, j]
+        if tasks[WS, j] > start:
+            start = tasks[WS, j]
         for e in range(pre_ptr[j], pre_ptr[j + 1]):
             f = finish[pre_idx[e]]
             if math.isnan(f):
@@ -114,12 +109,12 @@ def _path_starts(i: int, xi: np.ndarray, ti: np.ndarray, single: np.ndarray,
             lb = _partners_time(i, j, xi, ti, latest)
             if lb > 0.0 and lb > start:
                 start = lb
-        if start > tasks[_WE, j] + _EPS:
+        if start > tasks[WE, j] + EPS:
             ok = False
         if not ok and bad < 0:
             bad = n
         out[n] = start
-        r = start + tasks[_DUR, j]
+        r = start + tasks[DUR, j]
         finish[j] = r
         prev = j
     return ok, bad
@@ -136,126 +131,6 @@ def _publish(i: int, ti: np.ndarray, single: np.ndarray, path: np.ndarray, n_pat
         j = path[n]
         if not single[j]:
             ti[j, i] = ready[n]
-
-
-@njit(cache=True)
-def _prepare(at_row: np.ndarray, tt: np.ndarray, tasks: np.ndarray, speed: float,
-             avail: float, path: np.ndarray, times: np.ndarray, n_path: int,
-             work: np.ndarray, pos_of: np.ndarray) -> bool:
-    """What `gains.PathGains.__init__` computes once per path (and each task's position on
-    it, -1 when absent); returns its `_late`."""
-    for j in range(pos_of.shape[0]):
-        pos_of[j] = -1
-    work[_READY, 0] = avail
-    total_wait = 0.0
-    late = False
-    for n in range(n_path):
-        j = path[n]
-        pos_of[j] = n
-        t = times[n]
-        if n == 0:
-            d = at_row[j]
-        else:
-            d = tt[path[n - 1], j]
-        wait = t - (work[_READY, n] + d / speed)
-        total_wait += wait if wait > 0.0 else 0.0
-        work[_CUM, n] = total_wait
-        dj = tasks[_DISC, j]
-        work[_OLD, n] = tasks[_REW, j] * math.exp(-dj * (t - tasks[_REF, j]))
-        work[_LAM, n] = dj
-        room = tasks[_WE, j] - t + _EPS
-        work[_ROOM, n] = room
-        if room < 0.0:
-            late = True
-        work[_READY, n + 1] = t + tasks[_DUR, j]
-    return late
-
-
-@njit(cache=True)
-def _gain(c: int, not_before: float, at_row: np.ndarray, tt: np.ndarray, tasks: np.ndarray,
-          pre_ptr: np.ndarray, pre_idx: np.ndarray, speed: float, path: np.ndarray,
-          times: np.ndarray, n_path: int, late: bool, work: np.ndarray, pos_of: np.ndarray
-          ) -> tuple[float, int]:
-    """`gains.PathGains._evaluate`: (best gain, its position) of inserting task c, starting
-    no earlier than `not_before`."""
-    lower = not_before
-    first = 0
-    if pre_ptr[c + 1] > pre_ptr[c]:
-        last = -1
-        done = -math.inf
-        for e in range(pre_ptr[c], pre_ptr[c + 1]):
-            q = pre_idx[e]
-            if pos_of[q] < 0:
-                return -math.inf, 0
-            if pos_of[q] > last:
-                last = pos_of[q]
-            f = times[pos_of[q]] + tasks[_DUR, q]
-            if f > done:
-                done = f
-        first = last + 1
-        if done > lower:
-            lower = done
-    w_s = tasks[_WS, c]
-    w_e = tasks[_WE, c] + _EPS
-    d_c = tasks[_DUR, c]
-    ref_c = tasks[_REF, c]
-    rew_c = tasks[_REW, c]
-    disc_c = tasks[_DISC, c]
-    linear = tasks[_LIN, c] > 0.0
-    best = -math.inf
-    at = 0
-    for q in range(first, n_path + 1):
-        r = work[_READY, q]
-        if r > w_e:
-            break
-        if q == 0:
-            d = at_row[c]
-        else:
-            d = tt[path[q - 1], c]
-        start = r + d / speed
-        if start < w_s:
-            start = w_s
-        if start < lower:
-            start = lower
-        if start > w_e:
-            continue
-        if linear:
-            total = rew_c - d_c - (start - ref_c)
-        else:
-            total = rew_c * math.exp(-disc_c * (start - ref_c))
-        if total <= best:
-            continue
-        if q < n_path:
-            d0 = start + d_c + tt[path[q], c] / speed - times[q]
-            if d0 > 0.0:
-                if late:
-                    continue
-                if d0 > work[_ROOM, q]:
-                    continue
-                if linear:
-                    change = -d0
-                else:
-                    change = work[_OLD, q] * math.expm1(-work[_LAM, q] * d0)
-                base = work[_CUM, q]
-                feasible = True
-                for k in range(q + 1, n_path):
-                    delay = d0 - (work[_CUM, k] - base)
-                    if delay <= 0.0:
-                        break
-                    if delay > work[_ROOM, k]:
-                        feasible = False
-                        break
-                    if linear:
-                        change -= delay
-                    else:
-                        change += work[_OLD, k] * math.expm1(-work[_LAM, k] * delay)
-                if not feasible:
-                    continue
-                total += change
-        if total > best:
-            best = total
-            at = q
-    return best, at
 
 
 @njit(cache=True)
@@ -484,7 +359,7 @@ def _build(i: int, now: float, xi: np.ndarray, ti: np.ndarray, bundle: np.ndarra
                 cand_bonus[n_cand] = bonus
                 n_cand += 1
         n_path = plen[i]
-        late = _prepare(at_row, tt, tasks, speed, avail, path, times, n_path, work, pos_of)
+        late = prepare(at_row, tt, tasks, speed, avail, path, times, n_path, work, pos_of)
         cap = xi[bundle[blen[i] - 1], i] if blen[i] > 0 else math.inf
         # the order: yielded group tasks first (always evaluated), then by bound
         n_forced = 0
@@ -547,7 +422,7 @@ def _build(i: int, now: float, xi: np.ndarray, ti: np.ndarray, bundle: np.ndarra
                 g = gain_val[j]
                 pos = gain_pos[j]
             else:
-                g, pos = _gain(j, nb, at_row, tt, tasks, pre_ptr, pre_idx, speed, path,
+                g, pos = gain(j, nb, at_row, tt, tasks, pre_ptr, pre_idx, speed, path,
                                times, n_path, late, work, pos_of)
                 gain_val[j] = g
                 gain_pos[j] = pos
@@ -559,7 +434,7 @@ def _build(i: int, now: float, xi: np.ndarray, ti: np.ndarray, bundle: np.ndarra
                 g = cap
             if single[j]:
                 yj = 0.0
-                zj = _NONE
+                zj = NONE
                 for q in range(n):
                     if xi[j, q] > yj:
                         yj = xi[j, q]
@@ -643,9 +518,9 @@ def _merge(i: int, k: int, now: float, xi: np.ndarray, ti: np.ndarray, s: np.nda
         if single[j]:
             # CBBA's table on (y, z) read from the rows (one non-zero entry at most)
             yi = 0.0
-            zi = _NONE
+            zi = NONE
             yk = 0.0
-            zk = _NONE
+            zk = NONE
             for q in range(n):
                 if xi[j, q] > yi:
                     yi = xi[j, q]
@@ -655,39 +530,14 @@ def _merge(i: int, k: int, now: float, xi: np.ndarray, ti: np.ndarray, s: np.nda
                     zk = q
             if zk == zi and yk == yi:
                 continue
-            if zk == k:
-                sc = 0
-            elif zk == i:
-                sc = 1
-            elif zk == _NONE:
-                sc = 3
-            else:
-                sc = 2
-            if zi == i:
-                rc = 0
-            elif zi == k:
-                rc = 1
-            elif zi == _NONE:
-                rc = 4
-            elif sc == 2 and zi != zk:
-                rc = 3
-            else:
-                rc = 2
-            zk_at = zk if zk >= 0 else n
-            zi_at = zi if zi >= 0 else n
-            sk_zk = s_k[zk_at]
-            si_zk = s[zk_at]
-            beats = yk > yi or (yk == yi and zk != _NONE and (zi == _NONE or zk < zi))
-            code = ((1 if beats else 0) + (2 if sk_zk > si_zk else 0)
-                    + (4 if s_k[zi_at] > s[zi_at] else 0) + (8 if si_zk > sk_zk else 0))
-            action = lut[table[sc, rc], code]
+            action = conflict_action(i, k, yi, zi, yk, zk, s, s_k, table, lut)
             if action == 1:
                 for q in range(n):
                     xi[j, q] = 0.0
-                if zk != _NONE:
+                if zk != NONE:
                     xi[j, zk] = yk
                 changed = True
-            elif action == 2 and (yi != 0.0 or zi != _NONE):
+            elif action == 2 and (yi != 0.0 or zi != NONE):
                 for q in range(n):
                     xi[j, q] = 0.0
                 changed = True
@@ -980,7 +830,7 @@ def run_cbga(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
         if not single[j]:
             n_groups += 1
     groups = n_groups > 0  # (a computed flag: a literal one would compile callees twice)
-    latest = tasks[_WE] + _EPS
+    latest = tasks[WE] + EPS
     x = np.zeros((n, m, n))
     t = np.zeros((n, m, n))
     s = np.full((n, n + 1), -math.inf)

@@ -147,28 +147,11 @@ def _groups_for(p: Problem, j: int) -> list[tuple[int, ...]]:
     return out
 
 
-def solve_exact(scenario: Scenario | Problem, node_limit: int = 2_000_000) -> ExactSolution:
-    """The best plan of a small scenario and its score (see the module text)."""
-    p = scenario if isinstance(scenario, Problem) else build_problem(scenario)
-    if any(p.prereqs):
-        raise ValueError("the exact solver does not handle prerequisites")
-    if p.cost == "discount" and (p.discount < 0).any():
-        raise ValueError("the exact solver needs non-negative discounts")
-    n, m = p.n_agents, p.n_tasks
-    if m > 60:
-        raise ExactTooLarge(f"{m} tasks is far beyond an exact search")
-    group_tasks = [j for j in range(m) if p.required[j] > 1]
-    group_mask = sum(1 << j for j in group_tasks)
-    seqs = []
-    for i in range(n):
-        allowed = [j for j in range(m) if p.eligible[i, j]]
-        seqs.append(agent_sequences(p, i, allowed, node_limit))
-    nodes = sum(len(s) for s in seqs)
-    if not group_tasks:
-        _score, paths = _combine([_best_per_mask(s) for s in seqs])
-        ev = evaluate_plan(p, [list(q) for q in paths])
-        return ExactSolution(tuple(paths), ev.total_score, nodes)
-
+def _group_choices(p: Problem, seqs: list[list[_Seq]], group_tasks: list[int],
+                   group_mask: int) -> list[tuple[float, list[list[_Seq]]]]:
+    """Every choice of groups for the group tasks that each agent's paths can serve: the
+    agents' candidate paths under it and the bound on its score, best bound first."""
+    n = p.n_agents
     options = [[(), *_groups_for(p, j)] for j in group_tasks]
     by_group_part: list[dict[int, list[_Seq]]] = []
     for i in range(n):
@@ -191,6 +174,32 @@ def solve_exact(scenario: Scenario | Problem, node_limit: int = 2_000_000) -> Ex
         bound, _ = _combine([_best_per_mask(c) for c in cands], group_mask)
         choices.append((bound, cands))
     choices.sort(key=lambda c: -c[0])
+    return choices
+
+
+def solve_exact(scenario: Scenario | Problem, node_limit: int = 2_000_000) -> ExactSolution:
+    """The best plan of a small scenario and its score (see the module text)."""
+    p = scenario if isinstance(scenario, Problem) else build_problem(scenario)
+    if any(p.prereqs):
+        raise ValueError("the exact solver does not handle prerequisites")
+    if p.cost == "discount" and (p.discount < 0).any():
+        raise ValueError("the exact solver needs non-negative discounts")
+    n, m = p.n_agents, p.n_tasks
+    if m > 60:
+        raise ExactTooLarge(f"{m} tasks is far beyond an exact search")
+    group_tasks = [j for j in range(m) if p.required[j] > 1]
+    group_mask = sum(1 << j for j in group_tasks)
+    seqs = []
+    for i in range(n):
+        allowed = [j for j in range(m) if p.eligible[i, j]]
+        seqs.append(agent_sequences(p, i, allowed, node_limit))
+    nodes = sum(len(s) for s in seqs)
+    if not group_tasks:
+        _score, paths = _combine([_best_per_mask(s) for s in seqs])
+        ev = evaluate_plan(p, [list(q) for q in paths])
+        return ExactSolution(tuple(paths), ev.total_score, nodes)
+
+    choices = _group_choices(p, seqs, group_tasks, group_mask)
 
     best_score = -1.0
     best_paths: list[tuple[int, ...]] = [() for _ in range(n)]

@@ -157,7 +157,8 @@ class PairReplan:
         for j in released:
             if j in kept:
                 continue
-            best_g, best_m, best_q = 0.0, -1, ()
+            best_g, best_m = 0.0, -1
+            best_q: tuple[int, ...] = ()
             for m in range(p.n_agents):
                 if m in out or not p.eligible[m, j] or len(plan[m]) >= p.max_depth:
                     continue

@@ -35,8 +35,9 @@ most the graph diameter; a full graph needs one round per step.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import cast
 
 import numpy as np
 
@@ -54,6 +55,10 @@ from murdoch.consensus.sync_runner import AllocationResult, build_result, graph_
 
 Plan = tuple[tuple[int, ...], ...]
 _HEADER_BYTES = 15
+
+# what an agent sends: its step, the entries it holds for that step, and (once) the complete
+# entries of the step it left
+RefineMessage = tuple[int, dict[int, object], tuple[int, dict[int, object]] | None]
 _GAIN_TOL = 1e-7
 
 
@@ -214,17 +219,17 @@ class MoveSearch:
             owners = holders[j]
             # take j: from its holder, replacing a member, joining a short group
             sources: list[int | None] = list(owners) if len(owners) >= need else [None]
-            for k in sources:
-                c = {} if k is None else {k: _without(plan[k], j)}
+            for src in sources:
+                c = {} if src is None else {src: _without(plan[src], j)}
                 v, c1 = self._best_insert(plan, c, i, j)
                 consider(v, c1)
-                if k is not None and need == 1 and v > -math.inf:
-                    self._chain(plan, holders, c1, k, {i, k}, consider)
-                # swap: give one of my tasks to k (or drop it) and take j
+                if src is not None and need == 1 and v > -math.inf:
+                    self._chain(plan, holders, c1, src, {i, src}, consider)
+                # swap: give one of my tasks to src (or drop it) and take j
                 for l in mine:
                     c2 = {**c, i: _without(mine, l)}
-                    if k is not None and l not in plan[k]:
-                        v2, c3 = self._best_insert(plan, c2, k, l)
+                    if src is not None and l not in plan[src]:
+                        v2, c3 = self._best_insert(plan, c2, src, l)
                         if v2 > -math.inf:
                             consider(*self._best_insert(plan, c3, i, j))
                     consider(*self._best_insert(plan, c2, i, j))
@@ -366,20 +371,18 @@ class RefineAgent:
     def __post_init__(self) -> None:
         self.entries = {self.index: self.own_path}
 
-    def message(self) -> tuple[int, dict[int, object], tuple[int, dict[int, object]] | None]:
+    def message(self) -> RefineMessage:
         prev, self.previous = self.previous, None
         return self.step, dict(self.entries), prev
 
-    def message_size(self, msg: tuple[int, dict[int, object],
-                                      tuple[int, dict[int, object]] | None]) -> int:
+    def message_size(self, msg: RefineMessage) -> int:
         step, entries, prev = msg
         size = _HEADER_BYTES + _entries_size(step, entries)
         if prev is not None:
             size += _entries_size(*prev)
         return size
 
-    def receive(self, msg: tuple[int, dict[int, object],
-                                 tuple[int, dict[int, object]] | None]) -> None:
+    def receive(self, msg: RefineMessage) -> None:
         step, entries, prev = msg
         if prev is not None and prev[0] == self.step:
             self._merge(prev[1])
@@ -401,7 +404,7 @@ class RefineAgent:
         if self.done or len(self.entries) < n:
             return False
         if self.step == 0:
-            paths = [tuple(self.entries[k]) for k in range(n)]  # type: ignore[arg-type]
+            paths = [tuple(cast("Iterable[int]", self.entries[k])) for k in range(n)]
             self.plan = canonical_plan(self.scorer.p, paths)
             proposals: list[Proposal] = []
         else:
@@ -498,7 +501,7 @@ def run_refinement(p: Problem, paths: Sequence[Sequence[int]],
     rounds = messages = nbytes = 0
     while not all(a.done and a.previous is None for a in agents) and rounds < max_rounds:
         rounds += 1
-        sent = []
+        sent: list[RefineMessage | None] = []
         for a in agents:
             if a.done and a.previous is None:
                 sent.append(None)

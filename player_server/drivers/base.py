@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, TypeVar
 
 from player_server.protocol.constants import MsgType
 
@@ -30,6 +30,16 @@ NACK = Reply(False)
 
 def ack(body: Any = None) -> Reply:
     return Reply(True, body)
+
+
+_Spec = TypeVar("_Spec")
+
+
+def declared(spec: _Spec | None, owner: str, device: str) -> _Spec:
+    """The world file's description of a device a driver serves (it must be declared)."""
+    if spec is None:
+        raise ValueError(f"{owner}: no {device} is declared in the world file")
+    return spec
 
 
 class Unsupported(Exception):

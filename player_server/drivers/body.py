@@ -3,15 +3,20 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from player_server.drivers.base import ACK, Driver, Reply, Unsupported, ack
+from player_server.drivers.base import ACK, Driver, Reply, Unsupported, ack, declared
 from player_server.drivers.geometry import mount_pose
 from player_server.protocol import actuator_msgs as am
 from player_server.protocol import constants as c
 from player_server.protocol import sensor_msgs as sm
 from player_server.protocol.common import Bbox3d, Pose3d
 from player_server.protocol.constants import Interface
+
+if TYPE_CHECKING:
+    from player_server.drivers.sim_port import SimPort
+    from worlds import RobotSpec
+
 
 # bodies built every tick: the positional constructors fill the slots directly
 _MAKE_GRIPPER = am.GripperData.xdr_make  # type: ignore[attr-defined]
@@ -37,11 +42,11 @@ class GripperDriver(Driver):
     commands = frozenset(_GRIPPER_COMMANDS)
     requests = frozenset({c.PLAYER_GRIPPER_REQ_GET_GEOM})
 
-    def __init__(self, sim: Any, robot: Any, index: int = 0) -> None:
+    def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0) -> None:
         super().__init__(index, "sim_gripper")
         self.sim = sim
         self.robot = robot
-        self.spec = robot.devices.gripper
+        self.spec = declared(robot.devices.gripper, f"robot {robot.name!r}", "gripper")
 
     def data(self) -> Sequence[tuple[int, Any]]:
         g = self.sim.gripper(self.robot.name)
@@ -68,11 +73,11 @@ class BumperDriver(Driver):
     interf = int(Interface.BUMPER)
     requests = frozenset({c.PLAYER_BUMPER_REQ_GET_GEOM})
 
-    def __init__(self, sim: Any, robot: Any, index: int = 0) -> None:
+    def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0) -> None:
         super().__init__(index, "sim_bumper")
         self.sim = sim
         self.robot = robot
-        self.spec = robot.devices.bumper
+        self.spec = declared(robot.devices.bumper, f"robot {robot.name!r}", "bumper")
 
     def data(self) -> Sequence[tuple[int, Any]]:
         states = bytes([1 if b else 0 for b in self.sim.bumpers(self.robot.name)])
@@ -104,7 +109,7 @@ class PowerDriver(Driver):
     interf = int(Interface.POWER)
     requests = frozenset({c.PLAYER_POWER_REQ_SET_CHARGING_POLICY})
 
-    def __init__(self, sim: Any, robot: Any, index: int = 0) -> None:
+    def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0) -> None:
         super().__init__(index, "sim_power")
         self.sim = sim
         self.robot = robot

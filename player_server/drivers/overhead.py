@@ -11,16 +11,21 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from player_server.drivers.base import Driver, Reply, Unsupported, ack
+from player_server.drivers.base import Driver, Reply, Unsupported, ack, declared
 from player_server.drivers.vision import encode_image
 from player_server.protocol import constants as c
 from player_server.protocol import sensor_msgs as sm
 from player_server.protocol.common import POSE3D_ZERO, Bbox2d, Bbox3d, Pose3d
 from player_server.protocol.constants import Interface
+
+if TYPE_CHECKING:
+    from player_server.drivers.sim_port import OverheadPort
+    from worlds import WorldSpec
+
 
 # bodies built every tick: the positional constructors fill the slots directly
 _MAKE_BLOB = sm.BlobfinderBlob.xdr_make  # type: ignore[attr-defined]
@@ -30,7 +35,7 @@ _MAKE_FIDUCIALS = sm.FiducialData.xdr_make  # type: ignore[attr-defined]
 _MAKE_POSE = Pose3d.xdr_make  # type: ignore[attr-defined]
 
 
-def fiducial_ids(world: Any) -> dict[str, int]:
+def fiducial_ids(world: WorldSpec) -> dict[str, int]:
     """Name -> fiducial id of every robot and object that has one (> 0)."""
     ids: dict[str, int] = {}
     for r in world.robots:
@@ -42,7 +47,7 @@ def fiducial_ids(world: Any) -> dict[str, int]:
     return ids
 
 
-def footprint_radii(world: Any) -> dict[str, float]:
+def footprint_radii(world: WorldSpec) -> dict[str, float]:
     """Name -> radius (m) of the disc drawn for each thing the overhead camera tracks."""
     radii: dict[str, float] = {}
     for r in world.robots:
@@ -61,10 +66,10 @@ class OverheadBlobfinderDriver(Driver):
 
     interf = int(Interface.BLOBFINDER)
 
-    def __init__(self, sim: Any, world: Any, index: int = 0) -> None:
+    def __init__(self, sim: OverheadPort, world: WorldSpec, index: int = 0) -> None:
         super().__init__(index, "sim_overhead_blobfinder")
         self.sim = sim
-        self.cam = world.overhead_camera
+        self.cam = declared(world.overhead_camera, "the world", "overhead camera")
         self.radii = footprint_radii(world)
         self._discs: dict[str, tuple[float, float, int]] = {}
         # name -> (x, y, index, blob or None when out of view) of the last data made
@@ -120,10 +125,10 @@ class OverheadFiducialDriver(Driver):
     interf = int(Interface.FIDUCIAL)
     requests = frozenset({c.PLAYER_FIDUCIAL_REQ_GET_GEOM, c.PLAYER_FIDUCIAL_REQ_GET_FOV})
 
-    def __init__(self, sim: Any, world: Any, index: int = 0) -> None:
+    def __init__(self, sim: OverheadPort, world: WorldSpec, index: int = 0) -> None:
         super().__init__(index, "sim_overhead_fiducial")
         self.sim = sim
-        self.cam = world.overhead_camera
+        self.cam = declared(world.overhead_camera, "the world", "overhead camera")
         self.ids = fiducial_ids(world)
         # name -> (x, y, yaw, item or None when out of view) of the last data made
         self._known: dict[str, tuple[float, float, float, Any]] = {}
@@ -168,10 +173,10 @@ class OverheadCameraDriver(Driver):
     interf = int(Interface.CAMERA)
     requests = frozenset({c.PLAYER_CAMERA_REQ_GET_IMAGE})
 
-    def __init__(self, sim: Any, world: Any, index: int = 0) -> None:
+    def __init__(self, sim: OverheadPort, world: WorldSpec, index: int = 0) -> None:
         super().__init__(index, "sim_overhead_camera")
         self.sim = sim
-        cam = world.overhead_camera
+        cam = declared(world.overhead_camera, "the world", "overhead camera")
         self.cam = cam
         self.radii = footprint_radii(world)
         floor = int(world.arena.floor_colour)

@@ -4,14 +4,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from player_server.drivers.base import ACK, Driver, Reply, Unsupported, ack
+from player_server.drivers.base import ACK, Driver, Reply, Unsupported, ack, declared
 from player_server.drivers.geometry import body_geometry, finite, wrap_angle
 from player_server.protocol import actuator_msgs as am
 from player_server.protocol import constants as c
 from player_server.protocol.common import Pose2d
 from player_server.protocol.constants import Interface
+
+if TYPE_CHECKING:
+    from player_server.drivers.sim_port import SimPort
+    from worlds import RobotSpec
+
 
 # bodies built every tick: the positional constructors fill the slots directly
 _MAKE_DATA = am.Position2dData.xdr_make  # type: ignore[attr-defined]
@@ -54,11 +59,11 @@ class Position2dDriver(Driver):
     requests = frozenset(range(1, 10))
     watched = True  # a robot whose driving client goes silent stops
 
-    def __init__(self, sim: Any, robot: Any, index: int = 0) -> None:
+    def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0) -> None:
         super().__init__(index, "sim_position2d")
         self.sim = sim
         self.robot = robot
-        self.spec = robot.devices.position2d
+        self.spec = declared(robot.devices.position2d, f"robot {robot.name!r}", "position2d")
         self.properties = {
             "max_speed": float(self.spec.max_speed_mps),
             "max_yaw_rate": float(self.spec.max_yaw_rate_radps),

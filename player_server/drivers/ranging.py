@@ -5,16 +5,21 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from player_server.drivers.base import ACK, Driver, Reply, Unsupported, ack
+from player_server.drivers.base import ACK, Driver, Reply, Unsupported, ack, declared
 from player_server.drivers.geometry import mount_pose
 from player_server.protocol import constants as c
 from player_server.protocol import sensor_msgs as sm
 from player_server.protocol.common import Bbox3d
 from player_server.protocol.constants import Interface
+
+if TYPE_CHECKING:
+    from player_server.drivers.sim_port import SimPort
+    from worlds import RobotSpec
+
 
 LASER_SIZE = Bbox3d(0.155, 0.185, 0.2)  # SICK LMS200 housing, w x l x h
 SONAR_SIZE = Bbox3d(0.04, 0.02, 0.04)
@@ -42,11 +47,11 @@ class SonarDriver(Driver):
     interf = int(Interface.SONAR)
     requests = frozenset({c.PLAYER_SONAR_REQ_GET_GEOM, c.PLAYER_SONAR_REQ_POWER})
 
-    def __init__(self, sim: Any, robot: Any, index: int = 0) -> None:
+    def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0) -> None:
         super().__init__(index, "sim_sonar")
         self.sim = sim
         self.robot = robot
-        self.spec = robot.devices.sonar
+        self.spec = declared(robot.devices.sonar, f"robot {robot.name!r}", "sonar")
         self.powered = True
         self.properties = {"max_range": float(self.spec.max_range_m)}
         self.property_limits = {"max_range": (0.0, float(self.spec.max_range_m))}
@@ -134,11 +139,12 @@ class LaserDriver(Driver):
     interf = int(Interface.LASER)
     requests = frozenset({1, 2, 3, 4, 5})
 
-    def __init__(self, sim: Any, robot: Any, index: int = 0, serial_number: int = 0) -> None:
+    def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0,
+                 serial_number: int = 0) -> None:
         super().__init__(index, "sim_laser")
         self.sim = sim
         self.robot = robot
-        self.spec = robot.devices.laser
+        self.spec = declared(robot.devices.laser, f"robot {robot.name!r}", "laser")
         self.serial_number = serial_number
         self.powered = True
         self.properties = {"max_range": float(self.spec.max_range_m)}
@@ -208,11 +214,11 @@ class RangerDriver(Driver):
     interf = int(Interface.RANGER)
     requests = frozenset({1, 2, 3, 4, 5})
 
-    def __init__(self, sim: Any, robot: Any, index: int = 0) -> None:
+    def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0) -> None:
         super().__init__(index, "sim_ranger")
         self.sim = sim
         self.robot = robot
-        self.spec = robot.devices.ranger
+        self.spec = declared(robot.devices.ranger, f"robot {robot.name!r}", "ranger")
         self.properties = {"max_range": float(self.spec.max_range_m)}
         self.property_limits = {"max_range": (0.0, float(self.spec.max_range_m))}
         self._geom = self.geometry()

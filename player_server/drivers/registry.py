@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from player_server.drivers.base import Driver
 from player_server.drivers.body import BumperDriver, GripperDriver, PowerDriver
@@ -20,6 +20,10 @@ from player_server.drivers.vision import (
     FiducialDriver,
     PtzDriver,
 )
+
+if TYPE_CHECKING:
+    from player_server.drivers.sim_port import SimPort
+    from worlds import RobotSpec, WorldSpec
 
 DeviceKey = tuple[int, int]
 
@@ -42,7 +46,7 @@ def _keyed(drivers: list[Driver]) -> dict[DeviceKey, Driver]:
     return {(d.interf, d.index): d for d in drivers}
 
 
-def robot_drivers(sim: Any, robot: Any, *, world_control: bool = False
+def robot_drivers(sim: SimPort, robot: RobotSpec, *, world_control: bool = False
                   ) -> dict[DeviceKey, Driver]:
     """Drivers for every device the robot declares, plus simulation:0 (which pauses, resets
     and moves bodies only with ``world_control``)."""
@@ -56,7 +60,7 @@ def robot_drivers(sim: Any, robot: Any, *, world_control: bool = False
     return _keyed(drivers)
 
 
-def overhead_drivers(sim: Any, world: Any, *, world_control: bool = False
+def overhead_drivers(sim: SimPort, world: WorldSpec, *, world_control: bool = False
                      ) -> dict[DeviceKey, Driver]:
     """Camera:0, blobfinder:0, fiducial:0 and simulation:0 of the overhead camera."""
     return _keyed([OverheadCameraDriver(sim, world), OverheadBlobfinderDriver(sim, world),

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import logging
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from player_server.drivers.base import ACK, Driver, Reply, Unsupported, ack
 from player_server.drivers.geometry import finite
@@ -11,6 +11,10 @@ from player_server.protocol import constants as c
 from player_server.protocol import simulation_msgs as simm
 from player_server.protocol.common import Pose2d, Pose3d
 from player_server.protocol.constants import Interface
+
+if TYPE_CHECKING:
+    from player_server.drivers.sim_port import WorldPort
+
 
 log = logging.getLogger(__name__)
 
@@ -34,7 +38,7 @@ class SimulationDriver(Driver):
                           c.PLAYER_SIMULATION_CMD_SAVE})
     requests = frozenset({1, 2, 3, 4})
 
-    def __init__(self, sim: Any, index: int = 0, *, world_control: bool = False) -> None:
+    def __init__(self, sim: WorldPort, index: int = 0, *, world_control: bool = False) -> None:
         super().__init__(index, "sim_simulation")
         self.sim = sim
         self.world_control = world_control

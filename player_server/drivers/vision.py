@@ -4,15 +4,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from player_server.drivers.base import ACK, Driver, Reply, Unsupported, ack
+from player_server.drivers.base import ACK, Driver, Reply, Unsupported, ack, declared
 from player_server.drivers.geometry import mount_pose
 from player_server.protocol import actuator_msgs as am
 from player_server.protocol import constants as c
 from player_server.protocol import sensor_msgs as sm
 from player_server.protocol.common import Bbox2d, Bbox3d, Pose3d
 from player_server.protocol.constants import Interface
+
+if TYPE_CHECKING:
+    from player_server.drivers.sim_port import SimPort
+    from worlds import RobotSpec
+
 
 CAMERA_SIZE = Bbox3d(0.1, 0.1, 0.1)
 
@@ -38,11 +43,11 @@ class CameraDriver(Driver):
     interf = int(Interface.CAMERA)
     requests = frozenset({c.PLAYER_CAMERA_REQ_GET_SOURCE, c.PLAYER_CAMERA_REQ_GET_IMAGE})
 
-    def __init__(self, sim: Any, robot: Any, index: int = 0) -> None:
+    def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0) -> None:
         super().__init__(index, "sim_camera")
         self.sim = sim
         self.robot = robot
-        self.spec = robot.devices.camera
+        self.spec = declared(robot.devices.camera, f"robot {robot.name!r}", "camera")
         self.properties = {"jpeg": False, "jpeg_quality": 80}
         self.property_limits = {"jpeg_quality": (1, 100)}
 
@@ -75,7 +80,7 @@ _MAKE_PTZ = am.PtzData.xdr_make  # type: ignore[attr-defined]
 class BlobfinderDriver(Driver):
     interf = int(Interface.BLOBFINDER)
 
-    def __init__(self, sim: Any, robot: Any, index: int = 0) -> None:
+    def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0) -> None:
         super().__init__(index, "sim_blobfinder")
         self.sim = sim
         self.robot = robot
@@ -107,11 +112,11 @@ class FiducialDriver(Driver):
     requests = frozenset({c.PLAYER_FIDUCIAL_REQ_GET_GEOM, c.PLAYER_FIDUCIAL_REQ_GET_FOV,
                           c.PLAYER_FIDUCIAL_REQ_GET_ID})
 
-    def __init__(self, sim: Any, robot: Any, index: int = 0) -> None:
+    def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0) -> None:
         super().__init__(index, "sim_fiducial")
         self.sim = sim
         self.robot = robot
-        self.spec = robot.devices.fiducial
+        self.spec = declared(robot.devices.fiducial, f"robot {robot.name!r}", "fiducial")
 
     def data(self) -> Sequence[tuple[int, Any]]:
         items = tuple(
@@ -139,7 +144,7 @@ class PtzDriver(Driver):
     requests = frozenset({c.PLAYER_PTZ_REQ_CONTROL_MODE, c.PLAYER_PTZ_REQ_GEOM,
                           c.PLAYER_PTZ_REQ_STATUS})
 
-    def __init__(self, sim: Any, robot: Any, index: int = 0) -> None:
+    def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0) -> None:
         super().__init__(index, "sim_ptz")
         self.sim = sim
         self.robot = robot

@@ -15,16 +15,17 @@ import struct
 from dataclasses import dataclass
 from typing import Any, Final
 
+from player_server.frozen import frozen_constructor
 from player_server.protocol.constants import HEADER_SIZE, MAX_MESSAGE_SIZE
 from player_server.protocol.errors import DecodeError, EncodeError, FrameError
 from player_server.protocol.header import HEADER_STRUCT, Header, Message
 from player_server.protocol.registry import UnknownMessage, lookup
-from player_server.protocol.xdr import _fast_constructor, decode_body
+from player_server.protocol.xdr import decode_body
 
 _pack_header = HEADER_STRUCT.pack
 _unpack_header = HEADER_STRUCT.unpack_from
 _make_header = Header._make
-_make_message = _fast_constructor(Message)
+_make_message = frozen_constructor(Message)
 
 
 def encode_message(
@@ -56,7 +57,7 @@ def encode_payload(body: Any) -> bytes:
         encoder = type(body).xdr_encode
     except AttributeError:
         raise EncodeError(f"{type(body).__name__} is not a message body") from None
-    return encoder(body)  # type: ignore[no-any-return]
+    return encoder(body)
 
 
 def encode_with_payload(interf: int, index: int, msg_type: int, subtype: int, payload: bytes,

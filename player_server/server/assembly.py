@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from player_server.drivers.registry import overhead_drivers, robot_drivers
 from player_server.server.endpoint import Endpoint
 
+if TYPE_CHECKING:
+    from player_server.drivers.sim_port import SimPort
+    from worlds import WorldSpec
 
-def world_endpoints(world: Any, sim: Any, base_port: int, *,
+
+
+def world_endpoints(world: WorldSpec, sim: SimPort, base_port: int, *,
                     allow_world_control: bool = False) -> list[Endpoint]:
     """One endpoint per robot on base_port, base_port + 1, ...; the overhead camera last.
 

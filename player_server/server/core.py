@@ -40,12 +40,10 @@ from __future__ import annotations
 import itertools
 import logging
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, field
 from typing import Any
 
 from player_server.drivers.base import Driver, Reply, Unsupported
 from player_server.protocol import constants as c
-from player_server.protocol import player_msgs as pm
 from player_server.protocol.codec import (
     NEED_DATA,
     Decoder,
@@ -54,13 +52,14 @@ from player_server.protocol.codec import (
     encode_payload,
     encode_with_payload,
 )
-from player_server.protocol.common import DevAddr
 from player_server.protocol.constants import Interface, MsgType
 from player_server.protocol.errors import EncodeError, FrameError
 from player_server.protocol.header import Message
 from player_server.server.endpoint import Endpoint
 from player_server.server.log_limit import LogLimiter
 from player_server.server.out_queue import DataKey, OutQueue
+from player_server.server.player_requests import PlayerRequests
+from player_server.server.session import CoreConfig, CoreCounters, Session
 from player_server.server.watchdog import CommandWatchdog
 
 log = logging.getLogger(__name__)
@@ -73,119 +72,9 @@ _CMD = int(MsgType.CMD)
 _PLAYER = int(Interface.PLAYER)
 _POSITION2D = int(Interface.POSITION2D)
 _SYNCH_OK = encode_message(_PLAYER, 0, int(MsgType.SYNCH), c.PLAYER_SYNCH_OK)
-LOCKSTEP_PROPERTY = "lockstep"
 _FIRST_ROUND_GRACE = 4.0
 
-_PROP_TYPES: dict[int, type] = {
-    c.PLAYER_GET_INTPROP_REQ: int, c.PLAYER_SET_INTPROP_REQ: int,
-    c.PLAYER_GET_DBLPROP_REQ: float, c.PLAYER_SET_DBLPROP_REQ: float,
-    c.PLAYER_GET_STRPROP_REQ: str, c.PLAYER_SET_STRPROP_REQ: str,
-    c.PLAYER_GET_BOOLPROP_REQ: bool, c.PLAYER_SET_BOOLPROP_REQ: bool,
-}
-_PROP_GETS = {c.PLAYER_GET_INTPROP_REQ, c.PLAYER_GET_DBLPROP_REQ, c.PLAYER_GET_STRPROP_REQ,
-              c.PLAYER_GET_BOOLPROP_REQ}
-
-
-@dataclass(frozen=True)
-class CoreConfig:
-    lockstep: bool = False
-    lockstep_clients: int = 1
-    lockstep_timeout_s: float = 30.0
-    #: lockstep only: publish the current round first, then step and prepare the next one
-    #: while the clients work on theirs (a command acts one tick later; runs still repeat)
-    pipelined: bool = False
-    queue_limit: int = 1024
-    max_message_size: int = c.MAX_MESSAGE_SIZE
-    #: stop reading from a client while this many replies wait unsent
-    max_replies_waiting: int = 4096
-    # -- limits against hostile or broken clients (see docs/player.md) --
-    #: a client whose queued output exceeds this many bytes is disconnected (0 = no limit)
-    output_limit_bytes: int = 32 << 20
-    #: messages handled per client per loop turn; the rest wait for the next turn
-    input_budget: int = 64
-    #: replace rules a connection may add (more are NACKed)
-    max_rules: int = 64
-    #: connections open at once over every port (more are refused at accept)
-    max_connections: int = 64
-    #: a frame not completed within this many seconds closes its connection (0 = never)
-    frame_timeout_s: float = 10.0
-    #: simulated seconds without a message from the client that last commanded a robot's
-    #: motion before the robot is stopped (0 = no watchdog)
-    watchdog_s: float = 2.0
-
-
-@dataclass
-class SessionCounters:
-    messages_in: int = 0
-    requests: int = 0
-    commands: int = 0
-    bad_messages: int = 0
-    replies: int = 0
-    nacks: int = 0
-    rounds: int = 0
-    #: turns that ended with the client's messages still waiting (its budget ran out)
-    budget_exhausted: int = 0
-
-
-@dataclass(eq=False)
-class Session:
-    """One TCP connection: its subscriptions, data mode, rules, queue and round state."""
-
-    id: int
-    endpoint: Endpoint
-    decoder: Decoder
-    queue: OutQueue
-    peer: str = ""
-    mode: int = c.PLAYER_DATAMODE_PUSH
-    subs: dict[tuple[int, int], Driver] = field(default_factory=dict)
-    rules: list[pm.AddReplaceRuleReq] = field(default_factory=list)
-    round_pending: bool = False
-    last_round: int = -1
-    lockstep_override: bool | None = None
-    demoted: bool = False
-    counted_as_participant: bool = False
-    #: subscribed to a live device (its DATA is read when each round goes out)
-    has_live: bool = False
-    stalled_since: float | None = None
-    closing: str | None = None
-    #: messages left in the decoder when the client's budget for a loop turn ran out
-    backlog: bool = False
-    counters: SessionCounters = field(default_factory=SessionCounters)
-    # what the rules say, per DATA key and per device (cleared when rules or subs change)
-    rule_of: dict[DataKey, int] = field(default_factory=dict)
-    ignored: dict[tuple[int, int], bool] = field(default_factory=dict)
-    # the last round built: (data version, its bytes with the SYNCH, or None when empty)
-    built: tuple[tuple[float, int], bytes | None] | None = None
-
-    def forget_plan(self) -> None:
-        """Subscriptions or rules changed: what was worked out from them no longer holds."""
-        self.rule_of.clear()
-        self.ignored.clear()
-        self.built = None
-
-    @property
-    def wants_input(self) -> bool:
-        return self.closing is None
-
-    def __hash__(self) -> int:
-        return self.id
-
-
-@dataclass
-class CoreCounters:
-    sessions_opened: int = 0
-    sessions_closed_bad_input: int = 0
-    bad_messages: int = 0
-    rounds_published: int = 0
-    demoted: int = 0
-    commands_refused: int = 0
-    internal_errors: int = 0
-    driver_errors: int = 0
-    closed_output_limit: int = 0
-    rules_refused: int = 0
-
-
-class ServerCore:
+class ServerCore(PlayerRequests):
     def __init__(
         self,
         endpoints: Sequence[Endpoint],
@@ -389,122 +278,6 @@ class ServerCore:
             self.limiter.log("refused request", logging.INFO, "%s refuses request %d: %s",
                              driver.driver_name, subtype, exc)
             return Reply(False)
-
-    # -- the player device ------------------------------------------------------------------
-    def _player_request(self, s: Session, msg: Message) -> None:
-        st, body = msg.subtype, msg.body
-        ep = s.endpoint
-        if st == c.PLAYER_REQ_DATA:
-            self._reply(s, _PLAYER, msg.index, st, None, ack=True)
-            if s.mode == c.PLAYER_DATAMODE_PULL:
-                s.round_pending = True
-                s.stalled_since = None
-                if s.demoted:
-                    s.demoted = False
-                    log.info("lockstep: client %s on %s holds the clock again", s.peer,
-                             s.endpoint.name)
-                self._try_round(s)
-        elif st == c.PLAYER_REQ_DEV and isinstance(body, pm.DeviceReq):
-            self._dev_request(s, msg.index, body)
-        elif st == c.PLAYER_REQ_DATAMODE and isinstance(body, pm.DeviceDatamodeReq):
-            if body.mode in (c.PLAYER_DATAMODE_PUSH, c.PLAYER_DATAMODE_PULL):
-                s.mode = body.mode
-                if s.mode == c.PLAYER_DATAMODE_PUSH:
-                    s.round_pending = False
-                else:
-                    s.queue.clear_data()
-            else:
-                log.warning("unknown data mode %d from %s", body.mode, s.peer)
-            self._reply(s, _PLAYER, msg.index, st, None, ack=True)
-        elif st == c.PLAYER_REQ_DEVLIST:
-            devs = tuple(DevAddr(0, ep.port, i, x) for (i, x) in ep.drivers)
-            self._reply(s, _PLAYER, msg.index, st, pm.DeviceDevlist(devs), ack=True)
-        elif st == c.PLAYER_REQ_DRIVERINFO and isinstance(body, pm.DeviceDriverInfo):
-            drv = ep.drivers.get((body.addr.interf, body.addr.index))
-            if drv is None:
-                self._reply(s, _PLAYER, msg.index, st, None, ack=False)
-            else:
-                addr = DevAddr(0, ep.port, body.addr.interf, body.addr.index)
-                self._reply(s, _PLAYER, msg.index, st,
-                            pm.DeviceDriverInfo(addr, drv.driver_name), ack=True)
-        elif st == c.PLAYER_REQ_ADD_REPLACE_RULE and isinstance(body, pm.AddReplaceRuleReq):
-            if len(s.rules) >= self.config.max_rules:
-                self.counters.rules_refused += 1
-                self.limiter.log("rules", logging.WARNING,
-                                 "client %s on %s: more than %d replace rules refused",
-                                 s.peer, s.endpoint.name, self.config.max_rules)
-                self._reply(s, _PLAYER, msg.index, st, None, ack=False)
-            elif body.replace in (0, 1, 2):
-                s.rules.append(body)
-                s.forget_plan()
-                self._reply(s, _PLAYER, msg.index, st, None, ack=True)
-            else:
-                self._reply(s, _PLAYER, msg.index, st, None, ack=False)
-        elif st in (c.PLAYER_SET_INTPROP_REQ, c.PLAYER_GET_INTPROP_REQ) and isinstance(
-            body, pm.IntPropReq
-        ) and body.key == LOCKSTEP_PROPERTY:
-            if st == c.PLAYER_SET_INTPROP_REQ:
-                s.lockstep_override = None if body.value < 0 else bool(body.value)
-                self._reply(s, _PLAYER, msg.index, st, None, ack=True)
-            else:
-                value = int(self.is_participant(s))
-                self._reply(s, _PLAYER, msg.index, st,
-                            pm.IntPropReq(body.key, value), ack=True)
-        else:
-            # AUTH, NAMESERVICE, unknown subtypes and bodies that do not fit
-            self._reply(s, _PLAYER, msg.index, st, None, ack=False)
-
-    def _dev_request(self, s: Session, index: int, body: pm.DeviceReq) -> None:
-        ep = s.endpoint
-        key = (body.addr.interf, body.addr.index)
-        drv = ep.drivers.get(key)
-        addr = DevAddr(0, ep.port, body.addr.interf, body.addr.index)
-        st = c.PLAYER_REQ_DEV
-        if drv is None or body.access not in (c.PLAYER_OPEN_MODE, c.PLAYER_CLOSE_MODE):
-            self._reply(s, _PLAYER, index, st,
-                        pm.DeviceReq(addr, c.PLAYER_ERROR_MODE, ""), ack=False)
-            return
-        if body.access == c.PLAYER_OPEN_MODE:
-            s.subs[key] = drv
-        else:
-            s.subs.pop(key, None)
-        s.has_live = any(d.live for d in s.subs.values())
-        s.forget_plan()
-        self._reply(s, _PLAYER, index, st, pm.DeviceReq(addr, body.access, drv.driver_name),
-                    ack=True)
-        if body.access == c.PLAYER_OPEN_MODE and s.round_pending:
-            self._try_round(s)
-
-    def _universal_request(self, s: Session, driver: Driver, msg: Message) -> None:
-        st, body, h = msg.subtype, msg.body, msg.header
-        if st == c.PLAYER_CAPABILITIES_REQ and isinstance(body, pm.CapabilitiesReq):
-            ok = driver.supports(body.type, body.subtype)
-            self._reply(s, h.interf, h.index, st, None, ack=ok)
-            return
-        want = _PROP_TYPES.get(st)
-        key = getattr(body, "key", None)
-        if want is None or key is None:
-            self._reply(s, h.interf, h.index, st, None, ack=False)
-            return
-        try:
-            if st in _PROP_GETS:
-                value = driver.get_property(key)
-                if want is float and isinstance(value, int) and not isinstance(value, bool):
-                    value = float(value)
-                if want is bool and isinstance(value, bool):
-                    value = int(value)
-                elif type(value) is not want:
-                    raise TypeError(f"property {key!r} is a {type(value).__name__}")
-                self._reply(s, h.interf, h.index, st, type(body)(key, value), ack=True)
-            else:
-                value = bool(body.value) if want is bool else body.value
-                driver.set_property(key, value)
-                self._reply(s, h.interf, h.index, st, None, ack=True)
-        except (KeyError, TypeError, ValueError, OverflowError) as exc:
-            self.limiter.log("refused property", logging.INFO,
-                             "property request %d %r on %s refused: %s", st, key,
-                             driver.driver_name, exc)
-            self._reply(s, h.interf, h.index, st, None, ack=False)
 
     # -- data -------------------------------------------------------------------------------
     @staticmethod

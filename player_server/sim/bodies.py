@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import pybullet as pb
 
-from worlds import WorldSpec, colour_rgb01
+from worlds import ArenaSpec, WorldSpec, colour_rgb01
 
 _FLOOR_THICKNESS_M = 0.05
 
@@ -34,12 +34,8 @@ class BodyIds:
     chargers: dict[str, int]
 
 
-def build_world(spec: WorldSpec, client: int) -> BodyIds:
-    """Create every body of the world on ``client``; robots' base frame is their body centre."""
-    cid = client
-    arena = spec.arena
-    pb.setGravity(0.0, 0.0, -9.81, physicsClientId=cid)
-
+def _build_arena(arena: ArenaSpec, cid: int) -> tuple[int, list[int]]:
+    """The floor, the four walls and the static obstacles (in that order of creation)."""
     # Floor: a thin static box whose top is z = 0.
     fx = arena.half_x_m + 1.0
     fy = arena.half_y_m + 1.0
@@ -89,6 +85,16 @@ def build_world(spec: WorldSpec, client: int) -> BodyIds:
             0.0, col, vis, [ob.pose.x, ob.pose.y, ob.height_m / 2], _quat_yaw(ob.pose.yaw),
             physicsClientId=cid,
         ))
+    return floor, static
+
+
+def build_world(spec: WorldSpec, client: int) -> BodyIds:
+    """Create every body of the world on ``client``; robots' base frame is their body centre."""
+    cid = client
+    arena = spec.arena
+    pb.setGravity(0.0, 0.0, -9.81, physicsClientId=cid)
+
+    floor, static = _build_arena(arena, cid)
 
     boxes: dict[str, int] = {}
     for b in spec.boxes:

@@ -34,3 +34,9 @@ def integrate(
     """Apply a robot-frame motion (forward, left, turn) to pose (x, y, yaw)."""
     c, s = math.cos(yaw), math.sin(yaw)
     return x + c * forward - s * left, y + s * forward + c * left, wrap_angle(yaw + turn)
+
+
+def yaw_of(q: tuple[float, float, float, float]) -> float:
+    """The yaw of a quaternion (x, y, z, w)."""
+    x, y, z, w = q
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))

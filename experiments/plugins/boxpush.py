@@ -1,0 +1,401 @@
+"""The box-pushing experiment: a watcher leads two pushers to get a box to a goal marker.
+
+The user introduces one task (watch the box to the goal, `task_source.boxpush_task`); the
+watcher auctions the pushes. The referee (`BoxpushReferee`) watches the box's ground-truth
+distance to the goal and ends the run when it has arrived (or cannot), switches pushers off
+and on (`--switch-off`, `--switch-on`: moved out of the way, placed back behind the other end
+of the box), moves the goal (`--goal-velocity`) and re-targets the watch task
+(`--retarget`). Its summary section is ``goal``; its plot the box's distance to the goal.
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+from collections import Counter, defaultdict
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import click
+
+from experiments import boxpush as bp
+from experiments import events as ev
+from experiments.experiment import (
+    ExperimentBase,
+    Fault,
+    Referee,
+    RunOptions,
+    Sampler,
+    Verdict,
+    labels,
+)
+from experiments.task_source import PlannedTask, boxpush_task
+from worlds import WorldSpec
+
+if TYPE_CHECKING:
+    from experiments.run_loop import RunLoop
+
+log = logging.getLogger("murdoch.run")
+
+BOXPUSH_LINGER_S = 3.0
+"""After the box's fate is decided, the run goes on this long for the last reports."""
+BOX_PROGRESS_PERIOD_S = 1.0
+"""How often the box's distance to the goal goes into the events."""
+
+
+def place(sim: Any, name: str, pose: tuple[float, float, float],
+          odometry: tuple[float, float, float] | None = None) -> None:
+    """Teleport a robot (on the serving thread) and leave it standing still."""
+    sim.set_velocity(name, 0.0, 0.0)
+    sim.set_pose(name, *pose)
+    if odometry is not None:
+        sim.set_odometry(name, *odometry)
+
+
+def _move_marker(sim: Any, marker: str, xy: tuple[float, float]) -> None:
+    sim.set_pose(marker, xy[0], xy[1], 0.0)
+
+
+def resolve_switches(spec: WorldSpec, options: RunOptions) -> RunOptions:
+    """Switch-offs and -ons with the robots' full names ('p1' -> 'pusher1')."""
+    names = [r.name for r in spec.robots]
+    try:
+        return replace(options,
+                       switch_offs=tuple((bp.resolve_robot(r, names), t)
+                                         for r, t in options.switch_offs),
+                       switch_ons=tuple((bp.resolve_robot(r, names), t)
+                                        for r, t in options.switch_ons))
+    except ValueError as exc:
+        raise click.BadParameter(str(exc)) from exc
+
+
+class BoxpushReferee:
+    """The goal watch, the pushers' switch-offs and -ons and the goal's moves, run by the
+    runner's loop on the serving thread."""
+
+    def __init__(self, spec: WorldSpec, options: RunOptions) -> None:
+        self.spec = spec
+        self.duration_s = options.duration_s
+        self.goal_watch = bp.GoalWatch(bp.box_goal(spec),
+                                       options.goal_radius_m or bp.GOAL_RADIUS_M,
+                                       tuple(r.name for r in spec.robots if r.mobile))
+        self.actions = bp.SimActions()
+        self.samplers: tuple[Sampler, ...] = ((0.5, self.goal_watch.sample),
+                                              (0.0, self.actions.apply))
+        self.goal_plan: bp.GoalPlan = options.goal_plan or bp.GoalPlan()
+        self.retargets = sorted(self.goal_plan.retargets)
+        self.goal_marker: str | None = self.goal_watch.bg.goal
+        self.next_progress_s = 0.0
+        self.end_after_s: float | None = None
+        self.switched_off: dict[str, float] = {}
+        # which end each pusher pushes now and pushed before; switch-ons waiting
+        self.task_kind: dict[str, str] = {}
+        self.push_holder: dict[str, tuple[str, str]] = {}  # robot -> (end, task)
+        self.push_task: dict[str, str] = {}  # task -> robot
+        self.pushed: set[str] = set()
+        self.ends_before: dict[str, Counter[str]] = defaultdict(Counter)
+        self.worked_end: dict[str, str] = {}
+        self.pending_on: dict[str, float] = {}
+        self._loop: RunLoop | None = None
+
+    @property
+    def loop(self) -> RunLoop:
+        assert self._loop is not None, "bind() first"
+        return self._loop
+
+    def bind(self, loop: RunLoop) -> None:
+        self._loop = loop
+
+    def fault_actions(self) -> Mapping[str, Callable[[str, float], None]]:
+        return {"switch-off": self._switch_off, "switch-on": self._switch_on}
+
+    # -- auctions
+    def on_announce(self, task_id: str, name: str) -> None:
+        self.task_kind.setdefault(task_id, name)
+
+    def on_award(self, task_id: str, robot: str) -> None:
+        end = bp.PUSH_ENDS.get(self.task_kind.get(task_id, ""))
+        if end is None:
+            return
+        self.push_holder[robot] = (end, task_id)
+        self.push_task[task_id] = robot
+        self.pushed.add(robot)
+        if robot not in self.switched_off:
+            self.ends_before[robot][end] += 1
+
+    def on_task_over(self, task_id: str) -> None:
+        robot = self.push_task.pop(task_id, None)
+        if robot is not None and self.push_holder.get(robot, ("", ""))[1] == task_id:
+            del self.push_holder[robot]
+
+    # -- the tick
+    def before_tasks(self, now: float) -> None:
+        if self.pending_on:
+            self._pending_switch_ons(now)
+
+    def after_tasks(self, now: float) -> None:
+        self._goal(now)
+        self._referee(now)
+
+    # -- switching pushers off and on
+    def _switch_off(self, name: str, now: float) -> None:
+        loop, gw = self.loop, self.goal_watch
+        loop.scheduled_down.add(name)
+        pid = loop.processes.kill(name)
+        loop.rec.note_process(now, "switched-off", name, pid)
+        box_pose = gw.box_pose
+        xy = gw.robot_poses.get(name, (0.0, 0.0, 0.0))
+        side = bp.side_of(box_pose, xy[:2]) if box_pose is not None else 0.0
+        self.switched_off[name] = side
+        # the end it worked: the end of most of its pushes so far (else where it stands)
+        worked = [(e, n) for e, n in self.ends_before[name].most_common() if e in bp.OTHER_END]
+        if worked and (len(worked) == 1 or worked[0][1] > worked[1][1]):
+            self.worked_end[name] = worked[0][0]
+        elif box_pose is not None:
+            self.worked_end[name] = bp.end_at(box_pose, gw.goal_xy, xy[:2])
+        self.ends_before[name].clear()
+        self.push_holder.pop(name, None)
+        spot = bp.park_pose(self.spec, sorted(loop.processes.names()).index(name))
+        self.actions.put(functools.partial(place, name=name, pose=spot))
+        loop.rec.event(now, ev.ROBOT_SWITCH_OFF, robot=name, side_m=round(side, 3),
+                       end=self.worked_end.get(name))
+
+    def _switch_on(self, name: str, now: float) -> None:
+        """Switch a pusher back on behind the other end from the one it worked before. The
+        remaining pusher must be working that old end (else the returning pusher, free while
+        the other is busy, would be given its old end's pushes again): the switch-on waits,
+        tick by tick, until it is, or at most `SWITCH_ON_WAIT_S`."""
+        self.pending_on[name] = now
+        self._pending_switch_ons(now)
+
+    def _pending_switch_ons(self, now: float) -> None:
+        for name, asked_at in sorted(self.pending_on.items()):
+            old_end = self.worked_end.get(name, "left")
+            others = [r for r in self.push_holder
+                      if r != name and r not in self.switched_off]
+            ready = any(self.push_holder[r][0] == old_end for r in others)
+            waited_out = now >= asked_at + bp.SWITCH_ON_WAIT_S - 1e-9
+            if ready or waited_out or not self._pushers_left(name):
+                del self.pending_on[name]
+                self._place_and_start(name, now, bp.OTHER_END[old_end], ready, asked_at)
+
+    def _pushers_left(self, name: str) -> bool:
+        return any(r not in self.switched_off and r != name for r in self.pushed)
+
+    def _place_and_start(self, name: str, now: float, end: str, other_ready: bool,
+                         asked_at: float) -> None:
+        gw = self.goal_watch
+        self.switched_off.pop(name, None)
+        box_pose = gw.box_pose
+        assert box_pose is not None
+        offset = bp.end_offset(box_pose, gw.goal_xy, end, gw.bg)
+        pose = bp.return_pose(box_pose, gw.goal_xy, offset, gw.bg)
+        start = next(r.pose for r in self.spec.robots if r.name == name)
+        odo = bp.odometry_at((start[0], start[1], start[2]), pose)
+        # placed by hand and told where it is: odometry stays in the shared frame
+        self.actions.put(functools.partial(place, name=name, pose=pose, odometry=odo))
+        self.loop.start_process(name, now)
+        self.loop.rec.event(now, ev.ROBOT_SWITCH_ON, robot=name, x=round(pose[0], 3),
+                            y=round(pose[1], 3), yaw=round(pose[2], 3), end=end,
+                            other_at_old_end=other_ready, asked_t=round(asked_at, 3))
+
+    # -- the goal
+    def _goal(self, now: float) -> None:
+        """Move a moving goal, and re-target the watch task when it is time."""
+        loop, gw, plan = self.loop, self.goal_watch, self.goal_plan
+        if loop.main_task is None:
+            return
+        if plan.moving and self.goal_marker is not None:
+            start, _ = bp.marker_goal(self.spec, self.goal_marker)
+            arena = (self.spec.arena.size_x_m, self.spec.arena.size_y_m)
+            xy = plan.goal_at(start, now, arena)
+            if xy != gw.goal_xy:
+                gw.goal_xy = xy
+                self.actions.put(functools.partial(_move_marker, marker=self.goal_marker, xy=xy))
+        while self.retargets and self.retargets[0][0] <= now + 1e-9:
+            _, marker = self.retargets.pop(0)
+            if loop.state.goal_outcome is not None or loop.main_task in loop.state.finished:
+                continue
+            xy, colour = bp.marker_goal(self.spec, marker)
+            old = loop.main_task
+            self.goal_marker = marker
+            gw.goal_xy = xy
+            # the user withdraws the watch task and introduces it again with the new goal
+            loop.node.cancel(old, f"re-targeted to {marker}")
+            params = dict(loop.task_params)
+            params["goal_colour"] = f"#{colour:06x}"
+            params["duration_s"] = max(60.0, self.duration_s - now - 5.0)
+            task_id = loop.announce(PlannedTask(now, "watch-box", params), now)
+            loop.main_task = task_id
+            loop.rec.event(now, ev.GOAL_MOVED, marker=marker, x=round(xy[0], 3),
+                           y=round(xy[1], 3), task=task_id, replaces=old)
+
+    def _referee(self, now: float) -> None:
+        loop, gw = self.loop, self.goal_watch
+        if now >= self.next_progress_s - 1e-9 and gw.box_pose is not None:
+            self.next_progress_s = now + BOX_PROGRESS_PERIOD_S
+            bx, by, yaw = gw.box_pose
+            loop.rec.event(now, ev.BOX_PROGRESS, distance_m=round(gw.distance_m, 3),
+                           box=[round(bx, 3), round(by, 3), round(yaw, 3)],
+                           goal=[round(gw.goal_xy[0], 3), round(gw.goal_xy[1], 3)])
+        st = loop.state
+        if st.goal_outcome is None:
+            if gw.reached_at_s is not None:
+                st.goal_outcome = "reached"
+                loop.rec.event(gw.reached_at_s, ev.GOAL_REACHED, box=gw.bg.box,
+                               distance_m=round(gw.distance_m, 3), radius_m=gw.radius_m)
+                log.info("goal reached at %.1f s simulated: box %.2f m from the goal",
+                         gw.reached_at_s, gw.distance_m)
+            elif loop.main_task is not None and loop.main_task in st.unachievable:
+                st.goal_outcome = "unachievable"
+                why = st.unachievable[loop.main_task]
+                loop.rec.event(now, ev.GOAL_UNACHIEVABLE, task=loop.main_task, reason=why)
+        if loop.main_task in st.finished or st.goal_outcome is not None:
+            # the box reached the goal (or could not): let the last reports arrive, then stop
+            if self.end_after_s is None:
+                self.end_after_s = now + BOXPUSH_LINGER_S
+            if now >= self.end_after_s - 1e-9:
+                st.end_reason = "completed"
+
+
+# -------------------------------------------------------------------- the summary section
+def push_phases(events: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
+    """Pushes (awards) per end per pusher, before the first switch-off, while alone (until
+    the next switch-on) and after it; with one switch-off and -on, whether the returning
+    pusher's main end changed (`role_swap`)."""
+    evs = list(events)
+    kind_of = {str(e["task"]): str(e["task_kind"]) for e in evs
+               if e["kind"] == ev.TASK_INTRODUCED}
+    off = next((e for e in evs if e["kind"] == ev.ROBOT_SWITCH_OFF), None)
+    on = next((e for e in evs if e["kind"] == ev.ROBOT_SWITCH_ON
+               and (off is None or float(e["t"]) >= float(off["t"]))), None)
+    t_off = float(off["t"]) if off is not None else None
+    t_on = float(on["t"]) if on is not None else None
+
+    def phase(t: float) -> str:
+        if t_off is None or t < t_off:
+            return "before" if t_off is not None else "run"
+        if t_on is None or t < t_on:
+            return "alone"
+        return "after"
+
+    pushes: dict[str, dict[str, Counter[str]]] = defaultdict(lambda: defaultdict(Counter))
+    for e in evs:
+        if e["kind"] == ev.AWARD:
+            end = bp.PUSH_ENDS.get(kind_of.get(str(e["task"]), ""))
+            if end is not None:
+                pushes[phase(float(e["t"]))][str(e["robot"])][end] += 1
+    out: dict[str, Any] = {
+        "phases": {p: {r: dict(sorted(c.items())) for r, c in sorted(by.items())}
+                   for p, by in pushes.items()},
+        "switch_off_t_s": t_off, "switch_on_t_s": t_on, "role_swap": None,
+    }
+    if off is not None and on is not None and str(on["robot"]) == str(off["robot"]):
+        robot = str(off["robot"])
+
+        def main_end(p: str) -> str | None:
+            c = pushes.get(p, {}).get(robot, Counter())
+            ranked = c.most_common(2)
+            if not ranked or (len(ranked) > 1 and ranked[0][1] == ranked[1][1]):
+                return None
+            return ranked[0][0]
+
+        before, after = main_end("before"), main_end("after")
+        out["role_swap"] = {"robot": robot, "end_before": before, "end_after": after,
+                            "swapped": before is not None and after is not None
+                            and before != after}
+    return out
+
+
+def box_track(events: Iterable[Mapping[str, Any]]) -> list[tuple[float, float]]:
+    """(t, the box's distance to the goal) from the referee's samples."""
+    return [(float(e["t"]), float(e["distance_m"])) for e in events
+            if e["kind"] == ev.BOX_PROGRESS]
+
+
+def goal_section(evs: list[Mapping[str, Any]]) -> dict[str, Any]:
+    """summary.json's ``goal``: reached or not, switch-offs and -ons, goal moves, pushes."""
+    kinds = Counter(str(e["kind"]) for e in evs)
+    reached = next((e for e in evs if e["kind"] == ev.GOAL_REACHED), None)
+    unachievable = next((e for e in evs if e["kind"] == ev.GOAL_UNACHIEVABLE), None)
+    track = box_track(evs)
+    return {
+        "reached": reached is not None,
+        "reached_t_s": round(float(reached["t"]), 3) if reached is not None else None,
+        "box_distance_m": reached.get("distance_m") if reached is not None else None,
+        "unachievable": unachievable is not None,
+        "unachievable_reason": unachievable.get("reason") if unachievable else None,
+        "switch_offs": kinds[ev.ROBOT_SWITCH_OFF],
+        "switch_ons": kinds[ev.ROBOT_SWITCH_ON],
+        "goal_moves": kinds[ev.GOAL_MOVED],
+        "final_distance_m": track[-1][1] if track else None,
+        "pushes": push_phases(evs),
+    }
+
+
+# -------------------------------------------------------------------------- the experiment
+@dataclass(frozen=True)
+class Boxpush(ExperimentBase):
+    def check(self, spec: WorldSpec, options: RunOptions) -> RunOptions:
+        options = resolve_switches(spec, options)
+        plan = options.goal_plan or bp.GoalPlan()
+        for _, marker in plan.retargets:
+            try:
+                bp.marker_goal(spec, marker)
+            except ValueError as exc:
+                raise click.BadParameter(str(exc), param_hint="--retarget") from exc
+        return replace(options, goal_plan=plan)
+
+    def config(self, options: RunOptions) -> dict[str, Any]:
+        plan = options.goal_plan or bp.GoalPlan()
+        return {
+            "switch_offs": labels(options.switch_offs),
+            "switch_ons": labels(options.switch_ons),
+            "goal_radius_m": options.goal_radius_m or bp.GOAL_RADIUS_M,
+            "goal_velocity_mps": list(plan.velocity_mps),
+            "retargets": [f"{m}@{t:g}s" for t, m in plan.retargets],
+        }
+
+    def tasks(self, spec: WorldSpec, options: RunOptions) -> Iterator[PlannedTask | None]:
+        return iter([boxpush_task(spec, options.duration_s), None])
+
+    def referee(self, spec: WorldSpec, options: RunOptions) -> Referee:
+        return BoxpushReferee(spec, options)
+
+    def faults(self, options: RunOptions) -> list[Fault]:
+        return ([Fault(t, "switch-off", r) for r, t in options.switch_offs]
+                + [Fault(t, "switch-on", r) for r, t in options.switch_ons])
+
+    def summary_sections(self, events: list[Mapping[str, Any]]) -> dict[str, Any]:
+        return {"goal": goal_section(events)}
+
+    def plots(self, events: list[Mapping[str, Any]], out_dir: Path) -> list[Path]:
+        from experiments.plots import BOX_PLOT, plot_box_distance, save
+
+        if not any(e["kind"] == ev.BOX_PROGRESS for e in events):
+            return []
+        return [save(plot_box_distance(events), out_dir / BOX_PLOT)]
+
+    def end_lines(self, referee: Referee) -> list[str]:
+        if not isinstance(referee, BoxpushReferee):
+            return []
+        gw = referee.goal_watch
+        if referee.loop.state.goal_outcome != "reached":
+            return []
+        return [f"goal reached at {gw.reached_at_s:.1f} s simulated: "
+                f"box {gw.distance_m:.2f} m from the goal"]
+
+    def verdict(self, summary: Mapping[str, Any]) -> Verdict | None:
+        goal = summary.get("goal")
+        if goal is not None and goal.get("unachievable"):
+            return Verdict(4, f"error: the box cannot be pushed to the goal: "
+                              f"{goal.get('unachievable_reason')}")
+        return None
+
+
+BOXPUSH = Boxpush("boxpush", "boxpush", steps=(
+    "murdoch run boxpush --until 10m --switch-off p1@40s --switch-on p1@150s",
+    "murdoch run boxpush --meshcat           # watch it live in the browser",
+))

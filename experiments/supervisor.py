@@ -1,0 +1,191 @@
+"""The processes of a run: described as data, started, stopped and watched.
+
+A run's processes are written down like a launch file (`ProcessSpec`: name, command,
+arguments, restart policy) and go into the run's config.json. `RobotSupervisor` starts them
+from those descriptions, kills and pauses them on the fault schedule's word and notices the
+ones that ended by themselves (what `experiments.run_loop.RobotProcesses` asks of it).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import signal
+import subprocess
+import sys
+import threading
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO, Any
+
+log = logging.getLogger("murdoch.run")
+
+RESTART_POLICIES = ("never", "on-schedule")
+"""never: a process that ends stays down; on-schedule: started again only when the run's
+fault schedule says so (a restart or a switch-on); nothing restarts by itself."""
+
+
+@dataclass(frozen=True)
+class ProcessSpec:
+    """One process of a run. In `args`, ``{port}`` (the Player port of the process's
+    endpoint) and ``{instance}`` (how many times it was started before) are filled in at
+    each start."""
+
+    name: str
+    command: tuple[str, ...]
+    args: tuple[str, ...]
+    restart: str = "on-schedule"
+
+    def __post_init__(self) -> None:
+        if self.restart not in RESTART_POLICIES:
+            raise ValueError(f"process {self.name}: restart must be one of "
+                             f"{RESTART_POLICIES}, found {self.restart!r}")
+
+    def argv(self, *, port: int, instance: int) -> list[str]:
+        values = {"port": str(port), "instance": str(instance)}
+        return [*self.command, *(a.format_map(values) for a in self.args)]
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "command": list(self.command), "args": list(self.args),
+                "restart": self.restart}
+
+
+def robot_command() -> list[str]:
+    """The `murdoch-robot` entry point next to this interpreter (or its module)."""
+    exe = Path(sys.executable).parent / "murdoch-robot"
+    return [str(exe)] if exe.exists() else [sys.executable, "-m", "behaviors"]
+
+
+def robot_process(name: str, *, world: str, mcast_port: int, seed: int, logs: Path,
+                  metric_terms: tuple[str, ...], lockstep: bool,
+                  read_timeout_s: float) -> ProcessSpec:
+    """The `murdoch-robot` process that drives the endpoint `name`."""
+    args = ["-p", "{port}", "--name", name, "--world", world, "--mcast-port", str(mcast_port),
+            "--seed", str(seed), "--instance", "{instance}",
+            "--events", str(logs / f"{name}.events.jsonl"),
+            "--auction-log", str(logs / f"{name}.auction.jsonl")]
+    if metric_terms:
+        args += ["--metric", ",".join(metric_terms)]
+    if lockstep:
+        # in lockstep a robot waits for the slowest of the team (one starting up on a
+        # loaded machine, say): the runner's own stall limit ends a run that truly hangs
+        args += ["--lockstep-bus", "--request-timeout", "120",
+                 "--read-timeout", str(int(read_timeout_s))]
+    return ProcessSpec(name, tuple(robot_command()), tuple(args))
+
+
+@dataclass
+class RobotProcess:
+    name: str
+    port: int
+    proc: subprocess.Popen[bytes] | None = None
+    log_file: IO[bytes] | None = None
+
+
+def start_robot(rp: RobotProcess, args: list[str], log_path: Path, nice: int = 0,
+                env: dict[str, str] | None = None) -> None:
+    if rp.log_file is None:
+        rp.log_file = log_path.open("ab")
+    rp.proc = subprocess.Popen(args, stdout=rp.log_file, stderr=subprocess.STDOUT,
+                               stdin=subprocess.DEVNULL, env=env)
+    if nice > 0:
+        # a lower priority than the simulator's serving thread, which every robot waits on
+        try:
+            os.setpriority(os.PRIO_PROCESS, rp.proc.pid, nice)
+        except OSError as exc:  # the process may have gone already
+            log.warning("could not lower the priority of robot %s: %s", rp.name, exc)
+
+
+def stop_robot(rp: RobotProcess, *, kill: bool = False, timeout_s: float = 5.0) -> None:
+    if rp.proc is not None and rp.proc.poll() is None:
+        if kill:
+            rp.proc.kill()
+        else:
+            rp.proc.send_signal(signal.SIGCONT)  # a stopped (frozen) process could not end
+            rp.proc.terminate()
+        try:
+            rp.proc.wait(timeout_s)
+        except subprocess.TimeoutExpired:
+            rp.proc.kill()
+            rp.proc.wait(timeout_s)
+    if rp.log_file is not None:
+        rp.log_file.close()
+        rp.log_file = None
+
+
+class RobotSupervisor:
+    """The robot processes of a run: start, kill, notice deaths (`RobotProcesses`)."""
+
+    def __init__(self, specs: Mapping[str, ProcessSpec], log_path: Callable[[str], Path],
+                 env: dict[str, str], nice: int = 0) -> None:
+        self.specs = dict(specs)
+        self._log_path = log_path
+        self._env = env
+        self._nice = nice
+        self.robots: dict[str, RobotProcess] = {}
+        self._starts: dict[str, int] = {}
+        self._lock = threading.Lock()
+
+    def add(self, name: str, port: int) -> None:
+        self.robots[name] = RobotProcess(name, port)
+
+    def names(self) -> list[str]:
+        return list(self.robots)
+
+    def start(self, name: str) -> int:
+        with self._lock:
+            rp = self.robots[name]
+            start = self._starts.get(name, 0)
+            self._starts[name] = start + 1
+            argv = self.specs[name].argv(port=rp.port, instance=start)
+            start_robot(rp, argv, self._log_path(name), self._nice, self._env)
+            assert rp.proc is not None
+            return rp.proc.pid
+
+    def kill(self, name: str) -> int | None:
+        with self._lock:
+            rp = self.robots[name]
+            pid = rp.proc.pid if rp.proc is not None and rp.proc.poll() is None else None
+            stop_robot(rp, kill=True)
+            rp.proc = None
+            return pid
+
+    def exited(self) -> list[tuple[str, int, int]]:
+        out = []
+        with self._lock:
+            for name, rp in self.robots.items():
+                proc = rp.proc
+                if proc is not None and proc.poll() is not None:
+                    out.append((name, proc.pid, int(proc.returncode)))
+                    stop_robot(rp)
+                    rp.proc = None
+        return out
+
+    def pause(self, name: str, paused: bool) -> int | None:
+        with self._lock:
+            proc = self.robots[name].proc
+            if proc is None or proc.poll() is not None:
+                return None
+            proc.send_signal(signal.SIGSTOP if paused else signal.SIGCONT)
+            return proc.pid
+
+    def alive_test(self, name: str) -> Callable[[], bool]:
+        """A test of whether the robot's current process is still running."""
+        rp = self.robots[name]
+
+        def alive() -> bool:
+            proc = rp.proc
+            return proc is not None and proc.poll() is None
+
+        return alive
+
+    def pids(self) -> dict[str, int]:
+        with self._lock:
+            return {f"robot-{n}": rp.proc.pid for n, rp in self.robots.items()
+                    if rp.proc is not None and rp.proc.poll() is None}
+
+    def stop_all(self) -> None:
+        with self._lock:
+            for rp in self.robots.values():
+                stop_robot(rp)

@@ -1,0 +1,35 @@
+"""What a device model is: one kind of device of the simulated robots, behind one interface.
+
+A model holds the state of its kind of device for every robot that has one, advances it as
+the world steps and computes its readings on request (cached by the world until the next
+tick). It reads the world (`player_server.sim.simulation.Simulation`: bodies, poses, the
+clock, the per-tick arrays) and never the other way round: the world only builds, advances
+and asks its models. Models of sensors that depend on the fidelity compute their readings in
+both: ``fast`` (2-D ray casts and projected blobs, numba) and ``render`` (PyBullet rays and
+rendered images).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, ClassVar, Protocol
+
+if TYPE_CHECKING:
+    from player_server.sim.simulation import Simulation
+
+
+class DeviceModel(Protocol):
+    kinds: ClassVar[tuple[str, ...]]
+    """The world file's device names this model simulates (e.g. "sonar", "laser")."""
+    ticking: ClassVar[bool]
+    """Whether it keeps state that `advance` moves on each tick (the world skips the others)."""
+
+    def __init__(self, world: Simulation) -> None: ...
+
+    def build(self) -> None:
+        """The world was built (or rebuilt at tick 0): fresh state for every robot with the
+        device."""
+        ...
+
+    def advance(self, dt: float) -> None:
+        """One tick of `dt` seconds has passed (after physics and odometry)."""
+        ...

@@ -1,0 +1,205 @@
+"""Grippers: paddles that open and close in their move time, grab the nearest grippable
+object between them, and store and retrieve objects."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, ClassVar
+
+import pybullet as pb
+
+from player_server.sim.readings import GripperState
+
+if TYPE_CHECKING:
+    from player_server.sim.simulation import Simulation, _Robot
+
+GRIPPER_COMMANDS = ("open", "close", "stop", "store", "retrieve")
+
+
+@dataclass
+class Paddles:
+    state: str = "open"
+    target: str = "open"
+    remaining_s: float = 0.0
+    holding: str | None = None
+    constraint: int = -1
+    stored: list[str] = field(default_factory=list)
+
+
+class GripperModel:
+    kinds: ClassVar[tuple[str, ...]] = ("gripper",)
+    ticking: ClassVar[bool] = True
+
+    def __init__(self, world: Simulation) -> None:
+        self.world = world
+
+    def build(self) -> None:
+        for st in self.world._robots:
+            if st.spec.devices.gripper is not None:
+                st.gripper = Paddles()
+
+    def advance(self, dt: float) -> None:
+        for st in self.world._robots:
+            if st.gripper is not None:
+                self._advance_gripper(st, dt)
+
+    def _grip_zone(self, st: _Robot) -> str | None:
+        """The nearest grippable object between the paddles, if any."""
+        w = self.world
+        g = st.spec.devices.gripper
+        assert g is not None
+        c, s = math.cos(st.yaw), math.sin(st.yaw)
+        best, best_d = None, math.inf
+        for o in w._obj_specs:
+            if o.name in w._hidden or o.name in w._held:
+                continue
+            if o.radius_m > g.max_object_radius_m:
+                continue
+            x, y, _ = w.tick_arrays.dyn_pose(o.name)
+            wx, wy = x - st.x, y - st.y
+            lx, ly = c * wx + s * wy, -s * wx + c * wy
+            if abs(ly) <= g.width_m / 2 and abs(lx - g.pose.x) <= g.depth_m / 2 + o.radius_m:
+                d = abs(lx - g.pose.x)
+                if d < best_d:
+                    best, best_d = o.name, d
+        return best
+
+    def gripper(self, robot: str) -> GripperState:
+        st = self.world._device(robot, "gripper")
+
+        def compute() -> GripperState:
+            g = st.gripper
+            spec = st.spec.devices.gripper
+            assert g is not None and spec is not None
+            beams = 0
+            if g.holding is not None:
+                beams = 3
+            elif self._grip_zone(st) is not None:
+                beams = 1
+            return GripperState(g.state, beams, g.holding, len(g.stored), spec.capacity)
+
+        return self.world._cached(("gripper", st.index), compute)  # type: ignore[return-value]
+
+    def gripper_command(self, robot: str, command: str) -> None:
+        w = self.world
+        st = w._device(robot, "gripper")
+        g = st.gripper
+        spec = st.spec.devices.gripper
+        assert g is not None and spec is not None
+        if command not in GRIPPER_COMMANDS:
+            raise ValueError(f"gripper command must be one of {GRIPPER_COMMANDS}, not "
+                             f"{command!r}")
+        if command == "open":
+            if g.state == "open":
+                return
+            self._release(st)
+            self._start_paddles(st, "open")
+        elif command == "close":
+            if g.state == "closed" or (g.state == "moving" and g.target == "closed"):
+                return
+            self._start_paddles(st, "closed")
+        elif command == "stop":
+            # Paddles halted part-way are reported open (they hold nothing).
+            if g.state == "moving":
+                g.state = g.target = "open"
+                g.remaining_s = 0.0
+        elif command == "store":
+            if g.holding is not None and len(g.stored) < spec.capacity:
+                name = g.holding
+                self._release(st)
+                w._hide(name)
+                g.stored.append(name)
+        elif command == "retrieve" and g.stored and g.holding is None:
+            name = g.stored.pop()
+            w._unhide(name)
+            c, s = math.cos(st.yaw), math.sin(st.yaw)
+            ospec = w._obj_spec(name)
+            bid = w._ids.objects[name]
+            pb.resetBasePositionAndOrientation(
+                bid, (st.x + c * spec.pose.x, st.y + s * spec.pose.x, ospec.height_m / 2),
+                (0, 0, 0, 1), physicsClientId=w._client)
+            pb.resetBaseVelocity(bid, (0, 0, 0), (0, 0, 0), physicsClientId=w._client)
+            self._grab(st, name)
+            g.state = "closed"
+            g.target = "closed"
+        w._invalidate()
+
+    def _start_paddles(self, st: _Robot, target: str) -> None:
+        g = st.gripper
+        spec = st.spec.devices.gripper
+        assert g is not None and spec is not None
+        g.target = target
+        g.state = "moving"
+        g.remaining_s = spec.move_time_s
+        if spec.move_time_s <= 0:
+            self._finish_gripper(st)
+
+    def _advance_gripper(self, st: _Robot, dt: float) -> None:
+        g = st.gripper
+        assert g is not None
+        if g.state == "moving" and g.target in ("open", "closed"):
+            g.remaining_s -= dt
+            if g.remaining_s <= 1e-9:
+                self._finish_gripper(st)
+
+    def _finish_gripper(self, st: _Robot) -> None:
+        g = st.gripper
+        assert g is not None
+        g.state = g.target
+        g.remaining_s = 0.0
+        if g.state == "closed" and g.holding is None:
+            name = self._grip_zone(st)
+            if name is not None:
+                self._grab(st, name)
+
+    def _grab(self, st: _Robot, name: str) -> None:
+        w = self.world
+        g = st.gripper
+        spec = st.spec.devices.gripper
+        assert g is not None and spec is not None
+        cid = w._client
+        bid = w._ids.objects[name]
+        ospec = w._obj_spec(name)
+        body = st.spec.body
+        # Hold the object centred between the paddles, slightly lifted.
+        parent = (spec.pose.x - body.offset_x_m, 0.0,
+                  ospec.height_m / 2 + 0.01 - body.height_m / 2)
+        c, s = math.cos(st.yaw), math.sin(st.yaw)
+        pb.resetBasePositionAndOrientation(
+            bid, (st.x + c * spec.pose.x, st.y + s * spec.pose.x, ospec.height_m / 2 + 0.01),
+            (0, 0, 0, 1), physicsClientId=cid)
+        pb.setCollisionFilterPair(st.body, bid, -1, -1, 0, physicsClientId=cid)
+        g.constraint = pb.createConstraint(
+            st.body, -1, bid, -1, pb.JOINT_FIXED, (0, 0, 0), parent, (0, 0, 0),
+            physicsClientId=cid)
+        pb.changeConstraint(g.constraint, maxForce=500.0, physicsClientId=cid)
+        g.holding = name
+        w._held.add(name)
+        w._update_visibility()
+        w._invalidate()
+
+    def _release(self, st: _Robot) -> None:
+        w = self.world
+        g = st.gripper
+        assert g is not None
+        if g.holding is None:
+            return
+        cid = w._client
+        if g.constraint >= 0:
+            pb.removeConstraint(g.constraint, physicsClientId=cid)
+        bid = w._ids.objects[g.holding]
+        pb.setCollisionFilterPair(st.body, bid, -1, -1, 1, physicsClientId=cid)
+        w._held.discard(g.holding)
+        w._update_visibility()
+        g.holding = None
+        g.constraint = -1
+        w._invalidate()
+
+    def release_if_held(self, name: str) -> None:
+        """The object `name` was moved by hand: whoever held it lets go (paddles open)."""
+        for st in self.world._robots:
+            if st.gripper is not None and st.gripper.holding == name:
+                self._release(st)
+                st.gripper.state = "open"
+                st.gripper.target = "open"

@@ -1,0 +1,120 @@
+"""Range sensors (sonar rings, lasers, rangers), in both fidelities.
+
+fast: every active sensor's rays are cast in one batch against the world's 2-D footprints
+(with the blobfinders' occlusion rays, `player_server.sim.sensing`); render: PyBullet rays at
+the sensor's height. A reading equal to the last one of the same sensor is handed out as the
+same (read-only) array, so that readers can tell by identity that it has not changed.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, ClassVar
+
+import numpy as np
+import pybullet as pb
+from numpy.typing import NDArray
+
+from player_server.sim.fastsense import Frame, RangePlan
+
+if TYPE_CHECKING:
+    from player_server.sim.simulation import Simulation
+
+RangeKey = tuple[int, str]
+"""(robot index, device kind)"""
+
+
+class RangeModel:
+    kinds: ClassVar[tuple[str, ...]] = ("sonar", "laser", "ranger")
+    ticking: ClassVar[bool] = False
+
+    def __init__(self, world: Simulation) -> None:
+        self.world = world
+        self.active: set[RangeKey] = set()
+
+    def build(self) -> None:
+        self.plans: dict[tuple[RangeKey, ...], RangePlan] = {}
+        self.last: dict[RangeKey, np.ndarray] = {}
+
+    def advance(self, dt: float) -> None:
+        pass
+
+    def reading(self, robot: str, kind: str) -> np.ndarray:
+        w = self.world
+        st = w._device(robot, kind)
+        key = (st.index, kind)
+        if w._cache_tick == w.tick:
+            done = w._cache.get(w.sensing.key)
+            if done is not None and key in done["ranges"]:  # type: ignore[index]
+                return done["ranges"][key]  # type: ignore[index]
+        self.active.add(key)
+        return w.sensing.sensed()["ranges"][key]
+
+    def sonar(self, robot: str) -> NDArray[np.float32]:
+        return self.reading(robot, "sonar")
+
+    def laser(self, robot: str) -> NDArray[np.float32]:
+        return self.reading(robot, "laser")
+
+    def ranger(self, robot: str) -> NDArray[np.float64]:
+        return self.reading(robot, "ranger")
+
+    def plan(self, keys: tuple[RangeKey, ...]) -> RangePlan:
+        plan = self.plans.get(keys)
+        if plan is None:
+            plan = self.plans[keys] = RangePlan.build(keys, self.world.spec.robots,
+                                                       self.world._arrays)
+        return plan
+
+    # -- fast
+    def fast_readings(self, plan: RangePlan, hits: np.ndarray) -> dict[RangeKey, np.ndarray]:
+        """Per-sensor readings from the batch's hits, the last array kept when equal."""
+        fresh = plan.split(hits)
+        last = self.last
+        for key, reading in fresh.items():
+            old = last.get(key)
+            if (old is not None and old.dtype == reading.dtype
+                    and old.tobytes() == reading.tobytes()):
+                fresh[key] = old
+            else:
+                last[key] = reading
+        return fresh
+
+    # -- render
+    def render(self, keys: tuple[RangeKey, ...], frame: Frame) -> dict[RangeKey, np.ndarray]:
+        plan = self.plan(keys)
+        o, d = plan.rays(frame)
+        return plan.split(self._render_rays(plan, o, d, frame))
+
+    def _render_rays(self, plan: RangePlan, o: np.ndarray, d: np.ndarray,
+                     frame: Frame) -> np.ndarray:
+        """PyBullet rays at the sensor height, starting where each ray leaves its own body."""
+        w = self.world
+        r = plan.robot
+        head = frame.head[r]
+        body = frame.pos[r] + head * w._robot_offset[r]
+        half_l = w._arrays.rect_half_x[r]
+        half_w = w._arrays.rect_half_y[r]
+        # Ray origin and direction in the body frame; slab exit distance of the body box.
+        p = (o - body) * head.conjugate()
+        q = d * head.conjugate()
+        px, py, qx, qy = p.real, p.imag, q.real, q.imag
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tx = np.where(np.abs(qx) > 1e-12, (np.sign(qx) * half_l - px) / qx, np.inf)
+            ty = np.where(np.abs(qy) > 1e-12, (np.sign(qy) * half_w - py) / qy, np.inf)
+        inside = (np.abs(px) <= half_l) & (np.abs(py) <= half_w)
+        skip = np.where(inside, np.maximum(np.minimum(tx, ty), 0.0) + 1e-3, 0.0)
+        ox, oy, dx, dy = o.real, o.imag, d.real, d.imag
+        max_r = plan.max_range
+        z = plan.z
+        frm = np.stack([ox + dx * skip, oy + dy * skip, z], axis=1).tolist()
+        to = np.stack([ox + dx * max_r, oy + dy * max_r, z], axis=1).tolist()
+        out = np.array(max_r, copy=True)
+        batch = 16000
+        cid = w._client
+        for i in range(0, len(frm), batch):
+            res = pb.rayTestBatch(frm[i:i + batch], to[i:i + batch], physicsClientId=cid)
+            for j, hit in enumerate(res):
+                if hit[0] >= 0:
+                    k = i + j
+                    out[k] = skip[k] + hit[2] * (max_r[k] - skip[k])
+        return out

@@ -1,0 +1,117 @@
+"""The per-tick sensing pass: every active range sensor and blobfinder read together.
+
+The first reading of a range sensor or a blobfinder in a tick computes the readings of every
+one that has been read before (`RangeModel.active`, `CameraModel.active`) in one go, and the
+world caches them until the next tick. In the fast fidelity that is one batched ray cast of
+the range sensors' rays and the blobfinders' occlusion rays; in the render fidelity each
+model renders its own.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from player_server.sim.cast_kernel import CompiledCaster
+
+if TYPE_CHECKING:
+    from player_server.sim.devices.camera import CameraModel
+    from player_server.sim.devices.ranging import RangeModel
+    from player_server.sim.simulation import Simulation
+
+
+class SensingPass:
+    def __init__(self, world: Simulation, ranging: RangeModel, camera: CameraModel) -> None:
+        self.world = world
+        self.ranging = ranging
+        self.camera = camera
+        self.caster = CompiledCaster()
+        self._zeros = np.zeros(256)
+        # the world's cache key of this tick's readings (the fidelity is fixed)
+        self.key = ("sensed", world.fidelity)
+
+    def sensed(self) -> dict[str, dict[Any, Any]]:
+        """This tick's readings of every active range sensor and blobfinder, computed together
+        on first use."""
+        cache = self.world._cached(self.key, lambda: {"ranges": {}, "blobs": {}})
+        assert isinstance(cache, dict)
+        rkeys = tuple(sorted(k for k in self.ranging.active if k not in cache["ranges"]))
+        cams = sorted(i for i in self.camera.active if i not in cache["blobs"])
+        if rkeys or cams:
+            if self.world.fidelity == "render":
+                self._render(rkeys, cams, cache)
+            else:
+                self._fast(rkeys, cams, cache)
+        return cache
+
+    def _zeros_for(self, n: int) -> np.ndarray:
+        if self._zeros.size < n:
+            self._zeros = np.zeros(max(n, 2 * self._zeros.size))
+        return self._zeros[:n]
+
+    def _fast(self, rkeys: tuple[tuple[int, str], ...], cams: list[int],
+              cache: dict[str, dict[Any, Any]]) -> None:
+        w = self.world
+        t0 = w._now()
+        frame = w.tick_arrays.frame()
+        origins: list[np.ndarray] = []
+        dirs: list[np.ndarray] = []
+        maxr: list[np.ndarray] = []
+        zs: list[np.ndarray] = []
+        own: list[np.ndarray] = []
+        plan = None
+        if rkeys:
+            plan = self.ranging.plan(rkeys)
+            o, d = plan.rays(frame)
+            origins.append(o)
+            dirs.append(d)
+            maxr.append(plan.max_range)
+            zs.append(plan.z)
+            own.append(plan.own)
+        n_range = sum(o.size for o in origins)
+        bplan = pending = None
+        if cams:
+            bplan, pending = self.camera.fast_pending(cams, frame)
+            if pending.pair.size:
+                # Occlusion: the ray from the camera to the target's centre must reach the
+                # target's near side (cast at ground level: every footprint can block it).
+                origins.append(pending.origin)
+                dirs.append(pending.direction)
+                maxr.append(pending.dist)
+                zs.append(self._zeros_for(pending.pair.size))
+                own.append(bplan.own[pending.pair])
+        t1 = w._now()
+        hits = np.zeros(0)
+        if origins:
+            o = np.concatenate(origins) if len(origins) > 1 else origins[0]
+            d = np.concatenate(dirs) if len(dirs) > 1 else dirs[0]
+            hits = self.caster.cast(o, d, np.concatenate(maxr) if len(maxr) > 1 else maxr[0],
+                                    np.concatenate(zs) if len(zs) > 1 else zs[0],
+                                    w.tick_arrays.footprints(), w._arrays.room,
+                                    np.concatenate(own) if len(own) > 1 else own[0])
+        t2 = w._now()
+        if plan is not None:
+            cache["ranges"].update(self.ranging.fast_readings(plan, hits[:n_range]))
+        t3 = w._now()
+        if bplan is not None and pending is not None:
+            visible = hits[n_range:] >= pending.near - 0.05
+            cache["blobs"].update(self.camera.fast_blobs(cams, bplan, pending, visible))
+        if w._clock is not None:
+            t4 = w._now()
+            share = n_range / max(1, hits.size)
+            w.timings.ranges_s += (t3 - t2) + (t2 - t1) * share
+            w.timings.blobs_s += (t1 - t0) + (t4 - t3) + (t2 - t1) * (1 - share)
+
+    def _render(self, rkeys: tuple[tuple[int, str], ...], cams: list[int],
+                cache: dict[str, dict[Any, Any]]) -> None:
+        w = self.world
+        t0 = w._now()
+        if rkeys:
+            cache["ranges"].update(self.ranging.render(rkeys, w.tick_arrays.frame()))
+        t1 = w._now()
+        if cams:
+            cache["blobs"].update(self.camera.render(cams))
+        if w._clock is not None:
+            w.timings.ranges_s += t1 - t0
+            w.timings.blobs_s += w._now() - t1

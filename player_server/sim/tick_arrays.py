@@ -1,0 +1,110 @@
+"""The world's per-tick arrays: poses of the moving bodies, the robots' frame, footprints.
+
+Read from PyBullet and the robots' state once per tick, on first use, and cached by the world
+until the next tick; the sensing pass and the device models read them from here.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pybullet as pb
+from numpy.typing import NDArray
+
+from player_server.sim.drive import yaw_of as _yaw_of
+from player_server.sim.fastsense import Frame
+from player_server.sim.footprint_cast import Footprints
+
+if TYPE_CHECKING:
+    from player_server.sim.simulation import Simulation
+
+
+class TickArrays:
+    def __init__(self, world: Simulation) -> None:
+        self.world = world
+
+    def dynamic_poses(self) -> NDArray[np.float64]:
+        """(n_boxes + n_objects, 3) poses, boxes first."""
+        return self.dynamic()[0]
+
+    def dynamic(self) -> tuple[NDArray[np.float64], NDArray[np.complex128],
+                                NDArray[np.complex128]]:
+        """Boxes' and objects' poses (n, 3), positions x + iy and headings exp(i yaw), read
+        from PyBullet in one pass per tick."""
+        w = self.world
+
+        def compute() -> tuple[NDArray[np.float64], NDArray[np.complex128],
+                               NDArray[np.complex128]]:
+            cid = w._client
+            get = pb.getBasePositionAndOrientation
+            rows, pos, head = [], [], []
+            for bid in w._dyn_ids:
+                p, q = get(bid, physicsClientId=cid)
+                yaw = _yaw_of(q)
+                rows.append((p[0], p[1], yaw))
+                pos.append(complex(p[0], p[1]))
+                head.append(complex(math.cos(yaw), math.sin(yaw)))
+            return (np.array(rows, dtype=np.float64).reshape(-1, 3),
+                    np.array(pos, dtype=np.complex128), np.array(head, dtype=np.complex128))
+
+        return w._cached("dynamic", compute)  # type: ignore[return-value]
+
+    def dyn_pose(self, name: str) -> tuple[float, float, float]:
+        w = self.world
+        x, y, yaw = self.dynamic_poses()[w._dyn_row[name]].tolist()
+        return (x, y, yaw)
+
+    def footprints(self) -> Footprints:
+        """This tick's footprints: static obstacles, robots' bodies and boxes (rectangles),
+        static cylinders and the objects not held or stored (circles)."""
+        w = self.world
+
+        def compute() -> Footprints:
+            wa = w._arrays
+            frame = self.frame()
+            _, pos, head = self.dynamic()
+            nb = wa.n_boxes
+            vis = w._obj_visible
+            if vis.all():
+                circles, c_radius, c_top = pos[nb:], w._fp_radius, w._fp_top
+            else:
+                keep = np.concatenate([np.ones(wa.static_circle_centre.size, dtype=bool), vis])
+                circles = pos[nb:][vis]
+                c_radius, c_top = w._fp_radius[keep], w._fp_top[keep]
+            return Footprints(
+                centre=np.concatenate([wa.static_rect_centre, frame.body, pos[:nb],
+                                       wa.static_circle_centre, circles]),
+                head_conj=np.concatenate([wa.static_rect_head, frame.head,
+                                          head[:nb]]).conjugate(),
+                half=wa.fp_half,
+                radius=c_radius,
+                top=c_top,
+            )
+
+        return w._cached("footprints", compute)  # type: ignore[return-value]
+
+    def frame(self) -> Frame:
+        w = self.world
+        def compute() -> Frame:
+            pos, head, yaw, body = [], [], [], []
+            for st in w._robots:
+                h = complex(math.cos(st.yaw), math.sin(st.yaw))
+                p = complex(st.x, st.y)
+                pos.append(p)
+                head.append(h)
+                yaw.append(st.yaw)
+                body.append(p + h * st.spec.body.offset_x_m)
+            return Frame(np.array(pos, dtype=np.complex128),
+                         np.array(head, dtype=np.complex128), np.array(yaw),
+                         np.array(body, dtype=np.complex128))
+
+        return w._cached("frame", compute)  # type: ignore[return-value]
+
+    def target_poses(self, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
+        w = self.world
+        _, pos, head = self.dynamic()
+        t_pos = np.concatenate([frame.body, pos, w._fixed_target_pos])
+        t_head = np.concatenate([frame.head, head, w._fixed_target_head])
+        return t_pos, t_head
