@@ -21,13 +21,13 @@ LONG_FUNCTION_LINES = 100
 MAX_LONG_FUNCTIONS = 3
 
 EXEMPT: dict[str, int] = {
-    "murdoch/consensus/cbga_kernel.py": 992,
-    "murdoch/consensus/cbga_kernel.py::_build": 208,
+    "murdoch/consensus/cbga_build_kernel.py::_build": 208,
     "murdoch/consensus/cbga_kernel.py::run_cbga": 180,
     "murdoch/consensus/cbga_kernel.py::_merge": 103,
 }
 """What stands over the limits, with the size it may not exceed. The compiled CBGA run is kept
-whole: split into helpers and modules it ran measurably slower (bench/cbba_speed.py). Every
+whole, its functions unsplit: split into helper functions it ran measurably slower
+(bench/cbba_speed.py); its modules (phase 1 and the rest) keep the module limit. Every
 other module, class and function keeps the limits. The ceilings include the paper's linear
 cost, team mode "total" and the pairwise-step tally."""
 
@@ -73,8 +73,7 @@ def violations(found: list[Span]) -> list[str]:
     out = [f"{s.kind} {s.name} has {s.lines} lines (at most "
            f"{EXEMPT.get(s.name, limits[s.kind])})"
            for s in found if s.lines > max(limits[s.kind], EXEMPT.get(s.name, 0))]
-    long = [s for s in found if s.kind == "function" and s.lines >= LONG_FUNCTION_LINES
-            and s.name not in EXEMPT]
+    long = [s for s in found if s.kind == "function" and s.lines >= LONG_FUNCTION_LINES]
     if len(long) > MAX_LONG_FUNCTIONS:
         names = ", ".join(f"{s.name} ({s.lines})" for s in long)
         out.append(f"{len(long)} functions of {LONG_FUNCTION_LINES}+ lines "

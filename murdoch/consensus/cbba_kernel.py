@@ -227,6 +227,50 @@ def _release(i: int, y: np.ndarray, z: np.ndarray, bundle: np.ndarray, blen: np.
 
 
 @njit(cache=True)
+def _round_cost(y: np.ndarray, z: np.ndarray, y_sent: np.ndarray, z_sent: np.ndarray,
+                out_degree: np.ndarray, msg_base: int, msg_entry: int) -> tuple[int, int, int]:
+    """One round's sends: (messages, bytes, pairwise sends whose (y, z) entries differ from
+    what the sender sent the round before, held in y_sent, z_sent)."""
+    n, m = z.shape
+    msgs = 0
+    nbytes = 0
+    pairs = 0
+    for k in range(n):
+        d = out_degree[k]
+        if d == 0:
+            continue
+        entries = 0
+        for j in range(m):
+            if z[k, j] != NONE:
+                entries += 1
+        msgs += d
+        nbytes += d * (msg_base + entries * msg_entry)
+        for j in range(m):
+            if z[k, j] != z_sent[k, j] or (z[k, j] != NONE and y[k, j] != y_sent[k, j]):
+                pairs += d
+                break
+    return msgs, nbytes, pairs
+
+
+@njit(cache=True)
+def _round_changed(y: np.ndarray, z: np.ndarray, bundle: np.ndarray, blen: np.ndarray,
+                   y_before: np.ndarray, z_before: np.ndarray, b_before: np.ndarray,
+                   blen_before: np.ndarray) -> bool:
+    """Whether the bids, winners or bundles differ from those at the start of the round."""
+    n, m = z.shape
+    for i in range(n):
+        if blen[i] != blen_before[i]:
+            return True
+        for b in range(blen[i]):
+            if bundle[i, b] != b_before[i, b]:
+                return True
+        for j in range(m):
+            if y[i, j] != y_before[i, j] or z[i, j] != z_before[i, j]:
+                return True
+    return False
+
+
+@njit(cache=True)
 def run_cbba(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np.ndarray,
              pre_idx: np.ndarray, speed: np.ndarray, avail: np.ndarray, eligible: np.ndarray,
              gain_bound: np.ndarray, max_depth: int, nbr_ptr: np.ndarray, nbr_idx: np.ndarray,
@@ -287,22 +331,12 @@ def run_cbba(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
                        tt, tasks, pre_ptr, pre_idx, speed[i], avail[i], eligible[i],
                        gain_bound[i],
                        max_depth, gain_val[i], gain_pos[i], gain_ok[i], work)
-        # -- what the round's messages cost
-        for k in range(n):
-            d = out_degree[k]
-            if d == 0:
-                continue
-            entries = 0
-            for j in range(m):
-                if z[k, j] != NONE:
-                    entries += 1
-            sent_msgs += d
-            sent_bytes += d * (msg_base + entries * msg_entry)
-            # y_sent, z_sent still hold what k sent last round (nothing before round 1)
-            for j in range(m):
-                if z[k, j] != z_sent[k, j] or (z[k, j] != NONE and y[k, j] != y_sent[k, j]):
-                    sent_pairs += d
-                    break
+        # -- what the round's messages cost (y_sent, z_sent: what was sent last round)
+        d_msgs, d_bytes, d_pairs = _round_cost(y, z, y_sent, z_sent, out_degree, msg_base,
+                                               msg_entry)
+        sent_msgs += d_msgs
+        sent_bytes += d_bytes
+        sent_pairs += d_pairs
         # -- phase 2: everyone sends, then each merges its neighbours' messages in order
         for i in range(n):
             for j in range(m):
@@ -324,20 +358,7 @@ def run_cbba(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
                         gain_ok[i]):
                 needs[i] = True
         # -- did anything that comm_steps watches (y, z, bundles) change over the round?
-        changed = False
-        for i in range(n):
-            if changed:
-                break
-            if blen[i] != blen_before[i]:
-                changed = True
-                break
-            for b in range(blen[i]):
-                if bundle[i, b] != b_before[i, b]:
-                    changed = True
-            for j in range(m):
-                if y[i, j] != y_before[i, j] or z[i, j] != z_before[i, j]:
-                    changed = True
-        if changed:
+        if _round_changed(y, z, bundle, blen, y_before, z_before, b_before, blen_before):
             last_change = rnd
             messages = sent_msgs
             nbytes = sent_bytes

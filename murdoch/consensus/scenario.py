@@ -254,27 +254,30 @@ def parse_scenario(data: object, source: str = "<scenario>") -> Scenario:
     if len(dims) > 1:
         raise r.fail("pos", "the same dimension (2 or 3) everywhere", sorted(dims))
 
-    graph = CommGraph()
-    if top.get("comm_graph") is not None:
-        g = r.obj(top["comm_graph"], "comm_graph")
-        directed = g.get("directed", False)
-        if not isinstance(directed, bool):
-            raise r.fail("comm_graph.directed", "true or false", directed)
-        raw_edges = g.get("edges")
-        if not isinstance(raw_edges, list):
-            raise r.fail("comm_graph.edges", "a list of [agent_id, agent_id] pairs", raw_edges)
-        ids = {a.id for a in agents}
-        edges: list[tuple[str, str]] = []
-        for n, e in enumerate(raw_edges):
-            if (not isinstance(e, list) or len(e) != 2
-                    or not all(isinstance(x, str) and x in ids for x in e)):
-                raise r.fail(f"comm_graph.edges[{n}]", "a pair of known agent ids", e)
-            edges.append((e[0], e[1]))
-        graph = CommGraph(directed, tuple(edges))
-
+    graph = _parse_graph(r, top.get("comm_graph"), {a.id for a in agents})
     return Scenario(name=name, agents=tuple(agents), tasks=tuple(tasks),
                     time_windows=time_windows, max_depth=max_depth, comm_graph=graph,
                     cost=cost)
+
+
+def _parse_graph(r: _Reader, raw: object, ids: set[str]) -> CommGraph:
+    """The scenario's communication graph (everyone hears everyone when absent)."""
+    if raw is None:
+        return CommGraph()
+    g = r.obj(raw, "comm_graph")
+    directed = g.get("directed", False)
+    if not isinstance(directed, bool):
+        raise r.fail("comm_graph.directed", "true or false", directed)
+    raw_edges = g.get("edges")
+    if not isinstance(raw_edges, list):
+        raise r.fail("comm_graph.edges", "a list of [agent_id, agent_id] pairs", raw_edges)
+    edges: list[tuple[str, str]] = []
+    for n, e in enumerate(raw_edges):
+        if (not isinstance(e, list) or len(e) != 2
+                or not all(isinstance(x, str) and x in ids for x in e)):
+            raise r.fail(f"comm_graph.edges[{n}]", "a pair of known agent ids", e)
+        edges.append((e[0], e[1]))
+    return CommGraph(directed, tuple(edges))
 
 
 def _check_unique(r: _Reader, key: str, ids: list[str]) -> None:
