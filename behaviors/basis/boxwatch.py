@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from behaviors.basis.colour import seen
 from behaviors.proposal import INACTIVE, Proposal, clamp
 from behaviors.snapshot import RangeScan, Snapshot, wrap_angle
 
@@ -142,10 +143,8 @@ class GoalFromCamera:
 
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
         view = snapshot.camera
-        if view is None or now - view.time_s > self.max_age_s:
-            return INACTIVE
-        blob = view.largest(self.colour)
-        if blob is None:
+        blob = seen(view, now, self.max_age_s, self.colour)
+        if blob is None or view is None:
             return INACTIVE
         bearing = view.bearing_of_px(blob.x_px)
         turn = clamp(self.turn_gain * bearing, self.max_turn_radps)

@@ -39,10 +39,17 @@ def end_px(blob: Blob, fraction: float, width_px: int) -> float | None:
     return (blob.left_px + blob.right_px) / 2.0
 
 
-def seen(view: BlobView | None, now: float, max_age_s: float, colour: int) -> Blob | None:
+def fresh_view(view: BlobView | None, now: float, max_age_s: float) -> BlobView | None:
+    """The camera view if it is at most `max_age_s` old at `now`, else None."""
     if view is None or now - view.time_s > max_age_s:
         return None
-    return view.largest(colour)
+    return view
+
+
+def seen(view: BlobView | None, now: float, max_age_s: float, colour: int) -> Blob | None:
+    """The largest blob of `colour` in a fresh view (None when stale or not in view)."""
+    view = fresh_view(view, now, max_age_s)
+    return None if view is None else view.largest(colour)
 
 
 @dataclass(frozen=True, slots=True)
@@ -153,8 +160,8 @@ class ViewOfEnd:
         return self.speed_mps
 
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
-        view = snapshot.camera
-        if view is None or now - view.time_s > self.max_age_s:
+        view = fresh_view(snapshot.camera, now, self.max_age_s)
+        if view is None:
             return INACTIVE
         blob = view.largest(self.colour)
         if blob is None:
