@@ -6,6 +6,7 @@ import math
 from dataclasses import dataclass
 
 from behaviors.basis.colour import seen
+from behaviors.basis.speed_limits import ForwardSpeedLimit
 from behaviors.proposal import INACTIVE, Proposal, clamp
 from behaviors.snapshot import RangeScan, Snapshot, wrap_angle
 
@@ -125,7 +126,7 @@ class BoxAlignmentFromLaser:
 
 
 @dataclass(frozen=True, slots=True)
-class GoalFromCamera:
+class GoalFromCamera(ForwardSpeedLimit):
     """Steer towards the goal marker (a colour blob); signal "goal" with its bearing."""
 
     colour: int
@@ -136,10 +137,6 @@ class GoalFromCamera:
     max_age_s: float = 0.5
     weight: float = 0.5
     name: str = "goal-from-camera"
-
-    @property
-    def max_speed_mps(self) -> float:
-        return self.speed_mps
 
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
         view = snapshot.camera

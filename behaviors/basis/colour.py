@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from behaviors.basis.speed_limits import ForwardSpeedLimit
 from behaviors.proposal import INACTIVE, Proposal, clamp
 from behaviors.snapshot import Blob, BlobView, Snapshot
 
@@ -53,7 +54,7 @@ def seen(view: BlobView | None, now: float, max_age_s: float, colour: int) -> Bl
 
 
 @dataclass(frozen=True, slots=True)
-class VisualServoToColour:
+class VisualServoToColour(ForwardSpeedLimit):
     """Steer at a colour blob and drive towards it; "reached" within `stop_range_m`.
 
     `aim_fraction` picks the point across the blob to steer at, so a pusher can aim at the
@@ -72,10 +73,6 @@ class VisualServoToColour:
     max_age_s: float = 0.5
     weight: float = 0.7
     name: str = "visual-servo-to-colour"
-
-    @property
-    def max_speed_mps(self) -> float:
-        return self.speed_mps
 
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
         view = snapshot.camera
@@ -136,7 +133,7 @@ class KeepDistanceToColour:
 
 
 @dataclass(frozen=True, slots=True)
-class ViewOfEnd:
+class ViewOfEnd(ForwardSpeedLimit):
     """Get a view of one end of a colour blob (a long box) before approaching it.
 
     When that end is in view no more than `max_bearing_rad` off, raise "in-view" and stand
@@ -154,10 +151,6 @@ class ViewOfEnd:
     max_age_s: float = 0.5
     weight: float = 0.7
     name: str = "view-of-end"
-
-    @property
-    def max_speed_mps(self) -> float:
-        return self.speed_mps
 
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
         view = fresh_view(snapshot.camera, now, self.max_age_s)

@@ -6,6 +6,7 @@ import math
 from dataclasses import dataclass
 from typing import Protocol
 
+from behaviors.basis.speed_limits import ForwardSpeedLimit
 from behaviors.proposal import INACTIVE, Proposal, clamp
 from behaviors.snapshot import Snapshot, wrap_angle
 
@@ -93,7 +94,7 @@ def _mix(seed: int, bucket: int) -> int:
 
 
 @dataclass(frozen=True, slots=True)
-class Wander:
+class Wander(ForwardSpeedLimit):
     """Drive forward, changing the turn rate every `period_s` to a value drawn from `seed`.
 
     Pure: the turn rate is a hash of (seed, time bucket), so it repeats for the same time.
@@ -108,10 +109,6 @@ class Wander:
     straight_fraction: float = 0.4
     weight: float = 0.2
     name: str = "wander"
-
-    @property
-    def max_speed_mps(self) -> float:
-        return self.speed_mps
 
     def inputs_key(self, snapshot: Snapshot, now: float) -> int | None:
         """The time bucket: the proposal changes only when it does (see `runner`)."""
