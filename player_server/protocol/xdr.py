@@ -1,13 +1,8 @@
 """Declarative XDR structs the way Player's generated packers encode them.
 
-A message body is a frozen dataclass whose annotations name wire types::
-
-    @xdr_struct
-    @dataclass(frozen=True, slots=True)
-    class Pose2d:
-        px: F64 = 0.0
-        py: F64 = 0.0
-        pa: F64 = 0.0
+A message body is a frozen dataclass whose annotations name wire types, declared with
+``@xdr_struct`` over ``@dataclass(frozen=True, slots=True)``: ``common.Pose2d`` (three
+``F64``) is the simplest, ``sensor_msgs.LaserData`` shows counted arrays.
 
 ``xdr_struct`` compiles, once per class, an ``encode(obj) -> bytes`` and a
 ``decode(buf, offset) -> (obj, offset)`` function. Consecutive fixed-size members
