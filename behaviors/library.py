@@ -276,6 +276,16 @@ def _push_metrics(aim: float) -> tuple[WeightedMetric, ...]:
     )
 
 
+def _push_task(name: str, aim: float, description: str) -> TaskSpec:
+    """A pushing task: the box's end at `aim` (`AIM_LEFT`, `AIM_MIDDLE`, `AIM_RIGHT`)."""
+    return TaskSpec(
+        name, frozenset({"mobile", "camera"}),
+        {"duration_s": 5.0, "speed_mps": 0.2, "lost_s": 20.0, "backoff_s": 3.0,
+         "approach_m": 0.8}, ("colour",),
+        _push_builder(name, aim), _push_metrics(aim), description,
+    )
+
+
 # --- watch-box (the watcher) ----------------------------------------------------------------
 
 
@@ -513,27 +523,10 @@ TASKS: dict[str, TaskSpec] = {
              WeightedMetric("battery", battery_fraction, 0.5)),
             "drive to (x, y) avoiding obstacles with sonar",
         ),
-        TaskSpec(
-            "push-left-end", frozenset({"mobile", "camera"}),
-            {"duration_s": 5.0, "speed_mps": 0.2, "lost_s": 20.0, "backoff_s": 3.0,
-             "approach_m": 0.8}, ("colour",),
-            _push_builder("push-left-end", AIM_LEFT), _push_metrics(AIM_LEFT),
-            "push the left end of the box (as seen from behind it)",
-        ),
-        TaskSpec(
-            "push-right-end", frozenset({"mobile", "camera"}),
-            {"duration_s": 5.0, "speed_mps": 0.2, "lost_s": 20.0, "backoff_s": 3.0,
-             "approach_m": 0.8}, ("colour",),
-            _push_builder("push-right-end", AIM_RIGHT), _push_metrics(AIM_RIGHT),
-            "push the right end of the box",
-        ),
-        TaskSpec(
-            "push-box", frozenset({"mobile", "camera"}),
-            {"duration_s": 5.0, "speed_mps": 0.2, "lost_s": 20.0, "backoff_s": 3.0,
-             "approach_m": 0.8}, ("colour",),
-            _push_builder("push-box", AIM_MIDDLE), _push_metrics(AIM_MIDDLE),
-            "push the box in the middle",
-        ),
+        _push_task("push-left-end", AIM_LEFT,
+                   "push the left end of the box (as seen from behind it)"),
+        _push_task("push-right-end", AIM_RIGHT, "push the right end of the box"),
+        _push_task("push-box", AIM_MIDDLE, "push the box in the middle"),
         TaskSpec(
             "watch-box", frozenset({"mobile", "camera", "laser"}),
             {"lead_m": 1.0, "tolerance_rad": math.radians(8.0), "need_period_s": 4.0,

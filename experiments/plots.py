@@ -28,6 +28,7 @@ from matplotlib.ticker import MaxNLocator
 
 from experiments import events as ev
 from experiments import timeline
+from experiments.summary import first_awards
 
 STATE_COLOURS = {
     timeline.WORKING: "#f08c00",
@@ -58,14 +59,11 @@ def _scale(end_s: float) -> float:
 def plot_tasks(evs: list[Mapping[str, Any]], end_s: float) -> Figure:
     scale = _scale(end_s)
     series: dict[str, list[float]] = defaultdict(list)
-    awarded: set[str] = set()
+    series["allocated"] = list(first_awards(evs).values())
     for e in evs:
         k = e["kind"]
         if k == ev.TASK_INTRODUCED:
             series["introduced"].append(float(e["t"]))
-        elif k == ev.AWARD and str(e["task"]) not in awarded:
-            awarded.add(str(e["task"]))
-            series["allocated"].append(float(e["t"]))
         elif k == ev.TASK_OUTCOME:
             series[ev.counted_outcome(e)].append(float(e["t"]))
     fig, ax = plt.subplots(figsize=(9, 4.5), dpi=100)

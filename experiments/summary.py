@@ -155,6 +155,15 @@ def messages_by_kind(events: Iterable[Mapping[str, Any]]) -> dict[str, dict[str,
     return messages
 
 
+def first_awards(events: Iterable[Mapping[str, Any]]) -> dict[str, float]:
+    """When each allocated task was first awarded (task -> simulated time, in award order)."""
+    first: dict[str, float] = {}
+    for e in events:
+        if e["kind"] == ev.AWARD:
+            first.setdefault(str(e["task"]), float(e["t"]))
+    return first
+
+
 def auction_latencies(events: Iterable[Mapping[str, Any]]) -> list[float]:
     """Each award's latency: its own figure, else the task's first announcement to it."""
     first_announce: dict[str, float] = {}
@@ -188,12 +197,10 @@ def summarize(events: Iterable[Mapping[str, Any]],
 
     # per robot
     per_robot: dict[str, Counter[str]] = defaultdict(Counter)
-    awarded_tasks: set[str] = set()
     for e in evs:
         k = e["kind"]
         if k == ev.AWARD:
             per_robot[str(e["robot"])]["awards"] += 1
-            awarded_tasks.add(str(e["task"]))
         elif k == ev.TASK_OUTCOME and e.get("robot") and e["outcome"] == ev.COMPLETED:
             per_robot[str(e["robot"])]["tasks_completed"] += 1
         elif k == ev.ROBOT_FAILURE:
@@ -235,7 +242,7 @@ def summarize(events: Iterable[Mapping[str, Any]],
         "real_time_factor": round(sim_s / wall_s, 3) if wall_s else None,
         "tasks": {
             "introduced": kinds[ev.TASK_INTRODUCED],
-            "allocated": len(awarded_tasks),
+            "allocated": len(first_awards(evs)),
             "executed": outcomes[ev.COMPLETED],
             "failed": outcomes[ev.FAILED],
             "unachievable": outcomes[ev.UNACHIEVABLE],

@@ -73,6 +73,21 @@ def _fail(name: str, expected: str, value: Any) -> WireError:
     return WireError("bad_fields", f"{name}: expected {expected}, found {value!r}"[:200])
 
 
+#: scalar annotations a JSON value must match exactly (no bool for int), with their error names
+_EXACT_SCALARS: dict[Any, str] = {int: "int", str: "string"}
+
+
+def _exact_scalar(kind: type, name: str) -> Converter:
+    expected = _EXACT_SCALARS[kind]
+
+    def convert_exact(value: Any) -> Any:
+        if type(value) is kind:
+            return value
+        raise _fail(name, expected, value)
+
+    return convert_exact
+
+
 def compile_converter(hint: Any, name: str) -> Converter:
     """A function that checks a decoded JSON value against `hint` and returns its message form."""
     if hint is Any:
@@ -110,14 +125,8 @@ def compile_converter(hint: Any, name: str) -> Converter:
             raise _fail(name, "bool", value)
 
         return convert_bool
-    if hint is int:
-
-        def convert_int(value: Any) -> Any:
-            if type(value) is int:
-                return value
-            raise _fail(name, "int", value)
-
-        return convert_int
+    if hint is int or hint is str:
+        return _exact_scalar(hint, name)
     if hint is float:
 
         def convert_float(value: Any) -> Any:
@@ -133,14 +142,6 @@ def compile_converter(hint: Any, name: str) -> Converter:
             raise _fail(name, "finite number", value)
 
         return convert_float
-    if hint is str:
-
-        def convert_str(value: Any) -> Any:
-            if type(value) is str:
-                return value
-            raise _fail(name, "string", value)
-
-        return convert_str
     if origin is tuple:
         if len(args) == 2 and args[1] is Ellipsis:
             item = compile_converter(args[0], name)

@@ -7,45 +7,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from behaviors.proposal import INACTIVE, Proposal
-from behaviors.snapshot import RangeScan, Snapshot
+from behaviors.snapshot import Snapshot
 
 _HALF_PI = math.pi / 2.0
-
-
-def _avoid(
-    scan: RangeScan | None,
-    now: float,
-    *,
-    safe_range_m: float,
-    front_half_angle_rad: float,
-    ignore_half_angle_rad: float,
-    max_speed_mps: float,
-    max_turn_radps: float,
-    max_age_s: float,
-) -> Proposal:
-    if scan is None or not scan.ranges_m or now - scan.time_s > max_age_s:
-        return INACTIVE
-    # Sectors: a blind cone straight ahead (e.g. the box being pushed) is ignored.
-    left = scan.min_in_sector(ignore_half_angle_rad, front_half_angle_rad)
-    right = scan.min_in_sector(-front_half_angle_rad, -ignore_half_angle_rad)
-    if ignore_half_angle_rad <= 0.0:
-        front = min(left, right)
-    else:
-        front = math.inf
-    nearest = min(left, right, front)
-    if not nearest < safe_range_m:
-        return INACTIVE
-    urgency = min(1.0, max(0.0, (safe_range_m - nearest) / safe_range_m))
-    # Turn towards the side with more room; ties turn left.
-    side_left = scan.min_in_sector(0.0, _HALF_PI)
-    side_right = scan.min_in_sector(-_HALF_PI, 0.0)
-    direction = 1.0 if side_left >= side_right else -1.0
-    turn = direction * max_turn_radps * (0.5 + 0.5 * urgency)
-    if nearest < 0.5 * safe_range_m:
-        speed = -0.25 * max_speed_mps  # too close: back away while turning
-    else:
-        speed = max_speed_mps * 0.3 * (1.0 - urgency)
-    return Proposal(True, speed, turn, urgency, "obstacle", nearest)
 
 
 # the range devices an avoid behaviour can read, and how wide a front it watches on each
@@ -77,17 +41,33 @@ class Avoid:
 
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
         scan = snapshot.sonar if self.device == "sonar" else snapshot.laser
-        assert self.front_half_angle_rad is not None  # set in __post_init__
-        return _avoid(
-            scan,
-            now,
-            safe_range_m=self.safe_range_m,
-            front_half_angle_rad=self.front_half_angle_rad,
-            ignore_half_angle_rad=self.ignore_half_angle_rad,
-            max_speed_mps=self.max_speed_mps,
-            max_turn_radps=self.max_turn_radps,
-            max_age_s=self.max_age_s,
-        )
+        front_half = self.front_half_angle_rad
+        assert front_half is not None  # set in __post_init__
+        if scan is None or not scan.ranges_m or now - scan.time_s > self.max_age_s:
+            return INACTIVE
+        # Sectors: a blind cone straight ahead (e.g. the box being pushed) is ignored.
+        ignore_half = self.ignore_half_angle_rad
+        left = scan.min_in_sector(ignore_half, front_half)
+        right = scan.min_in_sector(-front_half, -ignore_half)
+        if ignore_half <= 0.0:
+            front = min(left, right)
+        else:
+            front = math.inf
+        nearest = min(left, right, front)
+        safe = self.safe_range_m
+        if not nearest < safe:
+            return INACTIVE
+        urgency = min(1.0, max(0.0, (safe - nearest) / safe))
+        # Turn towards the side with more room; ties turn left.
+        side_left = scan.min_in_sector(0.0, _HALF_PI)
+        side_right = scan.min_in_sector(-_HALF_PI, 0.0)
+        direction = 1.0 if side_left >= side_right else -1.0
+        turn = direction * self.max_turn_radps * (0.5 + 0.5 * urgency)
+        if nearest < 0.5 * safe:
+            speed = -0.25 * self.max_speed_mps  # too close: back away while turning
+        else:
+            speed = self.max_speed_mps * 0.3 * (1.0 - urgency)
+        return Proposal(True, speed, turn, urgency, "obstacle", nearest)
 
 
 def AvoidWithSonar(**options: Any) -> Avoid:

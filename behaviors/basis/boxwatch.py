@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from behaviors.basis.colour import seen
+from behaviors.basis.speed_limits import ForwardSpeedLimit
 from behaviors.proposal import INACTIVE, Proposal, clamp
 from behaviors.snapshot import RangeScan, Snapshot, wrap_angle
 
@@ -124,7 +126,7 @@ class BoxAlignmentFromLaser:
 
 
 @dataclass(frozen=True, slots=True)
-class GoalFromCamera:
+class GoalFromCamera(ForwardSpeedLimit):
     """Steer towards the goal marker (a colour blob); signal "goal" with its bearing."""
 
     colour: int
@@ -136,16 +138,10 @@ class GoalFromCamera:
     weight: float = 0.5
     name: str = "goal-from-camera"
 
-    @property
-    def max_speed_mps(self) -> float:
-        return self.speed_mps
-
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
         view = snapshot.camera
-        if view is None or now - view.time_s > self.max_age_s:
-            return INACTIVE
-        blob = view.largest(self.colour)
-        if blob is None:
+        blob = seen(view, now, self.max_age_s, self.colour)
+        if blob is None or view is None:
             return INACTIVE
         bearing = view.bearing_of_px(blob.x_px)
         turn = clamp(self.turn_gain * bearing, self.max_turn_radps)

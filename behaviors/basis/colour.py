@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from behaviors.basis.speed_limits import ForwardSpeedLimit
 from behaviors.proposal import INACTIVE, Proposal, clamp
 from behaviors.snapshot import Blob, BlobView, Snapshot
 
@@ -39,14 +40,21 @@ def end_px(blob: Blob, fraction: float, width_px: int) -> float | None:
     return (blob.left_px + blob.right_px) / 2.0
 
 
-def seen(view: BlobView | None, now: float, max_age_s: float, colour: int) -> Blob | None:
+def fresh_view(view: BlobView | None, now: float, max_age_s: float) -> BlobView | None:
+    """The camera view if it is at most `max_age_s` old at `now`, else None."""
     if view is None or now - view.time_s > max_age_s:
         return None
-    return view.largest(colour)
+    return view
+
+
+def seen(view: BlobView | None, now: float, max_age_s: float, colour: int) -> Blob | None:
+    """The largest blob of `colour` in a fresh view (None when stale or not in view)."""
+    view = fresh_view(view, now, max_age_s)
+    return None if view is None else view.largest(colour)
 
 
 @dataclass(frozen=True, slots=True)
-class VisualServoToColour:
+class VisualServoToColour(ForwardSpeedLimit):
     """Steer at a colour blob and drive towards it; "reached" within `stop_range_m`.
 
     `aim_fraction` picks the point across the blob to steer at, so a pusher can aim at the
@@ -65,10 +73,6 @@ class VisualServoToColour:
     max_age_s: float = 0.5
     weight: float = 0.7
     name: str = "visual-servo-to-colour"
-
-    @property
-    def max_speed_mps(self) -> float:
-        return self.speed_mps
 
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
         view = snapshot.camera
@@ -129,7 +133,7 @@ class KeepDistanceToColour:
 
 
 @dataclass(frozen=True, slots=True)
-class ViewOfEnd:
+class ViewOfEnd(ForwardSpeedLimit):
     """Get a view of one end of a colour blob (a long box) before approaching it.
 
     When that end is in view no more than `max_bearing_rad` off, raise "in-view" and stand
@@ -148,13 +152,9 @@ class ViewOfEnd:
     weight: float = 0.7
     name: str = "view-of-end"
 
-    @property
-    def max_speed_mps(self) -> float:
-        return self.speed_mps
-
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
-        view = snapshot.camera
-        if view is None or now - view.time_s > self.max_age_s:
+        view = fresh_view(snapshot.camera, now, self.max_age_s)
+        if view is None:
             return INACTIVE
         blob = view.largest(self.colour)
         if blob is None:

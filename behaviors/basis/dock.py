@@ -5,7 +5,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from behaviors.proposal import INACTIVE, Proposal, clamp
+from behaviors.basis.navigate import drive_to_point
+from behaviors.proposal import Proposal
 from behaviors.snapshot import Snapshot
 
 
@@ -31,21 +32,5 @@ class DockAtCharger:
         power = snapshot.power
         if power is not None and now - power.time_s <= self.max_age_s and power.charging > 0:
             return Proposal(True, 0.0, 0.0, 1.0, "docked", power.percent)
-        odo = snapshot.odometry
-        if odo is None or now - odo.time_s > self.max_age_s:
-            return INACTIVE
-        pose = odo.pose
-        distance = pose.distance_to(self.charger_x_m, self.charger_y_m)
-        if not math.isfinite(distance):
-            return INACTIVE
-        if distance <= self.tolerance_m:
-            return Proposal(True, 0.0, 0.0, 1.0, "at-charger", distance)
-        bearing = pose.bearing_to(self.charger_x_m, self.charger_y_m)
-        turn = clamp(self.turn_gain * bearing, self.max_turn_radps)
-        if abs(bearing) > math.radians(50.0):
-            speed = 0.0
-        else:
-            speed = self.max_speed_mps * math.cos(bearing) * min(
-                1.0, max(0.15, distance / self.slow_radius_m)
-            )
-        return Proposal(True, speed, turn, 1.0, "", distance)
+        return drive_to_point(self, snapshot, now, self.charger_x_m, self.charger_y_m, 1.0,
+                              "at-charger", math.radians(50.0), min_slow_fraction=0.15)

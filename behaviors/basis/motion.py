@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from behaviors.basis.speed_limits import ReversibleSpeedLimit
 from behaviors.proposal import INACTIVE, Proposal, clamp
 from behaviors.snapshot import Snapshot, wrap_angle
 
@@ -57,17 +58,13 @@ class TurnAbout:
 
 
 @dataclass(frozen=True, slots=True)
-class BackOff:
+class BackOff(ReversibleSpeedLimit):
     """Reverse for `duration_s` after the stage start, turning a little ("backed-off")."""
 
     duration_s: float = 1.5
     speed_mps: float = 0.2
     turn_radps: float = 0.5
     name: str = "back-off"
-
-    @property
-    def max_speed_mps(self) -> float:
-        return abs(self.speed_mps)
 
     @property
     def max_turn_radps(self) -> float:
@@ -83,17 +80,13 @@ class BackOff:
 
 
 @dataclass(frozen=True, slots=True)
-class Cruise:
+class Cruise(ReversibleSpeedLimit):
     """Drive straight ahead at `speed_mps` (always active; a low-priority default)."""
 
     speed_mps: float = 0.2
     weight: float = 0.5
     name: str = "cruise"
     max_turn_radps: float = 0.0
-
-    @property
-    def max_speed_mps(self) -> float:
-        return abs(self.speed_mps)
 
     def inputs_key(self, snapshot: Snapshot, now: float) -> int:
         """Always the same proposal (see `runner`)."""
@@ -104,7 +97,7 @@ class Cruise:
 
 
 @dataclass(frozen=True, slots=True)
-class CruiseOnHeading:
+class CruiseOnHeading(ReversibleSpeedLimit):
     """Drive along `heading_rad` (odometry frame): turn towards it first, then go straight.
 
     A pusher uses it to push the box the way the watcher wants it to go, whatever angle it
@@ -119,10 +112,6 @@ class CruiseOnHeading:
     max_age_s: float = 0.5
     weight: float = 0.5
     name: str = "cruise-on-heading"
-
-    @property
-    def max_speed_mps(self) -> float:
-        return abs(self.speed_mps)
 
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
         odo = snapshot.odometry

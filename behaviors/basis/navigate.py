@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
+from behaviors.basis.speed_limits import ForwardSpeedLimit
 from behaviors.proposal import INACTIVE, Proposal, clamp
 from behaviors.snapshot import Snapshot, wrap_angle
 
@@ -28,24 +30,56 @@ class ServoToLocation:
     name: str = "servo-to-location"
 
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
-        odo = snapshot.odometry
-        if odo is None or now - odo.time_s > self.max_age_s:
-            return INACTIVE
-        pose = odo.pose
-        distance = pose.distance_to(self.goal_x_m, self.goal_y_m)
-        if not math.isfinite(distance):
-            return INACTIVE
-        if distance <= self.tolerance_m:
-            return Proposal(True, 0.0, 0.0, self.weight, "at-goal", distance)
-        bearing = pose.bearing_to(self.goal_x_m, self.goal_y_m)
-        turn = clamp(self.turn_gain * bearing, self.max_turn_radps)
-        if abs(bearing) > self.turn_in_place_rad:
-            speed = 0.0
-        else:
-            speed = self.max_speed_mps * math.cos(bearing) * min(
-                1.0, distance / self.slow_radius_m
-            )
-        return Proposal(True, speed, turn, self.weight, "", distance)
+        return drive_to_point(self, snapshot, now, self.goal_x_m, self.goal_y_m, self.weight,
+                              "at-goal", self.turn_in_place_rad)
+
+
+class PointApproach(Protocol):
+    """The settings `drive_to_point` reads from the behaviour that drives."""
+
+    @property
+    def tolerance_m(self) -> float: ...
+    @property
+    def max_speed_mps(self) -> float: ...
+    @property
+    def max_turn_radps(self) -> float: ...
+    @property
+    def turn_gain(self) -> float: ...
+    @property
+    def slow_radius_m(self) -> float: ...
+    @property
+    def max_age_s(self) -> float: ...
+
+
+def drive_to_point(
+    settings: PointApproach, snapshot: Snapshot, now: float, x_m: float, y_m: float,
+    weight: float, arrived: str, turn_in_place_rad: float, min_slow_fraction: float | None = None,
+) -> Proposal:
+    """Drive to (`x_m`, `y_m`) in the odometry frame: signal `arrived` within `tolerance_m`.
+
+    Turns towards the point, in place while it is more than `turn_in_place_rad` off, and
+    slows down within `slow_radius_m` (to no less than `min_slow_fraction` of full speed when
+    given). Inactive without fresh odometry or with a non-finite distance.
+    """
+    odo = snapshot.odometry
+    if odo is None or now - odo.time_s > settings.max_age_s:
+        return INACTIVE
+    pose = odo.pose
+    distance = pose.distance_to(x_m, y_m)
+    if not math.isfinite(distance):
+        return INACTIVE
+    if distance <= settings.tolerance_m:
+        return Proposal(True, 0.0, 0.0, weight, arrived, distance)
+    bearing = pose.bearing_to(x_m, y_m)
+    turn = clamp(settings.turn_gain * bearing, settings.max_turn_radps)
+    if abs(bearing) > turn_in_place_rad:
+        speed = 0.0
+    else:
+        slow = distance / settings.slow_radius_m
+        if min_slow_fraction is not None:
+            slow = max(min_slow_fraction, slow)
+        speed = settings.max_speed_mps * math.cos(bearing) * min(1.0, slow)
+    return Proposal(True, speed, turn, weight, "", distance)
 
 
 def _mix(seed: int, bucket: int) -> int:
@@ -60,7 +94,7 @@ def _mix(seed: int, bucket: int) -> int:
 
 
 @dataclass(frozen=True, slots=True)
-class Wander:
+class Wander(ForwardSpeedLimit):
     """Drive forward, changing the turn rate every `period_s` to a value drawn from `seed`.
 
     Pure: the turn rate is a hash of (seed, time bucket), so it repeats for the same time.
@@ -75,10 +109,6 @@ class Wander:
     straight_fraction: float = 0.4
     weight: float = 0.2
     name: str = "wander"
-
-    @property
-    def max_speed_mps(self) -> float:
-        return self.speed_mps
 
     def inputs_key(self, snapshot: Snapshot, now: float) -> int | None:
         """The time bucket: the proposal changes only when it does (see `runner`)."""

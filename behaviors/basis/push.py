@@ -4,12 +4,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from behaviors.basis.speed_limits import ReversibleSpeedLimit
 from behaviors.proposal import INACTIVE, Proposal
 from behaviors.snapshot import Snapshot
 
 
 @dataclass(frozen=True, slots=True)
-class PushWithBumpers:
+class PushWithBumpers(ReversibleSpeedLimit):
     """While a front bumper is pressed, drive straight ahead ("contact"); "blocked" when stalled.
 
     A stall while in contact means the object will not move further (e.g. it is against a
@@ -22,10 +23,6 @@ class PushWithBumpers:
     weight: float = 0.8
     name: str = "push-with-bumpers"
     max_turn_radps: float = 0.0
-
-    @property
-    def max_speed_mps(self) -> float:
-        return abs(self.speed_mps)
 
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
         bumpers = snapshot.bumpers

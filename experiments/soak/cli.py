@@ -10,8 +10,9 @@ from __future__ import annotations
 import json
 import random
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import click
 
@@ -38,6 +39,24 @@ def _span(text: str) -> tuple[float, float]:
     return a, b
 
 
+_Command = TypeVar("_Command", bound=Callable[..., Any])
+
+
+def _rate_and_span(
+    rate_flag: str, rate: float, span_flag: str, span: str, span_help: str,
+) -> Callable[[_Command], _Command]:
+    """The two options of a kind of fault: how many per simulated hour, and for how long
+    (a MIN-MAX span, read with `_span`)."""
+
+    def add(command: _Command) -> _Command:
+        command = click.option(span_flag, default=span, show_default=True,
+                               help=span_help)(command)
+        return click.option(rate_flag, type=click.FloatRange(min=0), default=rate,
+                            show_default=True)(command)
+
+    return add
+
+
 SOAK_EXPERIMENTS = ("longterm",)
 """boxpush is one episode that ends when the box arrives: nothing to soak."""
 
@@ -54,19 +73,14 @@ SOAK_EXPERIMENTS = ("longterm",)
               show_default=True)
 @click.option("--speedup", type=float, default=0.0, show_default=True,
               help="0 = lockstep (repeats exactly); > 0 = real time x speedup (loss faults).")
-@click.option("--kills-per-hour", type=click.FloatRange(min=0), default=1.0, show_default=True)
-@click.option("--kill-down", default="30s-5m", show_default=True,
-              help="How long a killed robot stays down before its restart (MIN-MAX).")
-@click.option("--freezes-per-hour", type=click.FloatRange(min=0), default=1.0,
-              show_default=True)
-@click.option("--freeze-for", default="5s-60s", show_default=True,
-              help="How long a frozen robot stays stopped (MIN-MAX, simulated).")
+@_rate_and_span("--kills-per-hour", 1.0, "--kill-down", "30s-5m",
+                "How long a killed robot stays down before its restart (MIN-MAX).")
+@_rate_and_span("--freezes-per-hour", 1.0, "--freeze-for", "5s-60s",
+                "How long a frozen robot stays stopped (MIN-MAX, simulated).")
 @click.option("--switch-offs", type=click.IntRange(min=0), default=1, show_default=True,
               help="Robots switched off for good part-way through.")
-@click.option("--charger-outages-per-hour", type=click.FloatRange(min=0), default=0.5,
-              show_default=True)
-@click.option("--charger-outage", default="5m-20m", show_default=True,
-              help="How long a charger is off (MIN-MAX).")
+@_rate_and_span("--charger-outages-per-hour", 0.5, "--charger-outage", "5m-20m",
+                "How long a charger is off (MIN-MAX).")
 @click.option("--bursts", type=click.IntRange(min=0), default=1, show_default=True,
               help="Bursts of tasks far beyond the team's capacity.")
 @click.option("--burst-size", type=click.IntRange(min=1, max=1000), default=20,

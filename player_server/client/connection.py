@@ -393,6 +393,15 @@ class PlayerClient:
         self.data_time_s = h.timestamp
         return proxy
 
+    def _data_proxy(self, rnd: _Round, head: tuple[Any, ...]) -> Proxy | None:
+        """The proxy a DATA message with header fields `head` is for (None, logged, when no
+        proxy is open for its device); the round has had data either way."""
+        rnd.got_data = True
+        proxy = self.proxies.get((head[2], head[3]))
+        if proxy is None:
+            log.debug("data for %d:%d without a proxy", head[2], head[3])
+        return proxy
+
     def read(self, timeout_s: float | None = None) -> list[Proxy]:
         """Wait for one full data round (PULL) or one DATA (PUSH); return updated proxies.
 
@@ -417,7 +426,6 @@ class PlayerClient:
                 self.flush()
             rnd = _Round(pull, ack_wait)
             updated = rnd.updated
-            proxies = self.proxies
             events = self._events
             frames = self._frames
             unpack_header = _HEADER.unpack_from
@@ -427,11 +435,8 @@ class PlayerClient:
                     msg = backlog.popleft() if backlog else events.popleft()
                     head = msg.header
                     if head[4] == _DATA:
-                        rnd.got_data = True
-                        proxy = proxies.get((head[2], head[3]))
-                        if proxy is None:
-                            log.debug("data for %d:%d without a proxy", head[2], head[3])
-                        else:
+                        proxy = self._data_proxy(rnd, head)
+                        if proxy is not None:
                             proxy._on_data(head[5], msg.body, head[6])
                             self.data_time_s = head[6]
                             if proxy not in updated:
@@ -456,11 +461,8 @@ class PlayerClient:
                         break
                     pos = frames.start = stop
                     if h[4] == _DATA:
-                        rnd.got_data = True
-                        proxy = proxies.get((h[2], h[3]))
-                        if proxy is None:
-                            log.debug("data for %d:%d without a proxy", h[2], h[3])
-                        else:
+                        proxy = self._data_proxy(rnd, h)
+                        if proxy is not None:
                             try:
                                 proxy._on_raw(h[5], buf, start, stop, h[6])
                             except DecodeError as exc:

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from player_server.drivers.base import Driver, Reply, Unsupported, ack, declared
-from player_server.drivers.vision import encode_image
+from player_server.drivers.vision import ImageDriver
 from player_server.protocol import constants as c
 from player_server.protocol import sensor_msgs as sm
 from player_server.protocol.common import POSE3D_ZERO, Bbox2d, Bbox3d, Pose3d
@@ -167,11 +167,11 @@ class OverheadFiducialDriver(Driver):
         raise Unsupported(f"fiducial request {subtype}")
 
 
-class OverheadCameraDriver(Driver):
+class OverheadCameraDriver(ImageDriver):
     """A synthetic top-down RGB888 image (raw; the bool property ``jpeg`` compresses)."""
 
-    interf = int(Interface.CAMERA)
     requests = frozenset({c.PLAYER_CAMERA_REQ_GET_IMAGE})
+    device_name = "overhead camera"
 
     def __init__(self, sim: OverheadPort, world: WorldSpec, index: int = 0) -> None:
         super().__init__(index, "sim_overhead_camera")
@@ -184,8 +184,6 @@ class OverheadCameraDriver(Driver):
                                   dtype=np.uint8)
         self.m_per_px_x = cam.view_size_x_m / cam.width_px
         self.m_per_px_y = cam.view_size_y_m / cam.height_px
-        self.properties = {"jpeg": False, "jpeg_quality": 80}
-        self.property_limits = {"jpeg_quality": (1, 100)}
 
     def render(self) -> Any:
         cam = self.cam
@@ -206,15 +204,3 @@ class OverheadCameraDriver(Driver):
             img[v0:v1, u0:u1][inside] = ((colour >> 16) & 255, (colour >> 8) & 255,
                                          colour & 255)
         return img
-
-    def image(self) -> sm.CameraData:
-        return encode_image(self.render(), bool(self.properties["jpeg"]),
-                            int(self.properties["jpeg_quality"]))
-
-    def data(self) -> Sequence[tuple[int, Any]]:
-        return ((c.PLAYER_CAMERA_DATA_STATE, self.image()),)
-
-    def handle_request(self, subtype: int, body: Any) -> Reply:
-        if subtype == c.PLAYER_CAMERA_REQ_GET_IMAGE:
-            return ack(self.image())
-        raise Unsupported(f"overhead camera request {subtype}")

@@ -37,23 +37,25 @@ def encode_image(image: Any, jpeg: bool, quality: int) -> sm.CameraData:
                          c.PLAYER_CAMERA_COMPRESS_RAW, image.tobytes())
 
 
-class CameraDriver(Driver):
-    """Rendered RGB images (raw by default; the bool property ``jpeg`` compresses)."""
+class ImageDriver(Driver):
+    """A camera serving what `render` draws as an RGB888 image: raw by default, JPEG when
+    the bool property ``jpeg`` is set (quality from ``jpeg_quality``)."""
 
     interf = int(Interface.CAMERA)
-    requests = frozenset({c.PLAYER_CAMERA_REQ_GET_SOURCE, c.PLAYER_CAMERA_REQ_GET_IMAGE})
+    #: the device named in errors
+    device_name = "camera"
 
-    def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0) -> None:
-        super().__init__(index, "sim_camera")
-        self.sim = sim
-        self.robot = robot
-        self.spec = declared(robot.devices.camera, f"robot {robot.name!r}", "camera")
+    def __init__(self, index: int, driver_name: str) -> None:
+        super().__init__(index, driver_name)
         self.properties = {"jpeg": False, "jpeg_quality": 80}
         self.property_limits = {"jpeg_quality": (1, 100)}
 
+    def render(self) -> Any:
+        """The current (H, W, 3) uint8 RGB image."""
+        raise NotImplementedError
+
     def image(self) -> sm.CameraData:
-        img = self.sim.camera_image(self.robot.name)
-        return encode_image(img, bool(self.properties["jpeg"]),
+        return encode_image(self.render(), bool(self.properties["jpeg"]),
                             int(self.properties["jpeg_quality"]))
 
     def data(self) -> Sequence[tuple[int, Any]]:
@@ -62,9 +64,27 @@ class CameraDriver(Driver):
     def handle_request(self, subtype: int, body: Any) -> Reply:
         if subtype == c.PLAYER_CAMERA_REQ_GET_IMAGE:
             return ack(self.image())
+        raise Unsupported(f"{self.device_name} request {subtype}")
+
+
+class CameraDriver(ImageDriver):
+    """The robot's camera: images rendered by the simulator."""
+
+    requests = frozenset({c.PLAYER_CAMERA_REQ_GET_SOURCE, c.PLAYER_CAMERA_REQ_GET_IMAGE})
+
+    def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0) -> None:
+        super().__init__(index, "sim_camera")
+        self.sim = sim
+        self.robot = robot
+        self.spec = declared(robot.devices.camera, f"robot {robot.name!r}", "camera")
+
+    def render(self) -> Any:
+        return self.sim.camera_image(self.robot.name)
+
+    def handle_request(self, subtype: int, body: Any) -> Reply:
         if subtype == c.PLAYER_CAMERA_REQ_GET_SOURCE:
             return ack(sm.CameraSourceReq("UNKNOWN", 0))
-        raise Unsupported(f"camera request {subtype}")
+        return super().handle_request(subtype, body)
 
 
 def _u32(value: float) -> int:

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 from player_server.protocol.common import (
     BBOX3D_ZERO,
     POSE2D_ZERO,
@@ -12,11 +10,10 @@ from player_server.protocol.common import (
     Pose2d,
     Pose3d,
 )
-from player_server.protocol.xdr import F32, F64, I32, U8, U32, U32Array, xdr_struct
+from player_server.protocol.xdr import F32, F64, I32, U8, U32, U32Array, xdr_dataclass
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class PowerData:
     """power DATA 1 STATE; ``valid`` says which fields are meaningful."""
 
@@ -28,8 +25,7 @@ class PowerData:
     charging: I32 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class PowerChargePolicyConfig:
     """power REQ 1 SET_CHARGING_POLICY."""
 
@@ -37,8 +33,7 @@ class PowerChargePolicyConfig:
     enable_output: U8 = 1
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class GripperData:
     """gripper DATA 1 STATE: state (OPEN 1, CLOSED 2, MOVING 3, ERROR 4), beams, stored."""
 
@@ -47,8 +42,7 @@ class GripperData:
     stored: U8 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class GripperGeom:
     """gripper REQ 1 GET_GEOM reply."""
 
@@ -59,8 +53,7 @@ class GripperGeom:
     capacity: U8 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class Position2dData:
     """position2d DATA 1 STATE: odometric pose, velocity, stall."""
 
@@ -69,8 +62,7 @@ class Position2dData:
     stall: U8 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class Position2dGeom:
     """position2d GET_GEOM reply and DATA 2 GEOM."""
 
@@ -78,8 +70,7 @@ class Position2dGeom:
     size: Bbox3d = BBOX3D_ZERO
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class Position2dCmdVel:
     """position2d CMD 1 VEL: vx, vy, vyaw and motor state."""
 
@@ -87,8 +78,7 @@ class Position2dCmdVel:
     state: U8 = 1
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class Position2dCmdPos:
     """position2d CMD 2 POS: target pose (odometric frame), speeds, motor state."""
 
@@ -97,8 +87,7 @@ class Position2dCmdPos:
     state: U8 = 1
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class Position2dCmdCar:
     """position2d CMD 3 CAR: forward velocity and relative steering angle."""
 
@@ -106,8 +95,7 @@ class Position2dCmdCar:
     angle: F64 = 0.0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class Position2dCmdVelHead:
     """position2d CMD 4 VEL_HEAD: forward velocity and absolute heading."""
 
@@ -115,40 +103,35 @@ class Position2dCmdVelHead:
     angle: F64 = 0.0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class Position2dPowerConfig:
     """position2d REQ 2 MOTOR_POWER."""
 
     state: U8 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class Position2dVelocityModeConfig:
     """position2d REQ 3 VELOCITY_MODE."""
 
     value: U32 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class Position2dPositionModeReq:
     """position2d REQ 4 POSITION_MODE (0 velocity, 1 position)."""
 
     state: U32 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class Position2dSetOdomReq:
     """position2d REQ 5 SET_ODOM."""
 
     pose: Pose2d = POSE2D_ZERO
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class Position2dPidReq:
     """position2d REQ 7 SPEED_PID / REQ 8 POSITION_PID."""
 
@@ -157,8 +140,7 @@ class Position2dPidReq:
     kd: F32 = 0.0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class Position2dSpeedProfReq:
     """position2d REQ 9 SPEED_PROF."""
 
@@ -166,8 +148,7 @@ class Position2dSpeedProfReq:
     acc: F32 = 0.0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class PtzData:
     """ptz DATA 1 STATE (rad, rad, field of view rad, rad/s, rad/s, status)."""
 
@@ -179,8 +160,7 @@ class PtzData:
     status: U32 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class PtzCmd:
     """ptz CMD 1 STATE: absolute targets and speeds."""
 
@@ -191,24 +171,21 @@ class PtzCmd:
     tiltspeed: F32 = 0.0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class PtzReqGeneric:
     """ptz REQ 1 GENERIC."""
 
     config: U32Array = ()
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class PtzReqControlMode:
     """ptz REQ 2 CONTROL_MODE (VELOCITY 0, POSITION 1)."""
 
     mode: U32 = 1
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class PtzGeom:
     """ptz REQ 4 GEOM reply."""
 
@@ -216,8 +193,7 @@ class PtzGeom:
     size: Bbox3d = BBOX3D_ZERO
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class PtzReqStatus:
     """ptz REQ 5 STATUS reply."""
 

@@ -2,13 +2,10 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
-from player_server.protocol.xdr import F64, U16, U32, xdr_struct
+from player_server.protocol.xdr import F64, U16, U32, xdr_dataclass
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class Pose2d:
     """px, py [m], pa [rad]."""
 
@@ -17,8 +14,7 @@ class Pose2d:
     pa: F64 = 0.0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class Pose3d:
     """px, py, pz [m], proll, ppitch, pyaw [rad]."""
 
@@ -30,8 +26,7 @@ class Pose3d:
     pyaw: F64 = 0.0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class Bbox3d:
     """sw (width), sl (length), sh (height) [m]."""
 
@@ -40,8 +35,7 @@ class Bbox3d:
     sh: F64 = 0.0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class Bbox2d:
     """sw (width), sl (length) [m]."""
 
@@ -49,8 +43,7 @@ class Bbox2d:
     sl: F64 = 0.0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class DevAddr:
     """Device address ``host:robot:interf:index`` (12 bytes in C, 16 on the wire)."""
 
@@ -67,8 +60,7 @@ BBOX2D_ZERO = Bbox2d()
 DEVADDR_ZERO = DevAddr()
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class Geom3d:
     """``pose pose3d, size bbox3d`` (72 B): position2d, laser and ptz geometry."""
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Annotated
 
 from player_server.protocol.common import DEVADDR_ZERO, DevAddr
@@ -15,7 +14,7 @@ from player_server.protocol.xdr import (
     Array,
     Bytes,
     String,
-    xdr_struct,
+    xdr_dataclass,
 )
 
 DriverName = Annotated[str, String(64)]
@@ -23,16 +22,14 @@ PropKey = Annotated[str, String(1024)]
 PropText = Annotated[str, String(65536)]
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class DeviceDevlist:
     """REQ 1 DEVLIST reply: the devices behind this port (max 4096)."""
 
     devices: Annotated[tuple[DevAddr, ...], Array(DevAddr, 4096)] = ()
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class DeviceDriverInfo:
     """REQ 2 DRIVERINFO request and reply."""
 
@@ -40,8 +37,7 @@ class DeviceDriverInfo:
     driver_name: DriverName = ""
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class DeviceReq:
     """REQ 3 DEV: subscribe (access 1) / unsubscribe (2); reply grants access, names driver."""
 
@@ -50,24 +46,21 @@ class DeviceReq:
     driver_name: DriverName = ""
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class DeviceDatamodeReq:
     """REQ 5 DATAMODE: PUSH 1, PULL 2."""
 
     mode: U8 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class DeviceAuthReq:
     """REQ 7 AUTH (answered with NACK)."""
 
     auth_key: Annotated[bytes, Bytes(32)] = b""
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class DeviceNameserviceReq:
     """REQ 8 NAMESERVICE (answered with NACK)."""
 
@@ -75,8 +68,7 @@ class DeviceNameserviceReq:
     port: U16 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class AddReplaceRuleReq:
     """REQ 10 ADD_REPLACE_RULE; -1 is a wildcard; replace: 0 ACCEPT, 1 REPLACE, 2 IGNORE."""
 
@@ -87,16 +79,14 @@ class AddReplaceRuleReq:
     replace: I32 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class SynchOverflow:
     """SYNCH 2 OVERFLOW: number of messages dropped."""
 
     dropped: U32 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class CapabilitiesReq:
     """Universal REQ 255: is (type, subtype) supported?"""
 
@@ -104,8 +94,7 @@ class CapabilitiesReq:
     subtype: U32 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class IntPropReq:
     """Universal REQ 254/253 GET/SET_INTPROP."""
 
@@ -113,8 +102,7 @@ class IntPropReq:
     value: I32 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class DblPropReq:
     """Universal REQ 252/251 GET/SET_DBLPROP."""
 
@@ -122,8 +110,7 @@ class DblPropReq:
     value: F64 = 0.0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class StrPropReq:
     """Universal REQ 250/249 GET/SET_STRPROP."""
 
@@ -131,8 +118,7 @@ class StrPropReq:
     value: PropText = ""
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class BoolPropReq:
     """Universal REQ 248/247 GET/SET_BOOLPROP (value is a char on the wire)."""
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Annotated
 
 from player_server.protocol.common import (
@@ -27,36 +26,32 @@ from player_server.protocol.xdr import (
     F32Array,
     F64Array,
     String,
-    xdr_struct,
+    xdr_dataclass,
 )
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class SonarData:
     """sonar DATA 1 RANGES [m]."""
 
     ranges: F32Array = ()
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class SonarGeom:
     """sonar GET_GEOM reply / DATA 2: one pose per transducer (robot frame)."""
 
     poses: Annotated[tuple[Pose3d, ...], Array(Pose3d)] = ()
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class SonarPowerConfig:
     """sonar REQ 2 POWER."""
 
     state: U8 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class LaserData:
     """laser DATA 1 SCAN; bearing i = min_angle + i * resolution."""
 
@@ -69,8 +64,7 @@ class LaserData:
     id: U32 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class LaserDataScanpose:
     """laser DATA 2 SCANPOSE: a scan and the laser pose when scanned."""
 
@@ -78,8 +72,7 @@ class LaserDataScanpose:
     pose: Pose2d = POSE2D_ZERO
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class LaserDataScanangle:
     """laser DATA 3 SCANANGLE: explicit bearings."""
 
@@ -90,8 +83,7 @@ class LaserDataScanangle:
     id: U32 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class LaserGeom:
     """laser REQ 1 GET_GEOM reply."""
 
@@ -99,8 +91,7 @@ class LaserGeom:
     size: Bbox3d = BBOX3D_ZERO
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class LaserConfig:
     """laser REQ 2 SET_CONFIG / REQ 3 GET_CONFIG."""
 
@@ -113,24 +104,21 @@ class LaserConfig:
     scanning_frequency: F32 = 0.0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class LaserPowerConfig:
     """laser REQ 4 POWER."""
 
     state: U8 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class LaserGetIdConfig:
     """laser REQ 5 GET_ID reply."""
 
     serial_number: U32 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class LaserSetFilterConfig:
     """laser REQ 6 SET_FILTER (types MEDIAN 1, EDGE 2, RANGE 3, MEAN 4)."""
 
@@ -138,8 +126,7 @@ class LaserSetFilterConfig:
     parameters: Annotated[tuple[float, ...], Array(WIRE_F32, 8)] = ()
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class BlobfinderBlob:
     """One blob (40 B): colour 0x00RRGGBB, area and box in pixels, range in metres."""
 
@@ -155,8 +142,7 @@ class BlobfinderBlob:
     range: F32 = 0.0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class BlobfinderData:
     """blobfinder DATA 1 BLOBS."""
 
@@ -165,8 +151,7 @@ class BlobfinderData:
     blobs: Annotated[tuple[BlobfinderBlob, ...], Array(BlobfinderBlob)] = ()
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class BlobfinderColorConfig:
     """blobfinder REQ 1 SET_COLOR / REQ 3 GET_COLOR."""
 
@@ -179,8 +164,7 @@ class BlobfinderColorConfig:
     bmax: U32 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class BlobfinderImagerConfig:
     """blobfinder REQ 2 SET_IMAGER_PARAMS."""
 
@@ -190,8 +174,7 @@ class BlobfinderImagerConfig:
     autogain: I32 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class FiducialItem:
     """One fiducial (100 B): id (-1 unidentified), pose relative to the detector, uncertainty."""
 
@@ -200,16 +183,14 @@ class FiducialItem:
     upose: Pose3d = POSE3D_ZERO
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class FiducialData:
     """fiducial DATA 1 SCAN."""
 
     fiducials: Annotated[tuple[FiducialItem, ...], Array(FiducialItem)] = ()
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class FiducialGeom:
     """fiducial REQ 1 GET_GEOM reply."""
 
@@ -218,8 +199,7 @@ class FiducialGeom:
     fiducial_size: Bbox2d = BBOX2D_ZERO
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class FiducialFov:
     """fiducial REQ 2 GET_FOV / REQ 3 SET_FOV."""
 
@@ -228,24 +208,21 @@ class FiducialFov:
     view_angle: F32 = 0.0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class FiducialId:
     """fiducial REQ 7 GET_ID / REQ 8 SET_ID."""
 
     id: U32 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class BumperData:
     """bumper DATA 1 STATE: one byte per bumper, nonzero = pressed."""
 
     bumpers: ByteArray = b""
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class BumperDefine:
     """One bumper (56 B): pose, length, radius (0 = straight)."""
 
@@ -254,24 +231,21 @@ class BumperDefine:
     radius: F32 = 0.0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class BumperGeom:
     """bumper GET_GEOM reply / DATA 2 GEOM."""
 
     bumper_def: Annotated[tuple[BumperDefine, ...], Array(BumperDefine)] = ()
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class OpaqueData:
     """opaque DATA 1 STATE, CMD 2 DATA and REQ 1 DATA: application-defined bytes."""
 
     data: ByteArray = b""
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class CameraData:
     """camera DATA 1 STATE and REQ 3 GET_IMAGE reply."""
 
@@ -284,8 +258,7 @@ class CameraData:
     image: ByteArray = b""
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class CameraSourceReq:
     """camera REQ 1 GET_SOURCE / REQ 2 SET_SOURCE."""
 
@@ -293,24 +266,21 @@ class CameraSourceReq:
     source: I32 = 0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class RangerDataRange:
     """ranger DATA 1 RANGE [m]."""
 
     ranges: F64Array = ()
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class RangerDataIntns:
     """ranger DATA 3 INTNS."""
 
     intensities: F64Array = ()
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class RangerGeom:
     """ranger GET_GEOM reply / DATA 5 GEOM."""
 
@@ -320,8 +290,7 @@ class RangerGeom:
     element_sizes: Annotated[tuple[Bbox3d, ...], Array(Bbox3d)] = ()
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class RangerConfig:
     """ranger REQ 4 SET_CONFIG / REQ 5 GET_CONFIG (rad, m, Hz)."""
 
@@ -334,8 +303,7 @@ class RangerConfig:
     frequency: F64 = 0.0
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class RangerDataRangestamped:
     """ranger DATA 2 RANGESTAMPED; geom and config are always encoded."""
 
@@ -346,8 +314,7 @@ class RangerDataRangestamped:
     config: RangerConfig = RangerConfig()
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class RangerDataIntnsstamped:
     """ranger DATA 4 INTNSSTAMPED."""
 
@@ -358,8 +325,7 @@ class RangerDataIntnsstamped:
     config: RangerConfig = RangerConfig()
 
 
-@xdr_struct
-@dataclass(frozen=True, slots=True)
+@xdr_dataclass
 class RangerPowerConfig:
     """ranger REQ 2 POWER / REQ 3 INTNS."""
 

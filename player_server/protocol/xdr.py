@@ -1,13 +1,9 @@
 """Declarative XDR structs the way Player's generated packers encode them.
 
-A message body is a frozen dataclass whose annotations name wire types::
-
-    @xdr_struct
-    @dataclass(frozen=True, slots=True)
-    class Pose2d:
-        px: F64 = 0.0
-        py: F64 = 0.0
-        pa: F64 = 0.0
+A message body is a frozen dataclass whose annotations name wire types, declared with
+``@xdr_dataclass`` (a frozen, slotted dataclass run through ``xdr_struct``):
+``common.Pose2d`` (three ``F64``) is the simplest, ``sensor_msgs.LaserData`` shows counted
+arrays.
 
 ``xdr_struct`` compiles, once per class, an ``encode(obj) -> bytes`` and a
 ``decode(buf, offset) -> (obj, offset)`` function. Consecutive fixed-size members
@@ -33,7 +29,7 @@ import typing
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Annotated, Any, ClassVar, TypeVar
+from typing import Annotated, Any, ClassVar, TypeVar, dataclass_transform
 
 from player_server.frozen import frozen_constructor
 from player_server.protocol.errors import DecodeError, EncodeError
@@ -333,6 +329,13 @@ def xdr_struct(cls: type[T]) -> type[T]:
         raise TypeError(f"{cls.__name__} must be a dataclass")
     _compile(cls, _field_specs(cls))
     return cls
+
+
+@dataclass_transform(frozen_default=True)
+def xdr_dataclass(cls: type[T]) -> type[T]:
+    """Class decorator declaring a wire struct: a frozen, slotted dataclass whose codec is
+    compiled by `xdr_struct`. Every body and nested struct of the protocol is declared so."""
+    return xdr_struct(dataclass(frozen=True, slots=True)(cls))
 
 
 def _check_count(n: int, spec: Array | Bytes | String) -> None:

@@ -386,23 +386,31 @@ def trail_triangles(points: Sequence[tuple[float, float]],
     return out
 
 
-def trail_command(ids: IdSource, robot: str, points: Sequence[tuple[float, float]]) -> Command:
-    """A ribbon through `points` (x, y) just above the floor: where the robot has been."""
+def vertices_object(ids: IdSource, vertices: list[float], object_type: str,
+                    material: dict[str, Any]) -> dict[str, Any]:
+    """A three.js object drawn from flat (x, y, z, ...) vertices in its parent's frame: a
+    "Mesh" of triangles or "LineSegments" of point pairs, with `material` (its type, colour
+    and options)."""
     gid, mid, oid = ids.next(), ids.next(), ids.next()
-    obj = {
+    return {
         "metadata": {"version": 4.5, "type": "Object"},
         "geometries": [{
             "uuid": gid, "type": "BufferGeometry",
             "data": {"attributes": {"position": {
-                "itemSize": 3, "type": "Float32Array", "array": trail_triangles(points),
+                "itemSize": 3, "type": "Float32Array", "array": vertices,
                 "normalized": False,
             }}},
         }],
-        "materials": [{"uuid": mid, "type": "MeshBasicMaterial", "color": TRAIL_COLOUR,
-                       "side": 2}],
-        "object": {"uuid": oid, "type": "Mesh", "geometry": gid, "material": mid,
+        "materials": [{"uuid": mid, **material}],
+        "object": {"uuid": oid, "type": object_type, "geometry": gid, "material": mid,
                    "matrix": pose_matrix(0.0, 0.0, 0.0, 0.0)},
     }
+
+
+def trail_command(ids: IdSource, robot: str, points: Sequence[tuple[float, float]]) -> Command:
+    """A ribbon through `points` (x, y) just above the floor: where the robot has been."""
+    obj = vertices_object(ids, trail_triangles(points), "Mesh",
+                          {"type": "MeshBasicMaterial", "color": TRAIL_COLOUR, "side": 2})
     return set_object(f"{ROOT}/trails/{robot}", obj)
 
 
@@ -432,21 +440,9 @@ def laser_segments(shape: LaserShape, ranges: Sequence[float],
 
 
 def laser_command(ids: IdSource, shape: LaserShape, ranges: Sequence[float]) -> Command:
-    gid, mid, oid = ids.next(), ids.next(), ids.next()
-    obj = {
-        "metadata": {"version": 4.5, "type": "Object"},
-        "geometries": [{
-            "uuid": gid, "type": "BufferGeometry",
-            "data": {"attributes": {"position": {
-                "itemSize": 3, "type": "Float32Array", "array": laser_segments(shape, ranges),
-                "normalized": False,
-            }}},
-        }],
-        "materials": [{"uuid": mid, "type": "LineBasicMaterial", "color": LASER_COLOUR,
-                       "transparent": True, "opacity": 0.8}],
-        "object": {"uuid": oid, "type": "LineSegments", "geometry": gid, "material": mid,
-                   "matrix": pose_matrix(0.0, 0.0, 0.0, 0.0)},
-    }
+    obj = vertices_object(ids, laser_segments(shape, ranges), "LineSegments",
+                          {"type": "LineBasicMaterial", "color": LASER_COLOUR,
+                           "transparent": True, "opacity": 0.8})
     return set_object(f"{robot_path(shape.robot)}/laser", obj)
 
 
