@@ -475,6 +475,27 @@ def build_monitor(p: Params, profile: RobotProfile) -> TaskPlan:
     )
 
 
+def build_watch_side(p: Params, profile: RobotProfile) -> TaskPlan:
+    """One member of a group watch: drive to the spot (x, y) beside the object, turn until
+    it is straight ahead, and hold there watching it for `duration_s`."""
+    colour = colour_of(p["colour"])
+    x, y = number(p, "x"), number(p, "y")
+    duration = number(p, "duration_s")
+    go = (*_avoid(profile, 0.35),
+          Layer(ServoToLocation(x, y, tolerance_m=number(p, "tolerance_m"),
+                                max_speed_mps=number(p, "speed_mps")), 1))
+    face = (Layer(VisualServoToColour(colour, speed_mps=0.0, stop_range_m=math.inf,
+                                      align_tolerance_rad=math.radians(10.0)), 1),
+            Layer(_search(profile, 0.0), 0))
+    return TaskPlan(
+        "watch-object-side",
+        (Stage("go", go, until=signal("at-goal"), timeout_s=number(p, "go_s")),
+         Stage("face", face, until=signal("reached"), timeout_s=20.0, on_timeout="next"),
+         Stage("watch", (Layer(Hold(), 0),), until=stage_elapsed(duration))),
+        progress=_distance_progress(x, y),
+    )
+
+
 # --- charging (used by the battery manager, not auctioned) -------------------------------------
 
 
@@ -572,6 +593,15 @@ TASKS: dict[str, TaskSpec] = {
             {"duration_s": 60.0, "period_s": 1.0, "colours": ""}, (), build_monitor,
             (WeightedMetric("available", constant(1.0), 1.0),),
             "log positions of coloured objects seen by the overhead camera",
+        ),
+        TaskSpec(
+            "watch-object-side", frozenset({"mobile", "camera"}),
+            {"duration_s": 120.0, "tolerance_m": 0.3, "speed_mps": 0.4, "go_s": 240.0},
+            ("colour", "x", "y"), build_watch_side,
+            (WeightedMetric("distance", negative_distance(), 1.0),
+             WeightedMetric("battery", battery_fraction, 0.5)),
+            "one of two robots watching an object from two sides: go to a spot beside it, "
+            "face it and hold",
         ),
     )
 }
