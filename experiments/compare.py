@@ -273,6 +273,12 @@ def run_one(job: Job, *, out: Path, until_s: float, extra: Sequence[str],
     return run_row(job, summary, events, code, run_dir)
 
 
+def _span(seconds: float) -> str:
+    if seconds >= 3600.0:
+        return f"{seconds / 3600.0:g} h"
+    return f"{seconds / 60.0:g} min" if seconds >= 60.0 else f"{seconds:g} s"
+
+
 def parse_allocators(text: str) -> list[str]:
     names = [a.strip() for a in text.split(",") if a.strip()]
     unknown = [a for a in names if a not in ALLOCATOR_NAMES]
@@ -373,8 +379,8 @@ def compare(experiment: str, allocators: str, seeds: str, sim_hours: float | Non
     write_csv(rows, out / "comparison.csv")
     stats = by_allocator(rows, names)
     plot = plot_comparison(rows, stats, out / "comparison.png",
-                           f"{experiment}: {until_s / 3600.0:g} h simulated, seeds "
-                           f"{seeds}, mean ± std over seeds")
+                           f"{experiment}: {_span(until_s)} simulated, seeds {seeds}, "
+                           "mean ± std over seeds")
     click.echo(format_table(stats))
     click.echo(f"wrote {out / 'comparison.csv'}, {plot}")
     failed = [r for r in rows if r["exit_code"] != 0]

@@ -148,3 +148,14 @@ def test_allocator_names_are_checked() -> None:
         parse_allocators("murdoch,auction")
     with pytest.raises(click.BadParameter):
         parse_allocators(" , ")
+
+
+def test_distance_driven_sums_each_robots_steps_and_leaves_out_placements() -> None:
+    from experiments.report import path_lengths
+
+    frames = [{"t": 0.0, "bodies": {"p1": [0.0, 0.0, 0.0], "box": [5.0, 5.0, 0.0]}},
+              {"t": 0.5, "bodies": {"p1": [0.3, 0.4, 0.0], "p2": [1.0, 1.0, 0.0]}},
+              {"t": 1.0, "bodies": {"p1": [0.3, 0.4, 0.0], "p2": [1.0, 1.25, 0.0],
+                                    "box": [9.0, 9.0, 0.0]}},
+              {"t": 1.5, "bodies": {"p1": [4.3, 0.4, 0.0]}}]  # p1 placed 4 m away
+    assert path_lengths(frames, ["p1", "p2", "p3"]) == {"p1": 0.5, "p2": 0.25, "p3": 0.0}
