@@ -14,8 +14,6 @@ from typing import Any
 
 from behaviors.arbiter import Layer
 from behaviors.basis import (
-    AvoidWithLaser,
-    AvoidWithSonar,
     BackOff,
     BoxAlignmentFromLaser,
     Cruise,
@@ -29,9 +27,9 @@ from behaviors.basis import (
     TurnAbout,
     ViewOfEnd,
     VisualServoToColour,
-    Wander,
     WatchForMotionWithLaser,
 )
+from behaviors.group_watch import build_watch_side
 from behaviors.metrics import (
     WeightedMetric,
     battery_fraction,
@@ -46,6 +44,10 @@ from behaviors.metrics import (
     weighted_sum,
 )
 from behaviors.params import ParamError, colour_of, number
+from behaviors.plan_parts import avoid_layers as _avoid
+from behaviors.plan_parts import distance_progress as _distance_progress
+from behaviors.plan_parts import elapsed_progress as _elapsed_progress
+from behaviors.plan_parts import search as _search
 from behaviors.profile import OVERHEAD_CAMERA, RobotProfile
 from behaviors.snapshot import Snapshot, wrap_angle
 from behaviors.task import Stage, TaskPlan, TickView, any_of, elapsed, signal, stage_elapsed
@@ -145,41 +147,7 @@ def bid_terms(spec: TaskSpec, terms: Sequence[str]) -> tuple[WeightedMetric, ...
     return tuple(out)
 
 
-def _avoid(profile: RobotProfile, safe_range_m: float, ignore_half_angle_rad: float = 0.0,
-           prefer_laser: bool = False) -> tuple[Layer, ...]:
-    if profile.has("laser") and (prefer_laser or not profile.has("sonar")):
-        return (Layer(AvoidWithLaser(safe_range_m=safe_range_m,
-                                     ignore_half_angle_rad=ignore_half_angle_rad), 2),)
-    if profile.has("sonar"):
-        return (Layer(AvoidWithSonar(safe_range_m=safe_range_m,
-                                     ignore_half_angle_rad=ignore_half_angle_rad), 2),)
-    return ()
-
-
-def _search(profile: RobotProfile, speed_mps: float = 0.0) -> Wander:
-    """Look for something: keep turning (left or right, by seed) at a varying rate."""
-    bias = 0.4 if profile.seed % 2 == 0 else -0.4
-    return Wander(seed=profile.seed, speed_mps=speed_mps, max_turn_radps=0.6,
-                  turn_bias_radps=bias, straight_fraction=0.0)
-
-
-def _elapsed_progress(duration_s: float) -> Callable[[TickView], float]:
-    return lambda view: view.task_elapsed_s / duration_s if duration_s > 0 else 0.0
-
-
 # --- goto-goal ------------------------------------------------------------------------------
-
-
-def _distance_progress(x: float, y: float) -> Callable[[TickView], float]:
-    def progress(view: TickView) -> float:
-        pose = view.snapshot.pose
-        if pose is None:
-            return 0.0
-        d = pose.distance_to(x, y)
-        start = view.memo.setdefault("start_distance_m", d)
-        return 1.0 - d / start if start > 0 else 1.0
-
-    return progress
 
 
 def build_goto(p: Params, profile: RobotProfile) -> TaskPlan:
@@ -472,27 +440,6 @@ def build_monitor(p: Params, profile: RobotProfile) -> TaskPlan:
         done=elapsed(duration),
         observe=observe,
         progress=_elapsed_progress(duration),
-    )
-
-
-def build_watch_side(p: Params, profile: RobotProfile) -> TaskPlan:
-    """One member of a group watch: drive to the spot (x, y) beside the object, turn until
-    it is straight ahead, and hold there watching it for `duration_s`."""
-    colour = colour_of(p["colour"])
-    x, y = number(p, "x"), number(p, "y")
-    duration = number(p, "duration_s")
-    go = (*_avoid(profile, 0.35),
-          Layer(ServoToLocation(x, y, tolerance_m=number(p, "tolerance_m"),
-                                max_speed_mps=number(p, "speed_mps")), 1))
-    face = (Layer(VisualServoToColour(colour, speed_mps=0.0, stop_range_m=math.inf,
-                                      align_tolerance_rad=math.radians(10.0)), 1),
-            Layer(_search(profile, 0.0), 0))
-    return TaskPlan(
-        "watch-object-side",
-        (Stage("go", go, until=signal("at-goal"), timeout_s=number(p, "go_s")),
-         Stage("face", face, until=signal("reached"), timeout_s=20.0, on_timeout="next"),
-         Stage("watch", (Layer(Hold(), 0),), until=stage_elapsed(duration))),
-        progress=_distance_progress(x, y),
     )
 
 

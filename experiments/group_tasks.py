@@ -138,6 +138,13 @@ def side_spots(spec: WorldSpec, x: float, y: float, rng: random.Random,
     return rng.choice(fits) if fits else None
 
 
+def member_equipment(kind: str) -> frozenset[str]:
+    """What a member needs: the resources its task needs in the robots' task library."""
+    from behaviors.library import TASKS
+
+    return TASKS[kind].subjects
+
+
 def _colour_name(colour: int) -> str:
     return f"#{colour:06x}"
 
@@ -152,7 +159,7 @@ def watch_pair(spec: WorldSpec, rng: random.Random, duration_s: float) -> GroupT
         if spots is None:
             continue
         colour = _colour_name(obj.colour)
-        members = tuple(GroupMember(WATCH_SIDE, frozenset({"mobile", "camera"}), {
+        members = tuple(GroupMember(WATCH_SIDE, member_equipment(WATCH_SIDE), {
             "colour": colour, "x": sx, "y": sy, "duration_s": duration_s, "side": i})
             for i, (sx, sy) in enumerate(spots))
         return GroupTask(WATCH_PAIR, members, duration_s,
