@@ -148,3 +148,20 @@ def test_the_summary_counts_group_tasks_by_how_they_ended() -> None:
     assert s["group_tasks_completed"] == 1
     assert s["group_tasks"] == {"introduced": 3, "completed": 1, "failed": 0,
                                 "unachievable": 1, "open_at_end": 1, "in_place_mean_s": 19.0}
+
+
+def test_the_end_of_a_run_says_how_its_group_tasks_went() -> None:
+    from experiments.end_report import summary_lines
+
+    base = {"sim_time_s": 60.0, "tasks": {"introduced": 3, "executed": 1, "failed": 0,
+                                          "unachievable": 0, "reallocations": 0},
+            "charging_trips": 0, "robot_failures": 0,
+            "messages": {"total": 5, "total_bytes": 500},
+            "invariant_terminal_states": {"holds": True}}
+    assert not any(line.startswith(("groups", "allocator")) for line in summary_lines(base))
+    lines = summary_lines({**base, "allocator": "cbga", "group_tasks": {
+        "introduced": 2, "completed": 1, "failed": 1, "unachievable": 0, "open_at_end": 0,
+        "in_place_mean_s": 19.5}})
+    assert lines[0] == "allocator  cbga"
+    assert ("groups     introduced 2  completed 1  failed 1  unachievable 0  open at end 0  "
+            "(in place 19.5 s after introduction, mean)") in lines
