@@ -295,8 +295,8 @@ def _run_options(world: str | None, task_interval: float, group_tasks: float,
     """The options every run gets alike, checked before anything runs."""
     from experiments.run_checks import RunSetupError, check_schedule, load_run_world
 
-    spec = load_run_world(world or "longterm")
     try:
+        spec = load_run_world(world or "longterm")
         check_schedule(robots=[r.name for r in spec.robots], duration_s=until_s,
                        kills=[parse_at(k) for k in kills],
                        restarts=[parse_at(r) for r in restarts], world=world or "longterm")
@@ -352,7 +352,8 @@ def compare(experiment: str, allocators: str, seeds: str, sim_hours: float | Non
     until_s = sim_hours * 3600.0 if sim_hours is not None else parse_duration_s(until or "3h")
     if until_s <= 0:
         raise click.BadParameter(f"expected a positive span, got {until_s:g} s",
-                                 param_hint="--until")
+                                 param_hint="--sim-hours" if sim_hours is not None
+                                 else "--until")
     if metric_terms:
         from experiments.run_cli import _metric_terms
 

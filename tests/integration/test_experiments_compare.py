@@ -77,7 +77,9 @@ def test_bad_options_are_refused_before_anything_runs(tmp_path: Path) -> None:
                          (["--group-tasks", "2"], "--group-tasks"),
                          (["--kill", "p9@1m"], "p9"),
                          (["--kill", "p1@4h", "--until", "1h"], "p1@4h"),
-                         (["--metric", "charisma"], "--metric")):
+                         (["--metric", "charisma"], "--metric"),
+                         (["--sim-hours", "-1"], "--sim-hours"),
+                         (["--world", "nowhere"], "nowhere")):
         proc = subprocess.run([*_murdoch(), "compare", "longterm", *args, "--out",
                                str(tmp_path / "c")],
                               capture_output=True, text=True, timeout=60, check=False)
