@@ -100,10 +100,10 @@ def build_report(run: rd.RunDir, *, replay: bool = True) -> Report:
     summary["events_sha256"] = (hashlib.sha256(run.events.read_bytes()).hexdigest()
                                 if run.events.is_file() else None)
     summary["malformed_event_lines"] = stats.malformed
+    summary["allocator"] = (str(run.read_config().get("allocator", "murdoch"))
+                            if run.config.is_file() else "murdoch")
     spec = world_of(run)
     robots = tuple(r.name for r in spec.robots) if spec is not None else ()
-    config = run.read_config() if run.config.is_file() else {}
-    summary["allocator"] = config.get("allocator", "murdoch")
     try:
         summary["distance_m"] = distance_driven(run, spec)
     except Exception as exc:  # a recording cut short or unreadable: the rest still stands
