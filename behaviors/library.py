@@ -14,8 +14,6 @@ from typing import Any
 
 from behaviors.arbiter import Layer
 from behaviors.basis import (
-    AvoidWithLaser,
-    AvoidWithSonar,
     BackOff,
     BoxAlignmentFromLaser,
     Cruise,
@@ -29,9 +27,9 @@ from behaviors.basis import (
     TurnAbout,
     ViewOfEnd,
     VisualServoToColour,
-    Wander,
     WatchForMotionWithLaser,
 )
+from behaviors.group_watch import build_watch_side
 from behaviors.metrics import (
     WeightedMetric,
     battery_fraction,
@@ -46,6 +44,10 @@ from behaviors.metrics import (
     weighted_sum,
 )
 from behaviors.params import ParamError, colour_of, number
+from behaviors.plan_parts import avoid_layers as _avoid
+from behaviors.plan_parts import distance_progress as _distance_progress
+from behaviors.plan_parts import elapsed_progress as _elapsed_progress
+from behaviors.plan_parts import search as _search
 from behaviors.profile import OVERHEAD_CAMERA, RobotProfile
 from behaviors.snapshot import Snapshot, wrap_angle
 from behaviors.task import Stage, TaskPlan, TickView, any_of, elapsed, signal, stage_elapsed
@@ -145,41 +147,7 @@ def bid_terms(spec: TaskSpec, terms: Sequence[str]) -> tuple[WeightedMetric, ...
     return tuple(out)
 
 
-def _avoid(profile: RobotProfile, safe_range_m: float, ignore_half_angle_rad: float = 0.0,
-           prefer_laser: bool = False) -> tuple[Layer, ...]:
-    if profile.has("laser") and (prefer_laser or not profile.has("sonar")):
-        return (Layer(AvoidWithLaser(safe_range_m=safe_range_m,
-                                     ignore_half_angle_rad=ignore_half_angle_rad), 2),)
-    if profile.has("sonar"):
-        return (Layer(AvoidWithSonar(safe_range_m=safe_range_m,
-                                     ignore_half_angle_rad=ignore_half_angle_rad), 2),)
-    return ()
-
-
-def _search(profile: RobotProfile, speed_mps: float = 0.0) -> Wander:
-    """Look for something: keep turning (left or right, by seed) at a varying rate."""
-    bias = 0.4 if profile.seed % 2 == 0 else -0.4
-    return Wander(seed=profile.seed, speed_mps=speed_mps, max_turn_radps=0.6,
-                  turn_bias_radps=bias, straight_fraction=0.0)
-
-
-def _elapsed_progress(duration_s: float) -> Callable[[TickView], float]:
-    return lambda view: view.task_elapsed_s / duration_s if duration_s > 0 else 0.0
-
-
 # --- goto-goal ------------------------------------------------------------------------------
-
-
-def _distance_progress(x: float, y: float) -> Callable[[TickView], float]:
-    def progress(view: TickView) -> float:
-        pose = view.snapshot.pose
-        if pose is None:
-            return 0.0
-        d = pose.distance_to(x, y)
-        start = view.memo.setdefault("start_distance_m", d)
-        return 1.0 - d / start if start > 0 else 1.0
-
-    return progress
 
 
 def build_goto(p: Params, profile: RobotProfile) -> TaskPlan:
@@ -565,6 +533,15 @@ TASKS: dict[str, TaskSpec] = {
             {"duration_s": 60.0, "period_s": 1.0, "colours": ""}, (), build_monitor,
             (WeightedMetric("available", constant(1.0), 1.0),),
             "log positions of coloured objects seen by the overhead camera",
+        ),
+        TaskSpec(
+            "watch-object-side", frozenset({"mobile", "camera"}),
+            {"duration_s": 120.0, "tolerance_m": 0.3, "speed_mps": 0.4, "go_s": 240.0},
+            ("colour", "x", "y"), build_watch_side,
+            (WeightedMetric("distance", negative_distance(), 1.0),
+             WeightedMetric("battery", battery_fraction, 0.5)),
+            "one of two robots watching an object from two sides: go to a spot beside it, "
+            "face it and hold",
         ),
     )
 }

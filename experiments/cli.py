@@ -27,6 +27,8 @@ SUBCOMMANDS: dict[str, Subcommand] = {
     "run": Subcommand("experiments.run_cli:run", "Run an experiment end to end."),
     "sweep-longterm": Subcommand("experiments.sweep_longterm:sweep_longterm",
                                  "Run the long-term experiment over task rates and seeds."),
+    "compare": Subcommand("experiments.compare:compare",
+                          "Run the allocators side by side over seeds; CSV, figure, table."),
     "soak": Subcommand("experiments.soak.cli:soak",
                        "Run the team for hours under random faults; check nothing was lost."),
     "soak-report": Subcommand("experiments.soak.cli:soak_report",

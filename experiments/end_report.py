@@ -47,6 +47,15 @@ def summary_lines(s: Mapping[str, Any]) -> list[str]:
         if swap is not None:
             lines.append(f"role swap  {swap['robot']}: {swap['end_before']} end before, "
                          f"{swap['end_after']} end after: {'yes' if swap['swapped'] else 'NO'}")
+    group = s.get("group_tasks")
+    if group and group.get("introduced"):
+        lines.append(f"groups     introduced {group['introduced']}  completed "
+                     f"{group['completed']}  failed {group['failed']}  unachievable "
+                     f"{group['unachievable']}  open at end {group['open_at_end']}"
+                     + (f"  (in place {group['in_place_mean_s']:g} s after introduction, "
+                        "mean)" if group.get("in_place_mean_s") is not None else ""))
+    if s.get("allocator") not in (None, "murdoch"):
+        lines.insert(0, f"allocator  {s['allocator']}")
     inv = s["invariant_terminal_states"]
     lines.append("invariant  every task ends in exactly one terminal state: "
                  f"{'yes' if inv['holds'] else 'NO'}")

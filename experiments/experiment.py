@@ -40,6 +40,10 @@ class Fault:
         return f"{self.robot}@{self.t_s:g}s"
 
 
+ALLOCATOR_NAMES: tuple[str, ...] = ("murdoch", "cbba", "cbga")
+"""The allocators a run's robots may use (`murdoch run --allocator`); MURDOCH by default."""
+
+
 @dataclass(frozen=True)
 class RunOptions:
     """The options of one run that experiments read (`murdoch run` and `murdoch soak`)."""
@@ -52,6 +56,9 @@ class RunOptions:
     goal_radius_m: float | None = None
     goal_plan: Any = None
     """`experiments.boxpush.GoalPlan` (None: the goal stays where the world puts it)."""
+    group_task_rate: float = 0.0
+    """longterm: the fraction of the task stream that are group tasks (two robots at once)."""
+    allocator: str = "murdoch"
 
 
 Sampler = tuple[float, Callable[[Any, float], None]]

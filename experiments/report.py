@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import hashlib
 import logging
-from collections.abc import Iterator
+import math
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -55,6 +56,41 @@ def recorded_poses(path: Path) -> Iterator[dict[str, Any]]:
         yield {"t": rec.t_s, "kind": ev.POSES, "bodies": bodies}
 
 
+TELEPORT_M = 2.0
+"""A body that moved further than this between two recorded poses was placed, not driven."""
+
+
+def path_lengths(frames: Iterable[Mapping[str, Any]], robots: Iterable[str]
+                 ) -> dict[str, float]:
+    """Metres each robot drove: the sum of the steps between its successive recorded
+    positions (``poses`` events), leaving out jumps of more than `TELEPORT_M` (a robot
+    placed somewhere by the runner)."""
+    names = set(robots)
+    last: dict[str, tuple[float, float]] = {}
+    total = dict.fromkeys(sorted(names), 0.0)
+    for frame in frames:
+        for name, pose in frame["bodies"].items():
+            if name not in names:
+                continue
+            x, y = float(pose[0]), float(pose[1])
+            if name in last:
+                step = math.hypot(x - last[name][0], y - last[name][1])
+                if step <= TELEPORT_M:
+                    total[name] += step
+            last[name] = (x, y)
+    return {name: round(v, 3) for name, v in total.items()}
+
+
+def distance_driven(run: rd.RunDir, spec: Any) -> dict[str, Any] | None:
+    """summary.json's `distance_m`: metres driven per robot and in all, from the recording's
+    ground-truth poses (None without a recording)."""
+    if spec is None or not run.recording.is_file():
+        return None
+    by_robot = path_lengths(recorded_poses(run.recording),
+                            (r.name for r in spec.robots if r.mobile))
+    return {"by_robot": by_robot, "total": round(sum(by_robot.values()), 3)}
+
+
 def build_report(run: rd.RunDir, *, replay: bool = True) -> Report:
     stats = ev.ReadStats()
     events = ev.read_events(run.events, stats=stats)
@@ -64,8 +100,15 @@ def build_report(run: rd.RunDir, *, replay: bool = True) -> Report:
     summary["events_sha256"] = (hashlib.sha256(run.events.read_bytes()).hexdigest()
                                 if run.events.is_file() else None)
     summary["malformed_event_lines"] = stats.malformed
+    summary["allocator"] = (str(run.read_config().get("allocator", "murdoch"))
+                            if run.config.is_file() else "murdoch")
     spec = world_of(run)
     robots = tuple(r.name for r in spec.robots) if spec is not None else ()
+    try:
+        summary["distance_m"] = distance_driven(run, spec)
+    except Exception as exc:  # a recording cut short or unreadable: the rest still stands
+        log.warning("%s: distance driven not computed: %s", run.root, exc)
+        summary["distance_m"] = None
     run.write_summary(summary)
     problems: list[str] = []
     plots: tuple[Path, ...] = ()

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
+from experiments.experiment import ALLOCATOR_NAMES
 from experiments.plugins import EXPERIMENTS
 from experiments.supervisor import RobotProcess, RobotSupervisor
 from experiments.supervisor import start_robot as _start_robot
@@ -119,6 +120,14 @@ def free_udp_port() -> int:
 @click.option("--trails", type=click.IntRange(0, 5000), default=0, show_default=True,
               help="--meshcat: draw a trail of each robot's last N positions.")
 @click.option("--lasers", is_flag=True, help="--meshcat: draw the robots' laser rays.")
+@click.option("--allocator", type=click.Choice(ALLOCATOR_NAMES), default="murdoch",
+              show_default=True,
+              help="How the robots allocate tasks among themselves: MURDOCH auctions, or CBBA "
+                   "or CBGA consensus.")
+@click.option("--group-tasks", "group_tasks", type=click.FloatRange(0.0, 1.0), default=0.0,
+              show_default=True,
+              help="longterm: the fraction of tasks that are group tasks, each needing two "
+                   "robots at once (watch one object from two sides).")
 def run(experiment: str, sim_hours: float | None, until: str | None, speedup: float | None,
         seed: int,
         meshcat: bool, out: Path, world: str | None, task_interval: float,
@@ -126,7 +135,8 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
         switch_ons: tuple[str, ...], goal_radius: float | None, goal_velocity: str | None,
         retargets: tuple[str, ...], metric_terms: str, no_replay: bool,
         pipelined: bool, robot_nice: int, key: str | None, pin_cpus: bool,
-        record_rate: float, no_record: bool, trails: int, lasers: bool) -> None:
+        record_rate: float, no_record: bool, trails: int, lasers: bool, allocator: str,
+        group_tasks: float) -> None:
     """Run EXPERIMENT end to end and leave a run directory behind."""
     from experiments.run_checks import RunSetupError, check_out_dir, effective_speedup
 
@@ -147,7 +157,8 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
             pipelined=pipelined, robot_nice=robot_nice, pin_cpus=pin_cpus, key=key,
             record=not no_record, record_rate_hz=record_rate, trails=trails, lasers=lasers,
             goal_plan=_goal_plan(goal_velocity, retargets),
-            metric_terms=_metric_terms(metric_terms),
+            metric_terms=_metric_terms(metric_terms), allocator=allocator,
+            group_task_rate=group_tasks,
         )
     except RunSetupError as exc:
         click.echo(f"murdoch run: {exc}", err=True)
@@ -185,7 +196,7 @@ def run_experiment(
     pipelined: bool = True, robot_nice: int = 0, pin_cpus: bool = False,
     key: str | None = None, trails: int = 0, lasers: bool = False, record: bool = True,
     record_rate_hz: float = 2.0, goal_plan: Any = None, metric_terms: tuple[str, ...] = (),
-    extras: RunExtras | None = None,
+    extras: RunExtras | None = None, allocator: str = "murdoch", group_task_rate: float = 0.0,
 ) -> int:
     """Run one experiment end to end; the exit code of `murdoch run`."""
     from experiments.experiment import RunOptions
@@ -199,7 +210,8 @@ def run_experiment(
         trails=trails, lasers=lasers, record=record, record_rate_hz=record_rate_hz,
         metric_terms=metric_terms, extras=extras if extras is not None else RunExtras())
     options = RunOptions(duration_s, seed, task_interval_s, tuple(switch_offs or ()),
-                         tuple(switch_ons or ()), goal_radius_m, goal_plan)
+                         tuple(switch_ons or ()), goal_radius_m, goal_plan,
+                         group_task_rate=group_task_rate, allocator=allocator)
     spec, options = check_run(settings, options)
     parts = assemble(settings, options, spec)
     reason = serve(parts)

@@ -33,6 +33,7 @@ from typing import Any, Protocol
 
 from experiments import events as ev
 from experiments.experiment import Fault, NoReferee, Referee
+from experiments.group_coordinator import GroupCoordinator
 from experiments.observe import JsonlTail, robot_event_to_run_events
 from experiments.task_source import PlannedTask
 
@@ -141,6 +142,9 @@ class RunLoop:
             "thaw": self._thaw, "retire": self._retire, "charger-off": self._charger_off,
             "charger-on": self._charger_on, **self.referee.fault_actions()}
         self.referee.bind(self)
+        self.groups = GroupCoordinator(rec=rec, node=node, sim=sim, mobile=mobile,
+                                       introduced=self.state.introduced,
+                                       finished=self.state.finished, patience_s=PATIENCE_S)
 
     # -- the hook -------------------------------------------------------------------------------
     def on_round(self) -> None:
@@ -171,6 +175,7 @@ class RunLoop:
         self._faults(now)
         self.referee.before_tasks(now)
         self._introduce(now)
+        self.groups.step(now)
         self.referee.after_tasks(now)
         self.node.step(0.0)
         self.rec.advance(now)
@@ -228,6 +233,7 @@ class RunLoop:
             self.rec.event(t, ev.TASK_OUTCOME, task=task_id, outcome=d.get("status"),
                            robot=d.get("winner"), reason=d.get("reason", ""))
             st.finished.add(task_id)
+            self.groups.on_outcome(task_id, str(d.get("status")), t)
 
     def on_message(self, envelope: Any) -> None:
         """Every MURDOCH message the runner hears, at the time of its sender's tick."""
@@ -396,7 +402,10 @@ class RunLoop:
             self.next_task = next(self.planned)
 
     def announce(self, planned: PlannedTask, now: float) -> str:
-        """Introduce a task as the user (reintroduced with backoff while unachievable)."""
+        """Introduce a task as the user (reintroduced with backoff while unachievable); a
+        group task goes to the group coordinator."""
+        if self.groups.handles(planned.kind):
+            return self.groups.introduce(planned, now)
         task_id = str(self.node.announce(self.task_spec(planned), patience_s=PATIENCE_S))
         self.rec.event(now, ev.TASK_INTRODUCED, task=task_id, task_kind=planned.kind,
                        params=planned.params, source="user")

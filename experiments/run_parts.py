@@ -128,6 +128,7 @@ def run_config(settings: RunSettings, options: RunOptions,
         "cpu_affinity": split.as_dict() if split is not None else None,
         "kills": labels(settings.kills), "restarts": labels(settings.restarts),
         "team_key": "given" if settings.key or os.environ.get(KEY_ENV) else "fresh",
+        "allocator": options.allocator,
     }
     config.update(settings.experiment.config(options))
     if settings.metric_terms:
@@ -204,7 +205,7 @@ def assemble(settings: RunSettings, options: RunOptions, spec: WorldSpec) -> Run
     specs = {ep.name: robot_process(
         ep.name, world=str(spec.source), mcast_port=mcast_port, seed=options.seed,
         logs=rec.run.logs, metric_terms=settings.metric_terms, lockstep=lockstep,
-        read_timeout_s=STALL_LIMIT_S * 4) for ep in endpoints}
+        read_timeout_s=STALL_LIMIT_S * 4, allocator=options.allocator) for ep in endpoints}
     rec.config["processes"] = [p.as_dict() for p in specs.values()]
     bus_loss = _bus_loss(settings, env)
     supervisor = RobotSupervisor(specs, lambda n: rec.run.log_file(f"robot-{n}"), env,

@@ -106,11 +106,12 @@ def allocation_attempts(events: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
 
 
 def waits(events: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
-    """Introduction of each user task to its first award (when its robot starts on it)."""
+    """Introduction of each user task to its first award (when its robot starts on it);
+    group tasks, which are never awarded whole, are in `group_tasks`."""
     introduced: dict[str, float] = {}
     values: list[float] = []
     for e in events:
-        if e["kind"] == ev.TASK_INTRODUCED and _user_task(e):
+        if e["kind"] == ev.TASK_INTRODUCED and _user_task(e) and not e.get("group"):
             introduced.setdefault(str(e["task"]), float(e["t"]))
         elif e["kind"] == ev.AWARD and str(e["task"]) in introduced:
             values.append(float(e["t"]) - introduced.pop(str(e["task"])))

@@ -59,14 +59,17 @@ def robot_command() -> list[str]:
 
 def robot_process(name: str, *, world: str, mcast_port: int, seed: int, logs: Path,
                   metric_terms: tuple[str, ...], lockstep: bool,
-                  read_timeout_s: float) -> ProcessSpec:
-    """The `murdoch-robot` process that drives the endpoint `name`."""
+                  read_timeout_s: float, allocator: str = "murdoch") -> ProcessSpec:
+    """The `murdoch-robot` process that drives the endpoint `name` (with `allocator` other
+    than MURDOCH, its command line names it; MURDOCH's stays as it always was)."""
     args = ["-p", "{port}", "--name", name, "--world", world, "--mcast-port", str(mcast_port),
             "--seed", str(seed), "--instance", "{instance}",
             "--events", str(logs / f"{name}.events.jsonl"),
             "--auction-log", str(logs / f"{name}.auction.jsonl")]
     if metric_terms:
         args += ["--metric", ",".join(metric_terms)]
+    if allocator != "murdoch":
+        args += ["--allocator", allocator]
     if lockstep:
         # in lockstep a robot waits for the slowest of the team (one starting up on a
         # loaded machine, say): the runner's own stall limit ends a run that truly hangs

@@ -111,7 +111,8 @@ def rate_for(means: Sequence[Mapping[str, Any]], target: float = PAPER_TASKS,
     return None
 
 
-def _murdoch() -> list[str]:
+def murdoch_command() -> list[str]:
+    """The `murdoch` command next to this interpreter (or the package run by it)."""
     exe = Path(sys.executable).parent / "murdoch"
     if exe.exists():
         return [str(exe)]
@@ -123,7 +124,7 @@ def run_one(job: Job, *, out: Path, until_s: float, world: str | None, extra: Se
     """Run one long-term experiment as its own process; its row (from summary.json)."""
     run_out = out / job.label()
     run_out.mkdir(parents=True, exist_ok=True)
-    args = [*_murdoch(), "run", "longterm", "--until", f"{until_s:g}s",
+    args = [*murdoch_command(), "run", "longterm", "--until", f"{until_s:g}s",
             "--task-interval", f"{job.task_interval_s:g}", "--seed", str(job.seed),
             "--out", str(run_out), "--no-replay", *extra]
     if world:
@@ -220,7 +221,8 @@ def _floats(text: str, option: str) -> list[float]:
     return values
 
 
-def _ints(text: str) -> list[int]:
+def parse_seeds(text: str) -> list[int]:
+    """'1,2,3' or '1-4' -> the seeds; a clear error naming --seeds otherwise."""
     try:
         if "-" in text and "," not in text:
             lo, hi = (int(v) for v in text.split("-", 1))
@@ -254,7 +256,7 @@ def sweep_longterm(intervals: str, seeds: str, until: str, jobs: int, out: Path,
                    world: str | None, metric_terms: str, target: float) -> None:
     """Run the long-term experiment over task intervals and seeds; CSV, table and plots."""
     values = _floats(intervals, "--intervals")
-    seed_list = _ints(seeds)
+    seed_list = parse_seeds(seeds)
     until_s = parse_duration_s(until)
     if metric_terms:
         from experiments.run_cli import _metric_terms

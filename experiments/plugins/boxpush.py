@@ -340,6 +340,8 @@ def goal_section(evs: list[Mapping[str, Any]]) -> dict[str, Any]:
 class Boxpush(ExperimentBase):
     def check(self, spec: WorldSpec, options: RunOptions) -> RunOptions:
         options = resolve_switches(spec, options)
+        if options.group_task_rate:
+            raise click.UsageError("--group-tasks is for the longterm experiment")
         plan = options.goal_plan or bp.GoalPlan()
         for _, marker in plan.retargets:
             try:

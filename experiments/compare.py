@@ -1,0 +1,394 @@
+"""`murdoch compare longterm`: the allocators side by side on the same task streams.
+
+Every (allocator, seed) pair is one `murdoch run longterm --allocator A --seed S` process
+(`--jobs` at a time, each with its own Player ports, multicast port and team key, as every
+`murdoch run` has), under the same options: the same seed gives every allocator the same task
+stream, batteries and fault schedule (`--kill`, `--restart` apply to each run alike). From
+each run directory's summary.json and events.jsonl it takes one row of `comparison.csv`, then
+writes `comparison.png` and prints the mean ± standard deviation over seeds per allocator:
+tasks completed, time from introduction to start, distance driven, messages and bytes per
+task, group tasks completed, reallocations after kills and unachievable tasks.
+
+The pure part (`run_row`, `start_waits`, `reallocations_after_kills`, `mean_std`,
+`by_allocator`, `format_table`) builds and reads rows; `run_one` and the click command are the
+process and file edges.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import statistics
+import subprocess
+import sys
+from collections.abc import Iterable, Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import click
+
+from experiments import events as ev
+from experiments.experiment import ALLOCATOR_NAMES
+from experiments.run_cli import parse_at, parse_duration_s
+from experiments.sweep_longterm import murdoch_command, parse_seeds
+
+METRICS: tuple[tuple[str, str], ...] = (
+    ("tasks_completed", "tasks completed"),
+    ("wait_mean_s", "introduction to start (s)"),
+    ("distance_m", "distance driven (m)"),
+    ("messages_per_task", "messages per task"),
+    ("bytes_per_task", "bytes per task"),
+    ("group_tasks_completed", "group tasks completed"),
+    ("reallocations_after_kills", "reallocations after kills"),
+    ("unachievable", "unachievable tasks"),
+)
+"""The compared figures: column of comparison.csv, and its label in the table and plot."""
+COLUMNS: tuple[str, ...] = (
+    "allocator", "seed", "exit_code", "sim_time_s", "tasks_introduced",
+    *(key for key, _ in METRICS), "messages", "bytes", "wall_time_s", "events_sha256",
+    "run_dir",
+)
+
+
+@dataclass(frozen=True, slots=True)
+class Job:
+    allocator: str
+    seed: int
+
+    def label(self) -> str:
+        return f"{self.allocator}-s{self.seed}"
+
+
+# -- one run's figures (pure) ----------------------------------------------------------------
+
+
+def _user_task(e: Mapping[str, Any]) -> bool:
+    return e.get("source") in (None, "user")
+
+
+def start_waits(events: Iterable[Mapping[str, Any]]) -> list[float]:
+    """Simulated seconds from each user task's introduction to the start of its execution:
+    the first `robot_task` start of the task; for a group task, the moment the last of its
+    members started (its members carry it as `parent`). Tasks never started are left out."""
+    introduced: dict[str, float] = {}
+    groups: dict[str, set[str]] = {}
+    member_of: dict[str, str] = {}
+    started: dict[str, float] = {}
+    for e in events:
+        kind = e["kind"]
+        if kind == ev.TASK_INTRODUCED:
+            task = str(e["task"])
+            if _user_task(e):
+                introduced.setdefault(task, float(e["t"]))
+                if e.get("group"):
+                    groups.setdefault(task, set())
+            elif e.get("parent") is not None:
+                member_of[task] = str(e["parent"])
+                groups.setdefault(str(e["parent"]), set()).add(task)
+        elif kind == "robot_task" and e.get("phase") == "start" and "task" in e:
+            started.setdefault(str(e["task"]), float(e["t"]))
+    waits = []
+    for task, t0 in introduced.items():
+        members = groups.get(task)
+        if members is None:
+            if task in started:
+                waits.append(started[task] - t0)
+        elif members and all(m in started for m in members):
+            waits.append(max(started[m] for m in members) - t0)
+    return waits
+
+
+def reallocations_after_kills(events: Iterable[Mapping[str, Any]]) -> int:
+    """Reallocations of tasks taken from a robot while it was down: after its
+    `robot_failure` (killed, or exited by itself) and before its `robot_restart`."""
+    down: set[str] = set()
+    count = 0
+    for e in events:
+        kind = e["kind"]
+        if kind == ev.ROBOT_FAILURE:
+            down.add(str(e["robot"]))
+        elif kind == ev.ROBOT_RESTART:
+            down.discard(str(e["robot"]))
+        elif kind == ev.REALLOCATION and str(e.get("from_robot")) in down:
+            count += 1
+    return count
+
+
+def user_outcomes(events: Iterable[Mapping[str, Any]]) -> dict[str, str]:
+    """The counted outcome of each user task (group tasks included, their members not)."""
+    user: set[str] = set()
+    out: dict[str, str] = {}
+    for e in events:
+        if e["kind"] == ev.TASK_INTRODUCED and _user_task(e):
+            user.add(str(e["task"]))
+        elif e["kind"] == ev.TASK_OUTCOME and str(e["task"]) in user:
+            out[str(e["task"])] = ev.counted_outcome(e)
+    return out
+
+
+def run_row(job: Job, summary: Mapping[str, Any] | None,
+            events: Sequence[Mapping[str, Any]], exit_code: int,
+            run_dir: Path | None) -> dict[str, Any]:
+    """One row of comparison.csv (figures None when the run left no summary)."""
+    row: dict[str, Any] = dict.fromkeys(COLUMNS)
+    row.update(allocator=job.allocator, seed=job.seed, exit_code=exit_code,
+               run_dir=str(run_dir) if run_dir is not None else None)
+    if summary is None:
+        return row
+    outcomes = user_outcomes(events)
+    introduced = len(outcomes)
+    messages = summary.get("messages", {})
+    total, total_bytes = int(messages.get("total", 0)), int(messages.get("total_bytes", 0))
+    waits = start_waits(events)
+    distance = summary.get("distance_m")
+    row.update(
+        sim_time_s=summary.get("sim_time_s"), tasks_introduced=introduced,
+        tasks_completed=sum(1 for o in outcomes.values() if o == ev.COMPLETED),
+        wait_mean_s=round(statistics.fmean(waits), 3) if waits else None,
+        distance_m=distance.get("total") if isinstance(distance, Mapping) else None,
+        messages=total, bytes=total_bytes,
+        messages_per_task=round(total / introduced, 3) if introduced else None,
+        bytes_per_task=round(total_bytes / introduced, 1) if introduced else None,
+        group_tasks_completed=int(summary.get("group_tasks_completed", 0)),
+        reallocations_after_kills=reallocations_after_kills(events),
+        unachievable=sum(1 for o in outcomes.values() if o == ev.UNACHIEVABLE),
+        wall_time_s=summary.get("wall_time_s"), events_sha256=summary.get("events_sha256"),
+    )
+    return row
+
+
+# -- over seeds (pure) -------------------------------------------------------------------------
+
+
+def mean_std(values: Iterable[Any]) -> tuple[float | None, float | None, int]:
+    """Mean and sample standard deviation (n - 1; 0 for a single value) of the values that
+    are there, and how many there were; (None, None, 0) for none."""
+    vals = [float(v) for v in values if v is not None and math.isfinite(float(v))]
+    if not vals:
+        return None, None, 0
+    std = statistics.stdev(vals) if len(vals) > 1 else 0.0
+    return statistics.fmean(vals), std, len(vals)
+
+
+def by_allocator(rows: Sequence[Mapping[str, Any]],
+                 order: Sequence[str] = ALLOCATOR_NAMES) -> list[dict[str, Any]]:
+    """Per allocator (in `order`, then any other in name order): the number of runs with a
+    summary and, for each metric, its (mean, std) over them."""
+    names = [a for a in order if any(r["allocator"] == a for r in rows)]
+    names += sorted({str(r["allocator"]) for r in rows} - set(names))
+    out = []
+    for name in names:
+        group = [r for r in rows if r["allocator"] == name and r["sim_time_s"] is not None]
+        stats: dict[str, Any] = {"allocator": name, "runs": len(group)}
+        for key, _ in METRICS:
+            mean, std, _n = mean_std(r[key] for r in group)
+            stats[key] = (mean, std)
+        out.append(stats)
+    return out
+
+
+def _cell(pair: tuple[float | None, float | None]) -> str:
+    mean, std = pair
+    if mean is None or std is None:
+        return "-"
+    digits = 0 if abs(mean) >= 100 else 1 if abs(mean) >= 10 else 2
+    return f"{mean:.{digits}f} ± {std:.{digits}f}"
+
+
+def format_table(stats: Sequence[Mapping[str, Any]]) -> str:
+    """One line per metric, one column per allocator: mean ± std over its runs."""
+    head = ("", *(f"{s['allocator']} ({s['runs']} run{'' if s['runs'] == 1 else 's'})"
+                  for s in stats))
+    rows = [head, *[(label, *(_cell(s[key]) for s in stats)) for key, label in METRICS]]
+    widths = [max(len(r[i]) for r in rows) for i in range(len(head))]
+    return "\n".join("  ".join([r[0].ljust(widths[0]),
+                                *(c.rjust(w) for c, w in zip(r[1:], widths[1:], strict=True))])
+                     for r in rows)
+
+
+# -- files and processes -----------------------------------------------------------------------
+
+
+def write_csv(rows: Sequence[Mapping[str, Any]], path: Path) -> None:
+    with path.open("w", newline="", encoding="utf-8") as f:
+        writer = csv.DictWriter(f, fieldnames=list(COLUMNS))
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({c: row.get(c) for c in COLUMNS})
+
+
+def plot_comparison(rows: Sequence[Mapping[str, Any]], stats: Sequence[Mapping[str, Any]],
+                    path: Path, title: str) -> Path:
+    """One panel per metric: a bar per allocator (mean, ± std) and a dot per run."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    colours = ("#1c7ed6", "#f08c00", "#2f9e44", "#ae3ec9", "#e03131")
+    fig, axes = plt.subplots(2, 4, figsize=(14, 6.5), dpi=100)
+    names = [str(s["allocator"]) for s in stats]
+    for ax, (key, label) in zip(axes.flat, METRICS, strict=True):
+        for i, s in enumerate(stats):
+            mean, std = s[key]
+            colour = colours[i % len(colours)]
+            if mean is not None:
+                ax.bar(i, mean, yerr=std, color=colour, alpha=0.55, capsize=4)
+            dots = [r[key] for r in rows if r["allocator"] == s["allocator"]
+                    and r[key] is not None]
+            ax.scatter([i] * len(dots), dots, s=12, color=colour, zorder=3)
+        ax.set_xticks(range(len(names)), names)
+        ax.set_title(label, fontsize="medium")
+        ax.grid(True, axis="y", alpha=0.3)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def run_one(job: Job, *, out: Path, until_s: float, extra: Sequence[str],
+            pin: bool) -> dict[str, Any]:
+    """Run one long-term experiment as its own process; its row."""
+    run_out = out / job.label()
+    run_out.mkdir(parents=True, exist_ok=True)
+    args = [*murdoch_command(), "run", "longterm", "--until", f"{until_s:g}s",
+            "--allocator", job.allocator, "--seed", str(job.seed), "--out", str(run_out),
+            "--no-replay", *extra]
+    if not pin:
+        args.append("--no-pin-cpus")
+    with (run_out / "compare.log").open("w", encoding="utf-8") as log_file:
+        code = subprocess.run(args, stdout=log_file, stderr=subprocess.STDOUT,
+                              stdin=subprocess.DEVNULL, check=False).returncode
+    runs = sorted(p for p in run_out.iterdir() if p.is_dir())
+    run_dir = runs[-1] if runs else None
+    summary = None
+    events: list[dict[str, Any]] = []
+    if run_dir is not None and (run_dir / "summary.json").is_file():
+        summary = json.loads((run_dir / "summary.json").read_text(encoding="utf-8"))
+        events = ev.read_events(run_dir / "events.jsonl")
+    return run_row(job, summary, events, code, run_dir)
+
+
+def _span(seconds: float) -> str:
+    if seconds >= 3600.0:
+        return f"{seconds / 3600.0:g} h"
+    return f"{seconds / 60.0:g} min" if seconds >= 60.0 else f"{seconds:g} s"
+
+
+def parse_allocators(text: str) -> list[str]:
+    names = [a.strip() for a in text.split(",") if a.strip()]
+    unknown = [a for a in names if a not in ALLOCATOR_NAMES]
+    if not names or unknown:
+        raise click.BadParameter(
+            f"expected allocators among {', '.join(ALLOCATOR_NAMES)} (comma-separated), "
+            f"got {text!r}", param_hint="--allocators")
+    return list(dict.fromkeys(names))
+
+
+def _run_options(world: str | None, task_interval: float, group_tasks: float,
+                 kills: Sequence[str], restarts: Sequence[str], metric_terms: str,
+                 until_s: float) -> list[str]:
+    """The options every run gets alike, checked before anything runs."""
+    from experiments.run_checks import RunSetupError, check_schedule, load_run_world
+
+    try:
+        spec = load_run_world(world or "longterm")
+        check_schedule(robots=[r.name for r in spec.robots], duration_s=until_s,
+                       kills=[parse_at(k) for k in kills],
+                       restarts=[parse_at(r) for r in restarts], world=world or "longterm")
+    except RunSetupError as exc:
+        raise click.UsageError(str(exc)) from exc
+    extra = ["--task-interval", f"{task_interval:g}"]
+    if group_tasks:
+        extra += ["--group-tasks", f"{group_tasks:g}"]
+    for k in kills:
+        extra += ["--kill", k]
+    for r in restarts:
+        extra += ["--restart", r]
+    if metric_terms:
+        extra += ["--metric", metric_terms]
+    if world:
+        extra += ["--world", world]
+    return extra
+
+
+@click.command("compare")
+@click.argument("experiment", type=click.Choice(["longterm"]))
+@click.option("--allocators", default=",".join(ALLOCATOR_NAMES), show_default=True,
+              help="Allocators to compare, comma-separated.")
+@click.option("--seeds", default="1-5", show_default=True, help="Seeds: 1,2,3 or 1-5.")
+@click.option("--sim-hours", type=float, default=None, help="Simulated hours of every run.")
+@click.option("--until", "until", default=None, show_default="3h",
+              help="Simulated span of every run, e.g. 3h, 90m.")
+@click.option("--jobs", type=click.IntRange(1, 64), default=2, show_default=True,
+              help="Runs at a time (each its own runner and robot processes).")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path),
+              default=Path("runs/compare"), show_default=True)
+@click.option("--world", default=None, help="World name or .toml (default: longterm).")
+@click.option("--task-interval", type=float, default=240.0, show_default=True,
+              help="Mean simulated seconds between new tasks.")
+@click.option("--group-tasks", "group_tasks", type=click.FloatRange(0.0, 1.0), default=0.0,
+              show_default=True, help="The fraction of tasks that need two robots at once.")
+@click.option("--kill", "kills", multiple=True,
+              help="Kill a robot process in every run: ROBOT@TIME ('busy' = one holding a "
+                   "task).")
+@click.option("--restart", "restarts", multiple=True,
+              help="Start it again in every run: ROBOT@TIME.")
+@click.option("--metric", "metric_terms", default="",
+              help="Passed to every run: terms added to the robots' task metrics.")
+def compare(experiment: str, allocators: str, seeds: str, sim_hours: float | None,
+            until: str | None, jobs: int, out: Path, world: str | None, task_interval: float,
+            group_tasks: float, kills: tuple[str, ...], restarts: tuple[str, ...],
+            metric_terms: str) -> None:
+    """Run EXPERIMENT with each allocator on each seed; CSV, figure and a table."""
+    names = parse_allocators(allocators)
+    seed_list = parse_seeds(seeds)
+    if sim_hours is not None and until is not None:
+        raise click.UsageError("give --sim-hours or --until, not both")
+    until_s = sim_hours * 3600.0 if sim_hours is not None else parse_duration_s(until or "3h")
+    if until_s <= 0:
+        raise click.BadParameter(f"expected a positive span, got {until_s:g} s",
+                                 param_hint="--sim-hours" if sim_hours is not None
+                                 else "--until")
+    if metric_terms:
+        from experiments.run_cli import _metric_terms
+
+        _metric_terms(metric_terms)  # a bad term is refused before anything runs
+    extra = _run_options(world, task_interval, group_tasks, kills, restarts, metric_terms,
+                         until_s)
+    out.mkdir(parents=True, exist_ok=True)
+    todo = [Job(a, s) for s in seed_list for a in names]
+    click.echo(f"{len(todo)} runs of {experiment} for {until_s:g} s simulated "
+               f"({', '.join(names)} x seeds {', '.join(map(str, seed_list))}), {jobs} at a "
+               f"time, into {out}")
+    pin = jobs == 1  # several runs would all pin their serving threads to the same CPU
+
+    def one(job: Job) -> dict[str, Any]:
+        row = run_one(job, out=out, until_s=until_s, extra=extra, pin=pin)
+        click.echo(f"  {job.label()}: exit {row['exit_code']}, completed "
+                   f"{row['tasks_completed']}, group {row['group_tasks_completed']} "
+                   f"({row['wall_time_s']} s wall)")
+        return row
+
+    with ThreadPoolExecutor(max_workers=jobs) as pool:
+        rows = list(pool.map(one, todo))
+    rows.sort(key=lambda r: (names.index(r["allocator"]), int(r["seed"])))
+    write_csv(rows, out / "comparison.csv")
+    stats = by_allocator(rows, names)
+    plot = plot_comparison(rows, stats, out / "comparison.png",
+                           f"{experiment}: {_span(until_s)} simulated, seeds {seeds}, "
+                           "mean ± std over seeds")
+    click.echo(format_table(stats))
+    click.echo(f"wrote {out / 'comparison.csv'}, {plot}")
+    failed = [r for r in rows if r["exit_code"] != 0]
+    if failed:
+        click.echo(f"error: {len(failed)} run(s) did not end cleanly: "
+                   + ", ".join(f"{Job(r['allocator'], r['seed']).label()} "
+                               f"(exit {r['exit_code']}, see {out}/"
+                               f"{Job(r['allocator'], r['seed']).label()}/compare.log)"
+                               for r in failed), err=True)
+        sys.exit(1)
