@@ -15,7 +15,7 @@ about the size that holds a few things each (`layout`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
@@ -41,10 +41,25 @@ class Grid:
     ny: int
     start: I64
     items: I64
+    count: int = 0  # things indexed (0..count-1)
+    _scratch: dict[str, np.ndarray] = field(default_factory=dict, compare=False, repr=False)
 
     def params(self) -> F64:
         """(x0, y0, cell, nx, ny) as floats, as the compiled loops take them."""
         return np.array([self.x0, self.y0, self.cell, self.nx, self.ny], dtype=np.float64)
+
+    def near(self, x: float, y: float, reach: float) -> I64:
+        """The things listed in the cells that the square of half side ``reach`` about (x, y)
+        overlaps, in increasing order (candidates: the caller tests them)."""
+        sc = self._scratch
+        if not sc:
+            sc["mark"] = np.full(self.count, -1, np.int64)
+            sc["out"] = np.empty(self.count, np.int64)
+            sc["stamp"] = np.zeros(1, np.int64)
+        sc["stamp"][0] += 1
+        m = near_disc(x, y, reach, self.params(), self.start, self.items, sc["mark"],
+                      int(sc["stamp"][0]), sc["out"])
+        return np.sort(sc["out"][:m])
 
 
 def layout(x_lo: float, y_lo: float, x_hi: float, y_hi: float, count: int,
@@ -82,7 +97,7 @@ def build(cx: F64, cy: F64, radius: F64, bounds: tuple[float, float, float, floa
     start, items = _fill(np.ascontiguousarray(cx, dtype=np.float64),
                          np.ascontiguousarray(cy, dtype=np.float64),
                          np.ascontiguousarray(radius, dtype=np.float64), x0, y0, cell, nx, ny)
-    return Grid(x0, y0, cell, nx, ny, start, items)
+    return Grid(x0, y0, cell, nx, ny, start, items, int(cx.shape[0]))
 
 
 @njit(cache=True)
