@@ -9,7 +9,7 @@ seed give the same world. ::
     robots = 100                 # required, 1..5000
     seed = 3                     # default: [sim] seed
     area_per_robot = 6.0         # m^2 of floor per robot: the arena's area
-    aspect = 1.0                 # arena size_x / size_y
+    aspect = 1.0                 # arena size_x / size_y (neither side under 4 m)
     spacing = 1.5                # m between the lattice slots things are placed on
     robots_per_charger = 5       # chargers = ceil(robots / robots_per_charger)
     charger_colour = "cyan"      charger_rate = 150.0   charger_radius = 0.45
@@ -41,6 +41,7 @@ from worlds.errors import WorldError
 from worlds.reader import Table
 
 MAX_ROBOTS = 5000
+MIN_SIDE_M = 4.0
 _WALL_MARGIN_M = 0.75  # slots keep this far from the walls
 _LISTED = ("robots", "chargers", "objects", "boxes", "markers")
 
@@ -140,10 +141,11 @@ def _charge_range(t: Table) -> tuple[float, float]:
 
 
 def arena_size(o: Options) -> tuple[float, float]:
-    """The arena's (size_x, size_y): area robots x area_per_robot at the given aspect."""
+    """The arena's (size_x, size_y): area robots x area_per_robot at the given aspect, and
+    neither side under `MIN_SIDE_M`."""
     area = o.robots * o.area_per_robot
     sy = math.sqrt(area / o.aspect)
-    return round(sy * o.aspect, 3), round(sy, 3)
+    return round(max(sy * o.aspect, MIN_SIDE_M), 3), round(max(sy, MIN_SIDE_M), 3)
 
 
 def kind_counts(kinds: tuple[Kind, ...], n: int) -> list[int]:
