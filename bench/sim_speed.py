@@ -110,12 +110,14 @@ def main() -> None:
     rtfs = []
     cpu_ms = []
     us = []
+    cpu_us = []
     for run in range(args.runs):
         load = os.getloadavg()[0]
         rtf, per_tick = one_run(spec, args.fidelity, ticks, seed=run)
         rtfs.append(rtf)
         cpu_ms.append(per_tick["cpu"])
         us.append(per_tick["us_robot_tick"])
+        cpu_us.append(per_tick["cpu_us_robot_tick"])
         parts = " ".join(f"{k}={v:.3f}" for k, v in per_tick.items())
         print(f"run {run}: {len(spec.robots)} robots {args.fidelity} load={load:.1f} "
               f"rtf={rtf:.1f} ms/tick (wall unless cpu): {parts}", flush=True)
@@ -123,10 +125,12 @@ def main() -> None:
           f"(cpu_rtf median={ticks_s(spec) / statistics.median(cpu_ms):.1f}); "
           f"load average now {os.getloadavg()[0]:.1f}")
     print(f"sim_rtf_median={statistics.median(rtfs):.2f} sim_rtf_min={min(rtfs):.2f} "
-          f"us_per_robot_tick={statistics.median(us):.1f}")
+          f"us_per_robot_tick={statistics.median(us):.1f} "
+          f"cpu_us_per_robot_tick={statistics.median(cpu_us):.1f}")
 
 
-_RESULT = re.compile(r"sim_rtf_median=([0-9.]+) .* us_per_robot_tick=([0-9.]+)")
+_RESULT = re.compile(r"sim_rtf_median=([0-9.]+) .* us_per_robot_tick=([0-9.]+) "
+                     r"cpu_us_per_robot_tick=([0-9.]+)")
 
 
 def compare(args: argparse.Namespace) -> None:
@@ -135,7 +139,7 @@ def compare(args: argparse.Namespace) -> None:
     base_args = [sys.executable, str(Path(__file__).resolve()), "--world", args.world,
                  "--fidelity", args.fidelity, "--robots", str(args.robots), "--template",
                  args.template, "--runs", "1", "--sim-seconds", str(args.sim_seconds)]
-    results: dict[str, list[tuple[float, float]]] = {"baseline": [], "new": []}
+    results: dict[str, list[tuple[float, float, float]]] = {"baseline": [], "new": []}
     for run in range(args.runs):
         for label, src in (("baseline", args.baseline_src), ("new", str(here))):
             env = dict(os.environ, PYTHONPATH=src)
@@ -144,16 +148,18 @@ def compare(args: argparse.Namespace) -> None:
             m = _RESULT.search(out)
             if m is None:
                 raise SystemExit(f"no result line from the {label} run:\n{out}")
-            results[label].append((float(m.group(1)), float(m.group(2))))
-            print(f"run {run} {label}: rtf={m.group(1)} us_per_robot_tick={m.group(2)}",
-                  flush=True)
-    med = {k: (statistics.median(r for r, _ in v), statistics.median(u for _, u in v))
+            results[label].append((float(m.group(1)), float(m.group(2)), float(m.group(3))))
+            print(f"run {run} {label}: rtf={m.group(1)} us_per_robot_tick={m.group(2)} "
+                  f"cpu_us_per_robot_tick={m.group(3)}", flush=True)
+    med = {k: tuple(statistics.median(row[i] for row in v) for i in range(3))
            for k, v in results.items()}
-    print(f"baseline_rtf_median={med['baseline'][0]:.2f} "
-          f"baseline_us_per_robot_tick={med['baseline'][1]:.1f}")
-    print(f"sim_rtf_median={med['new'][0]:.2f} sim_rtf_min="
-          f"{min(r for r, _ in results['new']):.2f} us_per_robot_tick={med['new'][1]:.1f}")
-    print(f"speedup_median={med['new'][0] / max(med['baseline'][0], 1e-9):.2f}")
+    b, n = med["baseline"], med["new"]
+    print(f"baseline_rtf_median={b[0]:.2f} baseline_us_per_robot_tick={b[1]:.1f} "
+          f"baseline_cpu_us_per_robot_tick={b[2]:.1f}")
+    print(f"sim_rtf_median={n[0]:.2f} sim_rtf_min={min(r[0] for r in results['new']):.2f} "
+          f"us_per_robot_tick={n[1]:.1f} cpu_us_per_robot_tick={n[2]:.1f}")
+    print(f"speedup_median={n[0] / max(b[0], 1e-9):.2f} "
+          f"cpu_speedup_median={b[2] / max(n[2], 1e-9):.2f}")
 
 
 if __name__ == "__main__":

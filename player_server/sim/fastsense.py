@@ -158,6 +158,7 @@ class BlobPlan:
     z_bottom: F64
     reach: F64  # per target: its furthest point from its centre
     bound: float
+    few: grid_index.Grid  # every target in one cell (for worlds with few targets)
 
     @staticmethod
     def build(cams: tuple[int, ...], wa: WorldArrays) -> BlobPlan:
@@ -187,6 +188,7 @@ class BlobPlan:
             z_bottom=wa.t_z_bottom,
             reach=reach,
             bound=float(reach.max()) + 1e-6 if reach.size else 0.0,
+            few=grid_index.one_cell(reach.size),
         )
 
     def pending(self, frame: Frame, t_pos: C128, t_head: C128, pan: F64, zoom: F64,
@@ -198,9 +200,12 @@ class BlobPlan:
         """
         if hidden is None:
             hidden = np.zeros(t_pos.shape[0], dtype=np.bool_)
-        grid = grid_index.build(t_pos.real.copy(), t_pos.imag.copy(), np.zeros(t_pos.size),
-                                (0.0, 0.0, 0.0, 0.0),
-                                typical_radius=float(self.max_range.max(initial=0.0)) / 4)
+        if t_pos.size < grid_index.FEW:
+            grid = self.few
+        else:
+            grid = grid_index.build(t_pos.real.copy(), t_pos.imag.copy(),
+                                    np.zeros(t_pos.size), (0.0, 0.0, 0.0, 0.0),
+                                    typical_radius=float(self.max_range.max(initial=0.0)) / 4)
         slot, target, channel, origin, unit, rows = pending_near(
             self.robot, self.mount, self.mount_yaw, self.fov, self.max_range,
             self.cam_channel, self.t_colour_index, self.half_x, self.half_y, self.radius,

@@ -27,6 +27,7 @@ I64 = NDArray[np.int64]
 PAD = 1e-6  # metres: a disc touching a cell boundary is listed on both sides
 MAX_CELLS_PER_THING = 4  # about this many cells per thing at most (the grid's memory bound)
 MIN_CELL = 0.25  # metres
+FEW = 48  # below this many things, one cell (`one_cell`) is cheaper than a grid
 
 
 @dataclass(frozen=True)
@@ -100,10 +101,21 @@ def build(cx: F64, cy: F64, radius: F64, bounds: tuple[float, float, float, floa
     return Grid(x0, y0, cell, nx, ny, start, items, int(cx.shape[0]))
 
 
+def one_cell(count: int) -> Grid:
+    """A grid of one cell listing every thing wherever it is: for a few things, where
+    walking cells costs more than looking at them all."""
+    return Grid(0.0, 0.0, math.inf, 1, 1, np.array([0, count], dtype=np.int64),
+                np.arange(count, dtype=np.int64), count)
+
+
 @njit(cache=True)
 def cell_of(v: float, origin: float, cell: float, n: int) -> int:
     """The index of the cell holding coordinate v, clamped to 0..n-1."""
-    q = min(max((v - origin) / cell, 0.0), n - 1.0)
+    q = (v - origin) / cell
+    if not q >= 0.0:  # also nan
+        return 0
+    if q >= n - 1.0:
+        return n - 1
     return math.floor(q)
 
 

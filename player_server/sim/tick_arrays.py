@@ -107,6 +107,8 @@ class TickArrays:
         """Indices (increasing) of the robots whose axle centre may lie within ``reach`` of
         (x, y) on each axis: a superset, from this tick's grid of the robots."""
         w = self.world
+        if len(w._robots) < grid_index.FEW:
+            return list(range(len(w._robots)))
 
         def compute() -> grid_index.Grid:
             pos = self.frame().pos
@@ -121,6 +123,8 @@ class TickArrays:
         """Rows (increasing, in world-file order) of the objects whose centre may lie within
         ``reach`` of (x, y) on each axis: a superset, from this tick's grid of the objects."""
         w = self.world
+        if w._arrays.n_objects < grid_index.FEW:
+            return list(range(w._arrays.n_objects))
 
         def compute() -> grid_index.Grid:
             pos = self.dynamic()[1][w._arrays.n_boxes:]
