@@ -7,6 +7,8 @@ from typing import TYPE_CHECKING, ClassVar
 
 import pybullet as pb
 
+from player_server.sim.grid_index import FEW
+
 if TYPE_CHECKING:
     from player_server.sim.simulation import Simulation
 
@@ -32,7 +34,11 @@ class BumperModel:
             spec = st.spec.devices.bumper
             assert spec is not None
             body = st.spec.body
-            contacts = self._touching().get(st.body, ())
+            if len(w._robots) < FEW:  # a few robots: ask for this body's contacts only
+                contacts = [(cp[2], (cp[5][0], cp[5][1])) for cp in pb.getContactPoints(
+                    bodyA=st.body, physicsClientId=w._client)]
+            else:
+                contacts = self._touching().get(st.body, [])
             c, s = math.cos(st.yaw), math.sin(st.yaw)
             # Contact manifolds report the corners of a touching patch, so each touching body
             # presses every panel whose lateral extent overlaps its patch on that end.
@@ -61,8 +67,8 @@ class BumperModel:
 
     def _touching(self) -> dict[int, list[tuple[int, tuple[float, float]]]]:
         """This tick's contact points by body: (the other body, the point on this body's
-        surface), read from PyBullet in one call for every robot (a call per robot would
-        scan every contact of the world each time)."""
+        surface), read from PyBullet in one call for every robot (with many robots: a call
+        per robot would scan every contact of the world each time)."""
         w = self.world
 
         def compute() -> dict[int, list[tuple[int, tuple[float, float]]]]:
