@@ -11,6 +11,7 @@ Shorter simulated spans at larger counts keep the sweep to minutes (at least 20 
 from __future__ import annotations
 
 import argparse
+import json
 import re
 import subprocess
 import sys
@@ -60,13 +61,14 @@ def plot(rows: dict[int, dict[str, float]], baseline: bool, png: Path, title: st
     import matplotlib.pyplot as plt
 
     n = list(rows)
-    fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=110)
-    ax.plot(n, [rows[k]["cpu_us_per_robot_tick"] for k in n], "o-", label="grid index")
+    fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=110)
+    ax.plot(n, [rows[k]["cpu_us_per_robot_tick"] for k in n], "o-",
+            label="spatial grids (this version)")
     if baseline:
         ax.plot(n, [rows[k]["baseline_cpu_us_per_robot_tick"] for k in n], "s--",
-                label="every ray against every footprint")
+                label="before: every ray against every footprint")
     ax.set_xscale("log")
-    ax.set_yscale("log")
+    ax.set_ylim(bottom=0)
     ax.set_xlabel("robots in the world")
     ax.set_ylabel("CPU µs per robot per tick")
     ax.set_title(title, fontsize=10)
@@ -85,19 +87,31 @@ def main() -> None:
     ap.add_argument("--template", default="")
     ap.add_argument("--baseline-src", default="")
     ap.add_argument("--png", type=Path, default=None)
-    ap.add_argument("--table", type=Path, default=None)
+    ap.add_argument("--table", type=Path, default=None,
+                    help="write the Markdown table here (and the figures next to it, .json)")
+    ap.add_argument("--replot", type=Path, default=None,
+                    help="draw the plot from a .json written by an earlier sweep")
     args = ap.parse_args()
-    rows = {}
-    for n in (int(c) for c in args.counts.split(",")):
-        rows[n] = measure(n, args.runs, args.template, args.baseline_src)
-    md = table(rows, bool(args.baseline_src))
+    if args.replot is not None:
+        data = json.loads(args.replot.read_text(encoding="utf-8"))
+        rows = {int(k): v for k, v in data["rows"].items()}
+        template, baseline = data["template"], data["baseline"]
+    else:
+        rows = {}
+        for n in (int(c) for c in args.counts.split(",")):
+            rows[n] = measure(n, args.runs, args.template, args.baseline_src)
+        template, baseline = args.template, bool(args.baseline_src)
+    md = table(rows, baseline)
     print(md)
-    if args.table is not None:
+    if args.table is not None and args.replot is None:
         args.table.write_text(md, encoding="utf-8")
+        args.table.with_suffix(".json").write_text(json.dumps(
+            {"template": template, "baseline": baseline, "rows": rows}, indent=1),
+            encoding="utf-8")
     if args.png is not None:
-        what = f"copies of {args.template}" if args.template else "longterm's robots, cycled"
-        plot(rows, bool(args.baseline_src), args.png,
-             f"bench/sim_speed.py, fast fidelity, {what}, every device read every tick")
+        what = f"copies of {template}" if template else "longterm's robots, cycled"
+        plot(rows, baseline, args.png,
+             f"bench/sim_speed.py, fast fidelity, {what},\nevery device read every tick")
 
 
 if __name__ == "__main__":
