@@ -157,8 +157,8 @@ def cast_rays_grid(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarra
                 b = w
         skip = own[i]
         if not (math.isfinite(ox) and math.isfinite(oy) and math.isfinite(dx)
-                and math.isfinite(dy)):
-            for f in range(k):  # no cell to start from: every footprint
+                and math.isfinite(dy)) or (dx == 0.0 and dy == 0.0):
+            for f in range(k):  # no cell to start from, or no way to go: every footprint
                 if f == skip or top[f] < zi:
                     continue
                 t = _hit(f, ox, oy, dx, dy, b, n_rect, centre, head_conj, half, radius)

@@ -74,14 +74,15 @@ def test_rays_along_cell_boundaries_and_through_corners() -> None:
     assert np.array_equal(GRID.cast(o, d, lim, z, fp, room), BRUTE.cast(o, d, lim, z, fp, room))
 
 
-def test_non_finite_origins_fall_back_to_every_footprint() -> None:
+def test_non_finite_origins_and_zero_directions_fall_back_to_every_footprint() -> None:
     rng = np.random.default_rng(1)
     fp = _scene(rng, 80, 10, 5.0)
-    o = np.array([np.nan + 0j, complex(np.inf, 0.0), 0.0 + 0j])
-    d = np.array([1.0 + 0j, 1.0 + 0j, 1.0 + 0j])
-    lim, z = np.full(3, 9.0), np.zeros(3)
-    got, want = GRID.cast(o, d, lim, z, fp, None), BRUTE.cast(o, d, lim, z, fp, None)
-    assert np.array_equal(got, want, equal_nan=True)
+    o = np.array([np.nan + 0j, complex(np.inf, 0.0), 0.0 + 0j, 1.0 + 1j, 2.0 + 0j])
+    d = np.array([1.0 + 0j, 1.0 + 0j, 1.0 + 0j, 0j, complex(np.nan, 0.0)])
+    lim, z = np.array([9.0, 9.0, 9.0, np.inf, np.inf]), np.zeros(5)
+    for room in (None, Room(6.0, 6.0, 1.0)):
+        got, want = GRID.cast(o, d, lim, z, fp, room), BRUTE.cast(o, d, lim, z, fp, room)
+        assert np.array_equal(got, want, equal_nan=True)
 
 
 @settings(max_examples=60, deadline=None)
