@@ -23,7 +23,7 @@ import math
 import tomllib
 from pathlib import Path
 
-from worlds import pioneer
+from worlds import generate, pioneer
 from worlds.colours import parse_colour
 from worlds.errors import WorldError
 from worlds.reader import Table
@@ -97,6 +97,8 @@ def load_world(path: Path | str) -> WorldSpec:
 
 
 def parse_world(data: dict[str, object], file: Path) -> WorldSpec:
+    if "generate" in data:
+        data = _generated(data, file)
     top = Table(file, "", data)
     name = top.string("name", file.stem)
     description = top.string("description", "")
@@ -131,6 +133,17 @@ def parse_world(data: dict[str, object], file: Path) -> WorldSpec:
         overhead_camera=overhead,
         description=description,
     )
+
+
+def _generated(data: dict[str, object], file: Path) -> dict[str, object]:
+    """The data with the [generate] section expanded into tables (`worlds.generate`)."""
+    sim = data.get("sim")
+    seed = sim.get("seed", SimSpec().seed) if isinstance(sim, dict) else SimSpec().seed
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        seed = SimSpec().seed  # the [sim] section's own check reports it
+    opts = generate.read_options(Table(file, "generate", data["generate"]), seed,
+                                 lambda t: _robot(t, 0))
+    return generate.expand(data, file, opts)
 
 
 # ---- sections ------------------------------------------------------------------------------

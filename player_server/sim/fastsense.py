@@ -13,7 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from player_server.sim.blob_kernel import blob_boxes, pending_pairs
+from player_server.sim import grid_index
+from player_server.sim.blob_kernel import DZ_BOTTOM, DZ_TOP, blob_boxes, pending_near
 from player_server.sim.readings import Blob, fast_constructor
 from player_server.sim.world_arrays import WorldArrays
 from worlds import RobotSpec
@@ -114,7 +115,9 @@ class RangePlan:
 class Pending:
     """Camera/target pairs in range and in view, awaiting the occlusion test."""
 
-    pair: NDArray[np.int64]  # index into the plan's pair arrays
+    slot: NDArray[np.int64]  # the camera's slot in the plan
+    target: NDArray[np.int64]
+    channel: NDArray[np.int64]
     origin: C128  # camera position (occlusion ray origin)
     direction: C128  # unit vector to the target centre
     dist: F64
@@ -126,70 +129,66 @@ class Pending:
 
 @dataclass(frozen=True)
 class BlobPlan:
-    """Every (camera, target) pair whose colour the camera's blobfinder tracks."""
+    """The blobfinders of a set of cameras, and every blob target of the world.
+
+    A camera sees a target whose colour one of its channels tracks (the first such channel);
+    each tick the targets near each camera are found in a grid of the targets
+    (`blob_kernel.pending_near`), so the cost grows with cameras times the targets near
+    each, not times all targets.
+    """
 
     cams: tuple[int, ...]
-    slot: NDArray[np.int64]
-    robot: NDArray[np.int64]
-    target: NDArray[np.int64]
-    channel: NDArray[np.int64]
-    colour: NDArray[np.int64]
+    robot: NDArray[np.int64]  # per camera slot
     mount: C128
     mount_yaw: F64
     cam_z: F64
-    tilt: F64
     fov: F64
-    width: F64
-    height: F64
     max_range: F64
-    min_area: F64
+    cam_channel: NDArray[np.int64]  # (slots, palette colours): channel or -1
+    # Per camera for projecting: width/2, height/2, field of view, tilt, (dz_top, dz_bottom:
+    # per target, filled in per pair), min_area, width - 1, height - 1.
+    cam_consts: F64
+    own: NDArray[np.int64]  # footprint of the robot's body when its camera is inside, or -1
+    t_colour_index: NDArray[np.int64]
+    t_colour: NDArray[np.int64]
     radius: F64
     half_x: F64
     half_y: F64
-    dz_top: F64
-    dz_bottom: F64
-    circle: NDArray[np.bool_]
-    # Per pair for projecting: width/2, height/2, field of view, tilt, dz_top, dz_bottom,
-    # min_area, width - 1, height - 1; and robot, camera slot, channel, colour.
-    consts: F64
-    meta: NDArray[np.int64]
-    own: NDArray[np.int64]  # footprint of the robot's body when its camera is inside, or -1
+    z_top: F64
+    z_bottom: F64
+    reach: F64  # per target: its furthest point from its centre
+    bound: float
+    few: grid_index.Grid  # every target in one cell (for worlds with few targets)
 
     @staticmethod
     def build(cams: tuple[int, ...], wa: WorldArrays) -> BlobPlan:
-        ch = wa.channel[list(cams)] if cams else np.zeros((0, wa.t_radius.size), np.int64)
-        slot, target = np.nonzero(ch >= 0)
-        robot = np.array(cams, dtype=np.int64)[slot] if cams else slot
-        cam = wa.cam[robot]
+        robot = np.array(cams, dtype=np.int64)
+        cam = wa.cam[robot] if cams else np.zeros((0, 10))
+        reach = np.hypot(wa.t_half_x, wa.t_half_y) + wa.t_radius
         return BlobPlan(
             cams=cams,
-            slot=slot,
             robot=robot,
-            target=target,
-            channel=ch[slot, target],
-            colour=wa.t_colour[target],
             mount=cam[:, 0] + 1j * cam[:, 1],
             mount_yaw=cam[:, 3],
             cam_z=cam[:, 2],
-            tilt=cam[:, 4],
             fov=cam[:, 5],
-            width=cam[:, 6],
-            height=cam[:, 7],
             max_range=cam[:, 8],
-            min_area=np.maximum(cam[:, 9], 1.0),
-            radius=wa.t_radius[target],
-            half_x=wa.t_half_x[target],
-            half_y=wa.t_half_y[target],
-            dz_top=wa.t_z_top[target] - cam[:, 2],
-            dz_bottom=wa.t_z_bottom[target] - cam[:, 2],
-            circle=wa.t_radius[target] > 0,
-            consts=np.column_stack([cam[:, 6] / 2, cam[:, 7] / 2, cam[:, 5], cam[:, 4],
-                                    wa.t_z_top[target] - cam[:, 2],
-                                    wa.t_z_bottom[target] - cam[:, 2],
-                                    np.maximum(cam[:, 9], 1.0), cam[:, 6] - 1, cam[:, 7] - 1]),
-            meta=np.column_stack([robot, slot, ch[slot, target],
-                                  wa.t_colour[target]]).astype(np.int64),
+            cam_channel=wa.channel[robot],
+            cam_consts=np.column_stack([cam[:, 6] / 2, cam[:, 7] / 2, cam[:, 5], cam[:, 4],
+                                        np.zeros(len(cams)), np.zeros(len(cams)),
+                                        np.maximum(cam[:, 9], 1.0), cam[:, 6] - 1,
+                                        cam[:, 7] - 1]),
             own=wa.own_body(robot, cam[:, 0] + 1j * cam[:, 1]),
+            t_colour_index=wa.t_colour_index,
+            t_colour=wa.t_colour,
+            radius=wa.t_radius,
+            half_x=wa.t_half_x,
+            half_y=wa.t_half_y,
+            z_top=wa.t_z_top,
+            z_bottom=wa.t_z_bottom,
+            reach=reach,
+            bound=float(reach.max()) + 1e-6 if reach.size else 0.0,
+            few=grid_index.one_cell(reach.size),
         )
 
     def pending(self, frame: Frame, t_pos: C128, t_head: C128, pan: F64, zoom: F64,
@@ -201,11 +200,19 @@ class BlobPlan:
         """
         if hidden is None:
             hidden = np.zeros(t_pos.shape[0], dtype=np.bool_)
-        idx, origin, unit, rows = pending_pairs(
-            self.robot, self.target, self.mount, self.mount_yaw, self.fov, self.max_range,
-            self.half_x, self.half_y, self.radius, frame.pos, frame.head, frame.yaw, t_pos,
-            t_head, pan, zoom, hidden)
-        return Pending(idx, origin, unit, rows[0], rows[1], rows[2], rows[3], rows)
+        if t_pos.size < grid_index.FEW:
+            grid = self.few
+        else:
+            grid = grid_index.build(t_pos.real.copy(), t_pos.imag.copy(),
+                                    np.zeros(t_pos.size), (0.0, 0.0, 0.0, 0.0),
+                                    typical_radius=float(self.max_range.max(initial=0.0)) / 4)
+        slot, target, channel, origin, unit, rows = pending_near(
+            self.robot, self.mount, self.mount_yaw, self.fov, self.max_range,
+            self.cam_channel, self.t_colour_index, self.half_x, self.half_y, self.radius,
+            self.bound, frame.pos, frame.head, frame.yaw, t_pos, t_head, pan, zoom, hidden,
+            grid.params(), grid.start, grid.items)
+        return Pending(slot, target, channel, origin, unit, rows[0], rows[1], rows[2],
+                       rows[3], rows)
 
     def project(self, p: Pending, visible: NDArray[np.bool_], pan: F64, tilt: F64,
                 zoom: F64) -> list[tuple[Blob, ...]]:
@@ -215,11 +222,16 @@ class BlobPlan:
         sel = np.flatnonzero(visible)
         if sel.size == 0:
             return [() for _ in self.cams]
-        idx = p.pair[sel]
-        boxes = blob_boxes(self.robot[idx], self.consts[idx], p.rows[:, sel], zoom, tilt)
+        slots = p.slot[sel]
+        targets = p.target[sel]
+        consts = self.cam_consts[slots]
+        consts[:, DZ_TOP] = self.z_top[targets] - self.cam_z[slots]
+        consts[:, DZ_BOTTOM] = self.z_bottom[targets] - self.cam_z[slots]
+        boxes = blob_boxes(self.robot[slots], consts, p.rows[:, sel], zoom, tilt)
         make = _make_blob
-        for (area, x, y, left, right, top, bottom), (_, sl, ch, col), near in zip(
-                boxes.tolist(), self.meta[idx].tolist(), p.near[sel].tolist(), strict=True):
+        for (area, x, y, left, right, top, bottom), sl, ch, col, near in zip(
+                boxes.tolist(), slots.tolist(), p.channel[sel].tolist(),
+                self.t_colour[targets].tolist(), p.near[sel].tolist(), strict=True):
             if area:
                 out[sl].append(make(ch, col, area, x, y, left, right, top, bottom, near))
         return [tuple(sorted(bl, key=lambda b: (b.id, -b.area, b.x))) for bl in out]

@@ -73,14 +73,14 @@ class SensingPass:
         bplan = pending = None
         if cams:
             bplan, pending = self.camera.fast_pending(cams, frame)
-            if pending.pair.size:
+            if pending.slot.size:
                 # Occlusion: the ray from the camera to the target's centre must reach the
                 # target's near side (cast at ground level: every footprint can block it).
                 origins.append(pending.origin)
                 dirs.append(pending.direction)
                 maxr.append(pending.dist)
-                zs.append(self._zeros_for(pending.pair.size))
-                own.append(bplan.own[pending.pair])
+                zs.append(self._zeros_for(pending.slot.size))
+                own.append(bplan.own[pending.slot])
         t1 = w._now()
         hits = np.zeros(0)
         if origins:

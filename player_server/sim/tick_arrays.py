@@ -13,6 +13,7 @@ import numpy as np
 import pybullet as pb
 from numpy.typing import NDArray
 
+from player_server.sim import grid_index
 from player_server.sim.drive import yaw_of as _yaw_of
 from player_server.sim.fastsense import Frame
 from player_server.sim.footprint_cast import Footprints
@@ -102,9 +103,46 @@ class TickArrays:
 
         return w._cached("frame", compute)  # type: ignore[return-value]
 
+    def robots_near(self, x: float, y: float, reach: float) -> list[int]:
+        """Indices (increasing) of the robots whose axle centre may lie within ``reach`` of
+        (x, y) on each axis: a superset, from this tick's grid of the robots."""
+        w = self.world
+        if len(w._robots) < grid_index.FEW:
+            return list(range(len(w._robots)))
+
+        def compute() -> grid_index.Grid:
+            pos = self.frame().pos
+            return grid_index.build(pos.real.copy(), pos.imag.copy(), np.zeros(pos.size),
+                                    _room_bounds(w))
+
+        grid = w._cached("robot_grid", compute)
+        assert isinstance(grid, grid_index.Grid)
+        return grid.near(x, y, reach).tolist()
+
+    def objects_near(self, x: float, y: float, reach: float) -> list[int]:
+        """Rows (increasing, in world-file order) of the objects whose centre may lie within
+        ``reach`` of (x, y) on each axis: a superset, from this tick's grid of the objects."""
+        w = self.world
+        if w._arrays.n_objects < grid_index.FEW:
+            return list(range(w._arrays.n_objects))
+
+        def compute() -> grid_index.Grid:
+            pos = self.dynamic()[1][w._arrays.n_boxes:]
+            return grid_index.build(pos.real.copy(), pos.imag.copy(), np.zeros(pos.size),
+                                    _room_bounds(w))
+
+        grid = w._cached("object_grid", compute)
+        assert isinstance(grid, grid_index.Grid)
+        return grid.near(x, y, reach).tolist()
+
     def target_poses(self, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
         w = self.world
         _, pos, head = self.dynamic()
         t_pos = np.concatenate([frame.body, pos, w._fixed_target_pos])
         t_head = np.concatenate([frame.head, head, w._fixed_target_head])
         return t_pos, t_head
+
+
+def _room_bounds(w: Simulation) -> tuple[float, float, float, float]:
+    room = w._arrays.room
+    return (-room.half_x, -room.half_y, room.half_x, room.half_y)

@@ -50,8 +50,9 @@ class WorldArrays:
     t_z_bottom: F64
     t_z_top: F64
     t_colour: NDArray[np.int64]
+    t_colour_index: NDArray[np.int64]  # each target's colour in the world's palette
     charger_xy: F64
-    channel: NDArray[np.int64]  # (n_robots, n_targets): blobfinder channel or -1
+    channel: NDArray[np.int64]  # (n_robots, palette colours): first blobfinder channel or -1
     cam: F64  # (n_robots, 10): mount x, y, z, yaw, tilt, fov, width, height, range, min_area
     channels: tuple[tuple[int, ...], ...]
 
@@ -77,19 +78,18 @@ class WorldArrays:
         colour = ([r.colour for r in robots] + [b.colour for b in boxes]
                   + [o.colour for o in objects] + [m.colour for m in spec.markers]
                   + [c.colour for c in spec.chargers])
-        channel = np.full((len(robots), n_t), -1, dtype=np.int64)
+        palette = sorted(set(colour))
+        colour_index = {c: j for j, c in enumerate(palette)}
+        channel = np.full((len(robots), len(palette)), -1, dtype=np.int64)
         cam = np.zeros((len(robots), 10))
         channels: list[tuple[int, ...]] = []
         for i, r in enumerate(robots):
             bf, c = r.devices.blobfinder, r.devices.camera
             channels.append(bf.channels if bf is not None else ())
             if bf is not None:
-                first: dict[int, int] = {}
-                for ch, col in enumerate(bf.channels):
-                    first.setdefault(col, ch)
-                for t, col in enumerate(colour):
-                    if col in first and t != i:
-                        channel[i, t] = first[col]
+                for ch, col in reversed(list(enumerate(bf.channels))):  # the first one wins
+                    if col in colour_index:
+                        channel[i, colour_index[col]] = ch
             if c is not None:
                 cam[i] = (c.pose.x, c.pose.y, c.pose.z, c.pose.yaw, c.tilt_rad, c.fov_h_rad,
                           c.width_px, c.height_px, c.max_range_m,
@@ -128,6 +128,7 @@ class WorldArrays:
             t_z_bottom=_arr(zeros),
             t_z_top=_arr(z_top),
             t_colour=np.array(colour, dtype=np.int64),
+            t_colour_index=np.array([colour_index[c] for c in colour], dtype=np.int64),
             charger_xy=np.array([[c.x, c.y] for c in spec.chargers],
                                 dtype=np.float64).reshape(-1, 2),
             channel=channel,

@@ -7,6 +7,8 @@ from typing import TYPE_CHECKING, ClassVar
 
 import pybullet as pb
 
+from player_server.sim.grid_index import FEW
+
 if TYPE_CHECKING:
     from player_server.sim.simulation import Simulation
 
@@ -32,17 +34,20 @@ class BumperModel:
             spec = st.spec.devices.bumper
             assert spec is not None
             body = st.spec.body
-            contacts = pb.getContactPoints(bodyA=st.body, physicsClientId=w._client)
+            if len(w._robots) < FEW:  # a few robots: ask for this body's contacts only
+                contacts = [(cp[2], (cp[5][0], cp[5][1])) for cp in pb.getContactPoints(
+                    bodyA=st.body, physicsClientId=w._client)]
+            else:
+                contacts = self._touching().get(st.body, [])
             c, s = math.cos(st.yaw), math.sin(st.yaw)
             # Contact manifolds report the corners of a touching patch, so each touching body
             # presses every panel whose lateral extent overlaps its patch on that end.
             spans: dict[tuple[int, bool], list[float]] = {}
             reach = 0.6 * body.length_m / 2
-            for cp in contacts:
-                other = cp[2]
+            for other, (px, py) in contacts:
                 if other == w._ids.floor or other == st.body:
                     continue
-                wx, wy = cp[5][0] - st.x, cp[5][1] - st.y
+                wx, wy = px - st.x, py - st.y
                 lx, ly = c * wx + s * wy - body.offset_x_m, -s * wx + c * wy
                 if abs(lx) < reach:
                     continue  # a side contact: no panels there
@@ -59,3 +64,20 @@ class BumperModel:
             return tuple(pressed)
 
         return w._cached(("bumpers", st.index), compute)  # type: ignore[return-value]
+
+    def _touching(self) -> dict[int, list[tuple[int, tuple[float, float]]]]:
+        """This tick's contact points by body: (the other body, the point on this body's
+        surface), read from PyBullet in one call for every robot (with many robots: a call
+        per robot would scan every contact of the world each time)."""
+        w = self.world
+
+        def compute() -> dict[int, list[tuple[int, tuple[float, float]]]]:
+            by_body: dict[int, list[tuple[int, tuple[float, float]]]] = {}
+            for cp in pb.getContactPoints(physicsClientId=w._client):
+                a, b = cp[1], cp[2]
+                by_body.setdefault(a, []).append((b, (cp[5][0], cp[5][1])))
+                if b != a:
+                    by_body.setdefault(b, []).append((a, (cp[6][0], cp[6][1])))
+            return by_body
+
+        return w._cached("contacts", compute)  # type: ignore[return-value]

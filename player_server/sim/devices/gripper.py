@@ -35,6 +35,7 @@ class GripperModel:
         self.world = world
 
     def build(self) -> None:
+        self._max_radius = max((o.radius_m for o in self.world.spec.objects), default=0.0)
         for st in self.world._robots:
             if st.spec.devices.gripper is not None:
                 st.gripper = Paddles()
@@ -51,7 +52,10 @@ class GripperModel:
         assert g is not None
         c, s = math.cos(st.yaw), math.sin(st.yaw)
         best, best_d = None, math.inf
-        for o in w._obj_specs:
+        specs = w._obj_specs
+        reach = abs(g.pose.x) + g.depth_m / 2 + g.width_m / 2 + self._max_radius + 1e-6
+        for row in w.tick_arrays.objects_near(st.x, st.y, reach):
+            o = specs[row]
             if o.name in w._hidden or o.name in w._held:
                 continue
             if o.radius_m > g.max_object_radius_m:

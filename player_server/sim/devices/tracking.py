@@ -44,10 +44,16 @@ class TrackingModel:
             sx, sy = st.x + c * m.x - s * m.y, st.y + s * m.x + c * m.y
             syaw = st.yaw + m.yaw
             things: list[tuple[int, float, float, float]] = []
-            for other in w._robots:
+            # only the robots and objects listed near the detector in this tick's grids
+            reach = spec.max_range_m + 1e-6
+            robots = w._robots
+            for i in w.tick_arrays.robots_near(sx, sy, reach):
+                other = robots[i]
                 if other is not st and other.spec.fiducial_id > 0:
                     things.append((other.spec.fiducial_id, other.x, other.y, other.yaw))
-            for o in w._obj_specs:
+            objects = w._obj_specs
+            for row in w.tick_arrays.objects_near(sx, sy, reach):
+                o = objects[row]
                 if o.fiducial_id > 0 and o.name not in w._hidden:
                     things.append((o.fiducial_id, *w.tick_arrays.dyn_pose(o.name)))
             out = []
