@@ -75,6 +75,22 @@ def _sent_changed(k: int, x: np.ndarray, t: np.ndarray, x_prev: np.ndarray,
 
 
 @njit(cache=True)
+def _keep_group(row: np.ndarray, size: int, need: int, agent_eq: np.ndarray,
+                order: np.ndarray, chosen: np.ndarray) -> None:
+    """Zero the bids in a group row outside the group it keeps: `select_group` when the task
+    needs equipment, else the `size` strongest."""
+    if need != 0:
+        _select_group(row, size, need, agent_eq, order, chosen)
+        for q in range(row.shape[0]):
+            if not chosen[q]:
+                row[q] = 0.0
+    else:
+        cnt = _rank(row, order)
+        for p in range(size, cnt):
+            row[order[p]] = 0.0
+
+
+@njit(cache=True)
 def _merge(i: int, k: int, now: float, xi: np.ndarray, ti: np.ndarray, s: np.ndarray,
            xk: np.ndarray, tk: np.ndarray, s_k: np.ndarray, single: np.ndarray,
            required: np.ndarray, task_eq: np.ndarray, agent_eq: np.ndarray,
@@ -140,17 +156,7 @@ def _merge(i: int, k: int, now: float, xi: np.ndarray, ti: np.ndarray, s: np.nda
             if row[q] != xi[j, q]:
                 row_changed = True
         if row_changed:
-            size = required[j]
-            if task_eq[j] != 0:
-                _select_group(row, size, task_eq[j], agent_eq, order, chosen)
-                for q in range(n):
-                    if not chosen[q]:
-                        row[q] = 0.0
-            else:
-                cnt = _rank(row, order)
-                if size < cnt:
-                    for p in range(size, cnt):
-                        row[order[p]] = 0.0
+            _keep_group(row, required[j], task_eq[j], agent_eq, order, chosen)
         for q in range(n):
             starts[q] = ti[j, q] if row[q] > 0.0 else 0.0
         starts[i] = ti[j, i]
