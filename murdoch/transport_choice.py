@@ -7,13 +7,13 @@ offers it (`murdoch listen`/`announce`, `murdoch-robot`, `murdoch run`).
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Protocol
 
 from murdoch.auth import TeamKey
 from murdoch.lossy import LossyReceiver
 from murdoch.multicast import MulticastConfig, MulticastTransport
-from murdoch.transport import Clock, Transport, TickConfig
+from murdoch.transport import Clock, TickConfig, Transport
 from murdoch.wire import Codec
 from murdoch.zenoh_transport import ZenohConfig, ZenohTransport
 
@@ -33,8 +33,8 @@ class TransportChoice:
     """`kind` and the settings of that kind (the other one's are ignored)."""
 
     kind: str = DEFAULT_TRANSPORT
-    multicast: MulticastConfig = MulticastConfig()
-    zenoh: ZenohConfig = ZenohConfig()
+    multicast: MulticastConfig = field(default_factory=MulticastConfig)
+    zenoh: ZenohConfig = field(default_factory=ZenohConfig)
 
     def __post_init__(self) -> None:
         if self.kind not in TRANSPORTS:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import socket
 import time
 from collections.abc import Callable, Iterator
@@ -194,9 +195,9 @@ def test_sessions_use_only_tcp_on_127_0_0_1(trio: list[ZenohTransport]) -> None:
 
 
 def test_endpoints_off_loopback_are_refused_unless_allowed() -> None:
-    with pytest.raises(ValueError, match="only 127.0.0.1"):
+    with pytest.raises(ValueError, match=r"only 127\.0\.0\.1"):
         ZenohConfig(endpoint="tcp/10.1.2.3:7447")
-    with pytest.raises(ValueError, match="expected tcp/ADDRESS:PORT"):
+    with pytest.raises(ValueError, match=r"expected tcp/ADDRESS:PORT"):
         ZenohConfig(endpoint="udp/127.0.0.1:7447")
     assert parse_endpoint("tcp/10.1.2.3:7447", allow_remote=True) == ("10.1.2.3", 7447)
     settings = ZenohConfig(endpoint="tcp/127.0.0.1:7000").session_settings()
@@ -207,6 +208,6 @@ def test_endpoints_off_loopback_are_refused_unless_allowed() -> None:
 
 def test_a_client_without_a_hub_fails_with_a_clear_error() -> None:
     endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
-    with pytest.raises(OSError, match=f"cannot connect to {endpoint}"):
+    with pytest.raises(OSError, match=f"cannot connect to {re.escape(endpoint)}"):
         ZenohTransport("lonely", time.monotonic,
                        ZenohConfig(endpoint=endpoint, connect_timeout_s=1.0))
