@@ -55,6 +55,27 @@ def parse_at(text: str) -> tuple[str, float]:
     return robot, parse_duration_s(when)
 
 
+def parse_place(text: str) -> tuple[str, tuple[str, ...]]:
+    """'r2=ip netns exec robots' -> ('r2', ('ip', 'netns', 'exec', 'robots'))."""
+    import shlex
+
+    robot, sep, prefix = text.partition("=")
+    try:
+        words = tuple(shlex.split(prefix))
+    except ValueError as exc:
+        raise click.BadParameter(f"{text!r}: {exc}", param_hint="--place") from None
+    if not sep or not robot.strip() or not words:
+        raise click.BadParameter(f"expected ROBOT=COMMAND PREFIX such as 'r2=ip netns exec "
+                                 f"robots', got {text!r}", param_hint="--place")
+    return robot.strip(), words
+
+
+def free_tcp_port(host: str = "127.0.0.1") -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind((host, 0))
+        return int(s.getsockname()[1])
+
+
 def free_udp_port() -> int:
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
         s.bind(("127.0.0.1", 0))
@@ -119,6 +140,17 @@ def free_udp_port() -> int:
 @click.option("--trails", type=click.IntRange(0, 5000), default=0, show_default=True,
               help="--meshcat: draw a trail of each robot's last N positions.")
 @click.option("--lasers", is_flag=True, help="--meshcat: draw the robots' laser rays.")
+@click.option("--transport", type=click.Choice(["multicast", "zenoh"]), default="multicast",
+              show_default=True,
+              help="The team's MURDOCH bus: loopback UDP multicast, or Zenoh with this process "
+                   "as the hub (pip install 'murdoch[zenoh]'); lockstep works on both.")
+@click.option("--bind", default="127.0.0.1", show_default=True,
+              help="Address the Player server (and a Zenoh hub) listen on; robots are told "
+                   "it. Another address only for robots on other hosts (--place).")
+@click.option("--place", "places", multiple=True, metavar="ROBOT=PREFIX",
+              help="Start ROBOT's process through a command prefix, e.g. "
+                   "'r2=ip netns exec robots' or 'r2=ssh lab-host-2' (needs --transport zenoh; "
+                   "repeatable; see docs/experiments.md).")
 def run(experiment: str, sim_hours: float | None, until: str | None, speedup: float | None,
         seed: int,
         meshcat: bool, out: Path, world: str | None, task_interval: float,
@@ -126,7 +158,8 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
         switch_ons: tuple[str, ...], goal_radius: float | None, goal_velocity: str | None,
         retargets: tuple[str, ...], metric_terms: str, no_replay: bool,
         pipelined: bool, robot_nice: int, key: str | None, pin_cpus: bool,
-        record_rate: float, no_record: bool, trails: int, lasers: bool) -> None:
+        record_rate: float, no_record: bool, trails: int, lasers: bool, transport: str,
+        bind: str, places: tuple[str, ...]) -> None:
     """Run EXPERIMENT end to end and leave a run directory behind."""
     from experiments.run_checks import RunSetupError, check_out_dir, effective_speedup
 
@@ -147,7 +180,8 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
             pipelined=pipelined, robot_nice=robot_nice, pin_cpus=pin_cpus, key=key,
             record=not no_record, record_rate_hz=record_rate, trails=trails, lasers=lasers,
             goal_plan=_goal_plan(goal_velocity, retargets),
-            metric_terms=_metric_terms(metric_terms),
+            metric_terms=_metric_terms(metric_terms), transport=transport, bind=bind,
+            placements=tuple(parse_place(p) for p in places),
         )
     except RunSetupError as exc:
         click.echo(f"murdoch run: {exc}", err=True)
@@ -185,7 +219,8 @@ def run_experiment(
     pipelined: bool = True, robot_nice: int = 0, pin_cpus: bool = False,
     key: str | None = None, trails: int = 0, lasers: bool = False, record: bool = True,
     record_rate_hz: float = 2.0, goal_plan: Any = None, metric_terms: tuple[str, ...] = (),
-    extras: RunExtras | None = None,
+    extras: RunExtras | None = None, transport: str = "multicast", bind: str = "127.0.0.1",
+    placements: tuple[tuple[str, tuple[str, ...]], ...] = (),
 ) -> int:
     """Run one experiment end to end; the exit code of `murdoch run`."""
     from experiments.experiment import RunOptions
@@ -197,7 +232,8 @@ def run_experiment(
         meshcat=meshcat, out=out, kills=tuple(kills), restarts=tuple(restarts), replay=replay,
         pipelined=pipelined, robot_nice=robot_nice, pin_cpus=pin_cpus, key=key,
         trails=trails, lasers=lasers, record=record, record_rate_hz=record_rate_hz,
-        metric_terms=metric_terms, extras=extras if extras is not None else RunExtras())
+        metric_terms=metric_terms, extras=extras if extras is not None else RunExtras(),
+        transport=transport, bind=bind, placements=placements)
     options = RunOptions(duration_s, seed, task_interval_s, tuple(switch_offs or ()),
                          tuple(switch_ons or ()), goal_radius_m, goal_plan)
     spec, options = check_run(settings, options)
