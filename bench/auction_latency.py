@@ -7,7 +7,8 @@ score on tasks that finish at once), then runs auctions back to back from this p
 bids_complete: time from publishing an announcement until the last of the N bids has been
 read by the auctioneer's transport (a subscription to each task's negotiation subject notes
 every bid's `received_at`, the transport's clock as it read it; late bids, after the window
-closed, are included; a bid set that never completes counts as infinite). msgs_per_auction
+closed, are included up to `--linger` seconds after the announcement; a bid set still short
+then counts as infinite). msgs_per_auction
 counts the allocation messages (announce + bids + award); each winner's completion report comes
 on top of that.
 Last line, always for the default transport configuration (one multicast group and port):
@@ -94,6 +95,9 @@ def main() -> None:
     parser.add_argument("--batch-ms", type=float, default=0.0,
                         help="bidders rest this long after handling traffic while bids are out "
                              "(batches bursts of bids where each bid wakes every bidder)")
+    parser.add_argument("--linger", type=float, default=10.0,
+                        help="keep counting an auction's bids this long after announcing it "
+                             "(a bid set still short then counts as never complete)")
     parser.add_argument("--reply-lane", action="store_true",
                         help="also measure with the reply lane on (printed first)")
     args = parser.parse_args()
@@ -129,9 +133,23 @@ def measure(args: argparse.Namespace, config: MulticastConfig) -> tuple[dict[str
     spec = TaskSpec("bench", frozenset({"camera"}), bid_window_s=args.bid_window,
                     renew_period_s=1.0, contract_timeout_s=3.0, abandon_after_s=3.0)
     # each task's negotiation subject gets a subscription that notes when every bid on it is
-    # read (late ones included); the last few stay open for stragglers
-    bid_subs: deque[Subscription] = deque()
+    # read (late ones included); it stays open until all N bids are in or `linger_s` has
+    # passed (with a hundred bidders on a busy host the last bids come long after the window
+    # closed, and this receiver then holds hundreds of subscriptions at once)
+    bid_subs: deque[tuple[float, list[float], Subscription]] = deque()
+    linger_s = args.linger
+
+    def retire(now: float) -> None:
+        keep: deque[tuple[float, list[float], Subscription]] = deque()
+        for opened, times, sub in bid_subs:
+            if len(times) >= args.bidders or now - opened > linger_s:
+                sub.close()
+            else:
+                keep.append((opened, times, sub))
+        bid_subs.clear()
+        bid_subs.extend(keep)
     gc.freeze()  # as the bidders do: no full collection pass over the imported modules
+    peak_subs = 0
     try:
         total = args.warmup + args.auctions
         start = 0.0
@@ -146,9 +164,10 @@ def measure(args: argparse.Namespace, config: MulticastConfig) -> tuple[dict[str
             announced_at[task_id] = sent_at
             # nothing is read before the next poll, so no bid can be missed
             times = arrivals.setdefault(task_id, [])
-            bid_subs.append(transport.subscribe({negotiation_subject(task_id)}, count_bids(times)))
-            if len(bid_subs) > 4:
-                bid_subs.popleft().close()
+            bid_subs.append((sent_at, times, transport.subscribe({negotiation_subject(task_id)},
+                                                                 count_bids(times))))
+            retire(clock())
+            peak_subs = max(peak_subs, len(bid_subs))
             while node.auctioneer.phase_of(task_id) is Phase.BIDDING:
                 wake = node.auctioneer.next_wakeup()
                 timeout = 0.05 if wake is None else max(0.0, min(0.05, wake - clock()))
@@ -158,11 +177,12 @@ def measure(args: argparse.Namespace, config: MulticastConfig) -> tuple[dict[str
         elapsed = clock() - start
         kinds = transport.counters.snapshot()["kinds"]
         stats_after = [proc_stats(p.pid) for p in procs] + [proc_stats("self")]
-        limit = clock() + 5.0
-        while len(outcomes) < total and clock() < limit:
+        limit = clock() + max(5.0, linger_s)
+        while (len(outcomes) < total or bid_subs) and clock() < limit:
             node.step(timeout_s=0.01)
+            retire(clock())
     finally:
-        for sub in bid_subs:
+        for _, _, sub in bid_subs:
             sub.close()
         node.close()
         transport.close()
@@ -223,6 +243,7 @@ def measure(args: argparse.Namespace, config: MulticastConfig) -> tuple[dict[str
         "auctioneer_cpu_ms_per_auction": round(own_cpu_s / n * 1e3, 3),
         "auctioneer_wakeups_per_auction": round(own_slices / n, 2),
         "auctioneer_run_delay_us_per_wakeup": round(own_wait_s / max(1, own_slices) * 1e6, 1),
+        "peak_bid_subscriptions": peak_subs,
     }
     p50 = percentile(latencies_ms, 50)
     p99 = percentile(latencies_ms, 99)
