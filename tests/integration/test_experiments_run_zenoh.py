@@ -23,7 +23,7 @@ def _murdoch() -> list[str]:
 
 def _run(out: Path, *extra: str) -> Path:
     proc = subprocess.run(
-        [*_murdoch(), "run", "longterm", "--until", "50s", "--task-interval", "10",
+        [*_murdoch(), "run", "longterm", "--until", "40s", "--task-interval", "8",
          "--seed", "5", "--no-replay", "--out", str(out), *extra],
         capture_output=True, text=True, timeout=280, check=False)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
@@ -44,5 +44,5 @@ def test_a_lockstep_run_over_zenoh_writes_the_multicast_runs_events(tmp_path: Pa
     assert summaries[0]["events_sha256"] == summaries[1]["events_sha256"]
     events = ev.read_events(over_zenoh / "events.jsonl")
     assert not any(terminal_state_problems(events).values())
-    assert summaries[0]["tasks"]["introduced"] >= 3
+    assert summaries[0]["tasks"]["introduced"] >= 2
     assert {"announce", "bid", "award"} <= set(summaries[0]["messages"]["by_kind"])
