@@ -63,7 +63,8 @@ def parse_place(text: str) -> tuple[str, tuple[str, ...]]:
     try:
         words = tuple(shlex.split(prefix))
     except ValueError as exc:
-        raise click.BadParameter(f"{text!r}: {exc}", param_hint="--place") from None
+        raise click.BadParameter(f"{text!r}: {exc}; expected ROBOT=COMMAND PREFIX",
+                                 param_hint="--place") from None
     if not sep or not robot.strip() or not words:
         raise click.BadParameter(f"expected ROBOT=COMMAND PREFIX such as 'r2=ip netns exec "
                                  f"robots', got {text!r}", param_hint="--place")
