@@ -185,8 +185,12 @@ class ZenohTransport(EndpointBacked):
         return len(data)
 
     def send_raw(self, datagram: bytes) -> None:
-        """Put bytes on the team's key as they are (tests use it for forged traffic)."""
-        self._session.put(self.config.key_expr, datagram)
+        """Put bytes on the team's key as they are (tests use it for forged traffic). A put
+        Zenoh refuses (a closed session) is an OSError, as a failed send is on multicast."""
+        try:
+            self._session.put(self.config.key_expr, datagram)
+        except Exception as exc:  # zenoh raises its own error type
+            raise OSError(f"zenoh: put on {self.config.key_expr} failed: {exc}") from None
 
     def _wait(self, timeout_s: float) -> None:
         with self._arrived:
