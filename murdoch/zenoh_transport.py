@@ -6,9 +6,13 @@ stamps, built and judged by the shared `EndpointCore`); Zenoh only moves the byt
 
 Topology: a star. One process of the team is the *hub*: its session runs in Zenoh's router
 mode and listens on the configured endpoint; every other process opens a client session
-that connects to it. The router forwards each publication to every session with a matching
-Zenoh subscription, so one put reaches the whole team (the publisher's own subscriptions
-are served inside its session, as multicast loops a datagram back to its sender).
+that connects to it, declares its subscription, then asks the hub a question on the same
+link and waits for the answer: the hub reads a link in order, so once it has answered it
+routes the team's datagrams to the new client, and a transport that has opened misses
+nothing sent after that (as a multicast socket that has joined its group). The router
+forwards each publication to every session with a matching Zenoh subscription, so one put
+reaches the whole team (the publisher's own subscriptions are served inside its session,
+as multicast loops a datagram back to its sender).
 
 Addressing: every datagram of a team goes to one key expression (``<prefix>/bus``), and the
 subject-set match (a message reaches each subscription holding all its subjects) is made by
@@ -32,6 +36,7 @@ import ipaddress
 import json
 import re
 import threading
+import time
 from collections import deque
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -98,6 +103,11 @@ class ZenohConfig:
     def key_expr(self) -> str:
         return f"{self.prefix}/bus"
 
+    @property
+    def hub_key_expr(self) -> str:
+        """Where the hub answers a joining client (see `ZenohTransport`)."""
+        return f"{self.prefix}/hub"
+
     def session_settings(self) -> dict[str, Any]:
         """The Zenoh configuration entries this transport sets (loopback unless allowed)."""
         timeout_ms = int(self.connect_timeout_s * 1000)
@@ -154,18 +164,49 @@ class ZenohTransport(EndpointBacked):
             sender_id, codec or AUCTION_CODEC, clock, key, instance=instance, ticks=ticks
         )
         self._queue: deque[bytes] = deque()
+        self._closing = threading.Event()
         self._arrived = threading.Condition()
         self.overflowed = 0
         self._overflow_counted = 0
         self.closed = False
-        self._closing = threading.Event()
         self._session = open_session(self.config)
+        self._queryable: Any = None
         try:
             self._subscriber = self._session.declare_subscriber(
                 self.config.key_expr, self._on_sample)
+            if self.config.hub:
+                self._queryable = self._session.declare_queryable(
+                    self.config.hub_key_expr, self._answer)
+            else:
+                self._wait_for_hub()
         except BaseException:
             self._session.close()
             raise
+
+    # -- joining: a client's subscription is the hub's to route before the client goes on
+    @staticmethod
+    def _answer(query: Any) -> None:
+        query.reply(query.key_expr, b"hub")
+
+    def _wait_for_hub(self) -> None:
+        """Ask the hub a question on the link that carried the subscription: the hub reads
+        that link in order, so once it answers it routes the team's datagrams to this
+        session (nothing sent after this returns can miss it)."""
+        deadline = time.monotonic() + self.config.connect_timeout_s
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise OSError(f"zenoh: no hub answered at {self.config.endpoint} "
+                              f"({self.config.hub_key_expr})")
+            try:
+                replies = list(self._session.get(self.config.hub_key_expr,
+                                                 timeout=min(left, 2.0)))
+            except Exception as exc:  # zenoh raises its own error type
+                raise OSError(f"zenoh: asking the hub at {self.config.endpoint} failed: "
+                              f"{exc}") from None
+            if any(reply.ok is not None for reply in replies):
+                return
+            self._closing.wait(0.05)
 
     # -- Zenoh's thread: queue the bytes, wake the owner
     def _on_sample(self, sample: Any) -> None:
@@ -250,6 +291,8 @@ class ZenohTransport(EndpointBacked):
             self._closing.set()
             try:
                 self._subscriber.undeclare()
+                if self._queryable is not None:
+                    self._queryable.undeclare()
             finally:
                 self._session.close()
             with self._arrived:
