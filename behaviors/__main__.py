@@ -77,6 +77,15 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--mcast-port", type=int, default=0,
                    help="join MURDOCH on this loopback multicast port (0 = do not)")
     p.add_argument("--mcast-group", default="239.255.74.17", help="MURDOCH multicast group")
+    p.add_argument("--transport", choices=("multicast", "zenoh"), default="multicast",
+                   help="MURDOCH's transport: loopback UDP multicast (--mcast-port) or Zenoh "
+                        "as a client of the team's hub (--zenoh-endpoint); default multicast")
+    p.add_argument("--zenoh-endpoint", default="tcp/127.0.0.1:7447",
+                   help="--transport zenoh: the team hub's tcp/ADDRESS:PORT "
+                        "(default tcp/127.0.0.1:7447)")
+    p.add_argument("--zenoh-allow-remote", action="store_true",
+                   help="--transport zenoh: allow a hub address other than 127.0.0.1 (a robot "
+                        "on another host)")
     p.add_argument("--lockstep-bus", action="store_true",
                    help="lockstep run: act on MURDOCH datagrams at tick boundaries in tick order "
                         "(needs the server's team clock device, opaque:0)")
@@ -186,7 +195,7 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps({"ready": status}), file=sys.stderr, flush=True)
         if args.task:
             agent.start_task(args.task, params, args.task_id)
-        if args.mcast_port:
+        if args.mcast_port or args.transport == "zenoh":
             from behaviors.murdoch_link import MurdochLink
 
             if args.auction_log:
@@ -231,8 +240,10 @@ def _team_transport(args: argparse.Namespace, name: str, agent: Any, client: Pla
     from murdoch.auth import TeamKey
     from murdoch.lossy import ENV as LOSS_ENV
     from murdoch.lossy import LossSpec, LossyReceiver
-    from murdoch.multicast import MulticastConfig, MulticastTransport
+    from murdoch.multicast import MulticastConfig
     from murdoch.transport import TickConfig
+    from murdoch.transport_choice import TransportChoice, open_transport
+    from murdoch.zenoh_transport import ZenohConfig, ZenohUnavailable
     from player_server.client import OpaqueProxy
 
     interval_s = world.sim.interval_sim_s if world is not None else 0.1
@@ -248,11 +259,19 @@ def _team_transport(args: argparse.Namespace, name: str, agent: Any, client: Pla
     loss_text = os.environ.get(LOSS_ENV, "")
     loss = (LossyReceiver(LossSpec.parse(loss_text), name, time.monotonic)
             if loss_text and not args.lockstep_bus else None)
-    transport = MulticastTransport(
-        name, lambda: float(agent.status().time_s),
-        MulticastConfig(group=args.mcast_group, port=args.mcast_port), key=key,
-        instance=args.instance or None, ticks=ticks, loss=loss,
-    )
+    try:
+        if args.transport == "zenoh":
+            choice = TransportChoice("zenoh", zenoh=ZenohConfig(
+                endpoint=args.zenoh_endpoint, allow_remote=args.zenoh_allow_remote))
+            loss = None  # the loss layer is the multicast receiver's
+        else:
+            choice = TransportChoice("multicast", multicast=MulticastConfig(
+                group=args.mcast_group, port=args.mcast_port))
+        transport = open_transport(
+            choice, name, lambda: float(agent.status().time_s), key=key,
+            instance=args.instance or None, ticks=ticks, loss=loss)
+    except (ValueError, ZenohUnavailable, OSError) as exc:
+        raise PlayerError(f"cannot join the team's bus: {exc}") from None
     sync = None
     if args.lockstep_bus:
         clock = client.proxies.get((OpaqueProxy.interf, 0))

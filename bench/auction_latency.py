@@ -7,11 +7,15 @@ score on tasks that finish at once), then runs auctions back to back from this p
 bids_complete: time from publishing an announcement until the last of the N bids has been
 read by the auctioneer's transport (a subscription to each task's negotiation subject notes
 every bid's `received_at`, the transport's clock as it read it; late bids, after the window
-closed, are included; a bid set that never completes counts as infinite). msgs_per_auction
+closed, are included up to `--linger` seconds after the announcement; a bid set still short
+then counts as infinite). msgs_per_auction
 counts the allocation messages (announce + bids + award); each winner's completion report comes
 on top of that.
-Last line, always for the default transport configuration (one multicast group and port):
+Last line (on multicast always for the default configuration, one group and port):
 bids_complete_ms_p50=<x> bids_complete_ms_p99=<y> auctions_per_s=<z> msgs_per_auction=<m>
+
+With --transport zenoh the same is measured over a Zenoh hub (this process) on
+tcp/127.0.0.1 instead of multicast (needs the zenoh extra).
 
 With --reply-lane the same measurement is first made with the reply lane on (replies on a
 second group, see `murdoch.multicast`) and printed earlier as its own JSON line and a line
@@ -33,6 +37,7 @@ import math
 import os
 import random
 import resource
+import socket
 import subprocess
 import sys
 import time
@@ -41,10 +46,12 @@ from collections.abc import Callable
 
 from murdoch.auction.auctioneer import Phase
 from murdoch.auction.messages import Bid, Outcome, TaskSpec, negotiation_subject
-from murdoch.multicast import MulticastConfig, MulticastTransport
+from murdoch.multicast import MulticastConfig
 from murdoch.node import Node
 from murdoch.transport import Subscription
+from murdoch.transport_choice import TransportChoice, open_transport
 from murdoch.wire import Envelope
+from murdoch.zenoh_transport import ZenohConfig
 
 
 def percentile(values: list[float], q: float) -> float:
@@ -64,16 +71,24 @@ def proc_stats(pid: int | str) -> tuple[float, float, int]:
     return int(cpu_ns) / 1e9, int(run_delay_ns) / 1e9, int(slices)
 
 
-def start_bidders(
-    count: int, config: MulticastConfig, lifetime_s: float, batch_ms: float
-) -> list[subprocess.Popen[str]]:
+def network_args(choice: TransportChoice) -> list[str]:
+    """The sample bidder's options for the bus `choice` describes (bidders are clients)."""
+    if choice.kind == "zenoh":
+        return ["--transport", "zenoh", "--zenoh-endpoint", choice.zenoh.endpoint]
+    config = choice.multicast
     lane = ["--reply-lane"] if config.reply_lane else []
+    return ["--group", config.group, "--port", str(config.port), *lane]
+
+
+def start_bidders(
+    count: int, choice: TransportChoice, lifetime_s: float, batch_ms: float
+) -> list[subprocess.Popen[str]]:
     procs = []
     for i in range(count):
         cmd = [
             sys.executable, "-m", "murdoch.sample_bidder", "--name", f"bench-b{i}",
-            "--score", str(float(i + 1)), "--group", config.group, "--port", str(config.port),
-            "--lifetime", str(lifetime_s), "--quiet", "--batch-ms", str(batch_ms), *lane,
+            "--score", str(float(i + 1)), *network_args(choice),
+            "--lifetime", str(lifetime_s), "--quiet", "--batch-ms", str(batch_ms),
         ]
         procs.append(subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True))
     for proc in procs:
@@ -94,21 +109,39 @@ def main() -> None:
     parser.add_argument("--batch-ms", type=float, default=0.0,
                         help="bidders rest this long after handling traffic while bids are out "
                              "(batches bursts of bids where each bid wakes every bidder)")
+    parser.add_argument("--linger", type=float, default=10.0,
+                        help="keep counting an auction's bids this long after announcing it "
+                             "(a bid set still short then counts as never complete)")
     parser.add_argument("--reply-lane", action="store_true",
                         help="also measure with the reply lane on (printed first)")
+    parser.add_argument("--transport", choices=("multicast", "zenoh"), default="multicast",
+                        help="zenoh: the same over a Zenoh hub (this process) on "
+                             "tcp/127.0.0.1 instead of multicast")
     args = parser.parse_args()
+    if args.transport == "zenoh" and args.reply_lane:
+        parser.error("--reply-lane is a multicast option")
     rng = random.Random(args.seed)
+    if args.transport == "zenoh":
+        with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+            probe.bind(("127.0.0.1", 0))
+            endpoint = f"tcp/127.0.0.1:{probe.getsockname()[1]}"
+        choice = TransportChoice("zenoh", zenoh=ZenohConfig(endpoint=endpoint, hub=True))
+        details, summary = measure(args, choice)
+        print(json.dumps(details))
+        print(summary, flush=True)
+        return
     modes = [True, False] if args.reply_lane else [False]
     for reply_lane in modes:
         config = MulticastConfig(group=f"239.255.{rng.randint(1, 254)}.{rng.randint(1, 254)}",
                                  port=rng.randint(20000, 60000), reply_lane=reply_lane)
-        details, summary = measure(args, config)
+        details, summary = measure(args, TransportChoice("multicast", multicast=config))
         print(json.dumps(details))
         print(("reply_lane: " if reply_lane else "") + summary, flush=True)
 
 
-def measure(args: argparse.Namespace, config: MulticastConfig) -> tuple[dict[str, object], str]:
-    """Run the auctions on `config`; return the details and the summary line."""
+def measure(args: argparse.Namespace, choice: TransportChoice) -> tuple[dict[str, object], str]:
+    """Run the auctions on the bus `choice` describes; return the details and the summary
+    line."""
     clock = time.perf_counter
     arrivals: dict[str, list[float]] = {}
     announced_at: dict[str, float] = {}
@@ -122,16 +155,35 @@ def measure(args: argparse.Namespace, config: MulticastConfig) -> tuple[dict[str
         return note
 
     cpu_before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    procs = start_bidders(args.bidders, config, lifetime_s=120.0, batch_ms=args.batch_ms)
-    transport = MulticastTransport(f"bench-{os.getpid()}", clock, config)
+    # the auctioneer's transport first: over Zenoh it is the hub the bidders connect to
+    transport = open_transport(choice, f"bench-{os.getpid()}", clock)
+    try:
+        procs = start_bidders(args.bidders, choice, lifetime_s=600.0, batch_ms=args.batch_ms)
+    except BaseException:
+        transport.close()
+        raise
     node = Node(transport, clock, on_outcome=outcomes.append)
     measured: list[str] = []
     spec = TaskSpec("bench", frozenset({"camera"}), bid_window_s=args.bid_window,
                     renew_period_s=1.0, contract_timeout_s=3.0, abandon_after_s=3.0)
     # each task's negotiation subject gets a subscription that notes when every bid on it is
-    # read (late ones included); the last few stay open for stragglers
-    bid_subs: deque[Subscription] = deque()
+    # read (late ones included); it stays open until all N bids are in or `linger_s` has
+    # passed (with a hundred bidders on a busy host the last bids come long after the window
+    # closed, and this receiver then holds hundreds of subscriptions at once)
+    bid_subs: deque[tuple[float, list[float], Subscription]] = deque()
+    linger_s = args.linger
+
+    def retire(now: float) -> None:
+        keep: deque[tuple[float, list[float], Subscription]] = deque()
+        for opened, times, sub in bid_subs:
+            if len(times) >= args.bidders or now - opened > linger_s:
+                sub.close()
+            else:
+                keep.append((opened, times, sub))
+        bid_subs.clear()
+        bid_subs.extend(keep)
     gc.freeze()  # as the bidders do: no full collection pass over the imported modules
+    peak_subs = 0
     try:
         total = args.warmup + args.auctions
         start = 0.0
@@ -146,9 +198,10 @@ def measure(args: argparse.Namespace, config: MulticastConfig) -> tuple[dict[str
             announced_at[task_id] = sent_at
             # nothing is read before the next poll, so no bid can be missed
             times = arrivals.setdefault(task_id, [])
-            bid_subs.append(transport.subscribe({negotiation_subject(task_id)}, count_bids(times)))
-            if len(bid_subs) > 4:
-                bid_subs.popleft().close()
+            bid_subs.append((sent_at, times, transport.subscribe({negotiation_subject(task_id)},
+                                                                 count_bids(times))))
+            retire(clock())
+            peak_subs = max(peak_subs, len(bid_subs))
             while node.auctioneer.phase_of(task_id) is Phase.BIDDING:
                 wake = node.auctioneer.next_wakeup()
                 timeout = 0.05 if wake is None else max(0.0, min(0.05, wake - clock()))
@@ -158,11 +211,12 @@ def measure(args: argparse.Namespace, config: MulticastConfig) -> tuple[dict[str
         elapsed = clock() - start
         kinds = transport.counters.snapshot()["kinds"]
         stats_after = [proc_stats(p.pid) for p in procs] + [proc_stats("self")]
-        limit = clock() + 5.0
-        while len(outcomes) < total and clock() < limit:
+        limit = clock() + max(5.0, linger_s)
+        while (len(outcomes) < total or bid_subs) and clock() < limit:
             node.step(timeout_s=0.01)
+            retire(clock())
     finally:
-        for sub in bid_subs:
+        for _, _, sub in bid_subs:
             sub.close()
         node.close()
         transport.close()
@@ -205,7 +259,8 @@ def measure(args: argparse.Namespace, config: MulticastConfig) -> tuple[dict[str
         "award", "sent_msgs")
     details: dict[str, object] = {
         "bidders": args.bidders, "auctions": n, "bid_window_s": args.bid_window,
-        "batch_ms": args.batch_ms, "reply_lane": config.reply_lane,
+        "batch_ms": args.batch_ms, "transport": choice.kind,
+        "reply_lane": choice.kind == "multicast" and choice.multicast.reply_lane,
         "load_avg_1min": os.getloadavg()[0],
         "bid_sets_never_complete": sum(1 for x in latencies_ms if math.isinf(x)),
         "bid_sets_after_close": sum(1 for x in latencies_ms if window_ms < x < math.inf),
@@ -223,6 +278,7 @@ def measure(args: argparse.Namespace, config: MulticastConfig) -> tuple[dict[str
         "auctioneer_cpu_ms_per_auction": round(own_cpu_s / n * 1e3, 3),
         "auctioneer_wakeups_per_auction": round(own_slices / n, 2),
         "auctioneer_run_delay_us_per_wakeup": round(own_wait_s / max(1, own_slices) * 1e6, 1),
+        "peak_bid_subscriptions": peak_subs,
     }
     p50 = percentile(latencies_ms, 50)
     p99 = percentile(latencies_ms, 99)

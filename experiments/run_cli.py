@@ -56,6 +56,28 @@ def parse_at(text: str) -> tuple[str, float]:
     return robot, parse_duration_s(when)
 
 
+def parse_place(text: str) -> tuple[str, tuple[str, ...]]:
+    """'r2=ip netns exec robots' -> ('r2', ('ip', 'netns', 'exec', 'robots'))."""
+    import shlex
+
+    robot, sep, prefix = text.partition("=")
+    try:
+        words = tuple(shlex.split(prefix))
+    except ValueError as exc:
+        raise click.BadParameter(f"{text!r}: {exc}; expected ROBOT=COMMAND PREFIX",
+                                 param_hint="--place") from None
+    if not sep or not robot.strip() or not words:
+        raise click.BadParameter(f"expected ROBOT=COMMAND PREFIX such as 'r2=ip netns exec "
+                                 f"robots', got {text!r}", param_hint="--place")
+    return robot.strip(), words
+
+
+def free_tcp_port(host: str = "127.0.0.1") -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind((host, 0))
+        return int(s.getsockname()[1])
+
+
 def free_udp_port() -> int:
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
         s.bind(("127.0.0.1", 0))
@@ -128,6 +150,17 @@ def free_udp_port() -> int:
               show_default=True,
               help="longterm: the fraction of tasks that are group tasks, each needing two "
                    "robots at once (watch one object from two sides).")
+@click.option("--transport", type=click.Choice(["multicast", "zenoh"]), default="multicast",
+              show_default=True,
+              help="The team's MURDOCH bus: loopback UDP multicast, or Zenoh with this process "
+                   "as the hub (pip install 'murdoch[zenoh]'); lockstep works on both.")
+@click.option("--bind", default="127.0.0.1", show_default=True,
+              help="Address the Player server (and a Zenoh hub) listen on; robots are told "
+                   "it. Another address only for robots on other hosts (--place).")
+@click.option("--place", "places", multiple=True, metavar="ROBOT=PREFIX",
+              help="Start ROBOT's process through a command prefix, e.g. "
+                   "'r2=ip netns exec robots' or 'r2=ssh lab-host-2' (needs --transport zenoh; "
+                   "repeatable; see docs/experiments.md).")
 def run(experiment: str, sim_hours: float | None, until: str | None, speedup: float | None,
         seed: int,
         meshcat: bool, out: Path, world: str | None, task_interval: float,
@@ -136,7 +169,7 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
         retargets: tuple[str, ...], metric_terms: str, no_replay: bool,
         pipelined: bool, robot_nice: int, key: str | None, pin_cpus: bool,
         record_rate: float, no_record: bool, trails: int, lasers: bool, allocator: str,
-        group_tasks: float) -> None:
+        group_tasks: float, transport: str, bind: str, places: tuple[str, ...]) -> None:
     """Run EXPERIMENT end to end and leave a run directory behind."""
     from experiments.run_checks import RunSetupError, check_out_dir, effective_speedup
 
@@ -158,7 +191,8 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
             record=not no_record, record_rate_hz=record_rate, trails=trails, lasers=lasers,
             goal_plan=_goal_plan(goal_velocity, retargets),
             metric_terms=_metric_terms(metric_terms), allocator=allocator,
-            group_task_rate=group_tasks,
+            group_task_rate=group_tasks, transport=transport, bind=bind,
+            placements=tuple(parse_place(p) for p in places),
         )
     except RunSetupError as exc:
         click.echo(f"murdoch run: {exc}", err=True)
@@ -197,6 +231,8 @@ def run_experiment(
     key: str | None = None, trails: int = 0, lasers: bool = False, record: bool = True,
     record_rate_hz: float = 2.0, goal_plan: Any = None, metric_terms: tuple[str, ...] = (),
     extras: RunExtras | None = None, allocator: str = "murdoch", group_task_rate: float = 0.0,
+    transport: str = "multicast", bind: str = "127.0.0.1",
+    placements: tuple[tuple[str, tuple[str, ...]], ...] = (),
 ) -> int:
     """Run one experiment end to end; the exit code of `murdoch run`."""
     from experiments.experiment import RunOptions
@@ -208,7 +244,8 @@ def run_experiment(
         meshcat=meshcat, out=out, kills=tuple(kills), restarts=tuple(restarts), replay=replay,
         pipelined=pipelined, robot_nice=robot_nice, pin_cpus=pin_cpus, key=key,
         trails=trails, lasers=lasers, record=record, record_rate_hz=record_rate_hz,
-        metric_terms=metric_terms, extras=extras if extras is not None else RunExtras())
+        metric_terms=metric_terms, extras=extras if extras is not None else RunExtras(),
+        transport=transport, bind=bind, placements=placements)
     options = RunOptions(duration_s, seed, task_interval_s, tuple(switch_offs or ()),
                          tuple(switch_ons or ()), goal_radius_m, goal_plan,
                          group_task_rate=group_task_rate, allocator=allocator)

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 import click
 
 from experiments.experiment import Experiment, Fault, Referee, RunOptions, labels
-from experiments.supervisor import RobotSupervisor, robot_process
+from experiments.supervisor import BusPlace, RobotSupervisor, robot_process
 
 if TYPE_CHECKING:
     from experiments.observe import JsonlTail
@@ -36,6 +36,7 @@ if TYPE_CHECKING:
     from murdoch.lossy import LossyReceiver
     from murdoch.multicast import MulticastTransport
     from murdoch.node import Node
+    from murdoch.zenoh_transport import ZenohTransport
     from player_server.server.affinity import CpuSplit
     from player_server.server.runner import PlayerServer
     from player_server.sim import Simulation
@@ -70,6 +71,12 @@ class RunSettings:
     record_rate_hz: float
     metric_terms: tuple[str, ...]
     extras: RunExtras
+    transport: str = "multicast"
+    """The team bus: loopback UDP multicast, or Zenoh with the runner's node as the hub."""
+    bind: str = "127.0.0.1"
+    """Where the Player server (and a Zenoh hub) listen; another address only when asked."""
+    placements: tuple[tuple[str, tuple[str, ...]], ...] = ()
+    """(robot, launch prefix): robot processes started elsewhere (`ProcessSpec.launch`)."""
 
     @property
     def lockstep(self) -> bool:
@@ -86,7 +93,7 @@ class RunParts:
     sim: Simulation
     server: PlayerServer
     supervisor: RobotSupervisor
-    transport: MulticastTransport
+    transport: MulticastTransport | ZenohTransport
     node: Node
     loop: RunLoop
     referee: Referee
@@ -108,11 +115,37 @@ def check_run(settings: RunSettings, options: RunOptions) -> tuple[WorldSpec, Ru
     if not any(r.mobile for r in spec.robots):
         raise RunSetupError(f"world {spec.source}: no mobile robot can take part in "
                             f"{settings.experiment.name} (every robot lacks position2d)")
+    _check_placement(settings, {r.name for r in spec.robots})
     check_schedule(robots=[r.name for r in spec.robots], duration_s=options.duration_s,
                    kills=list(settings.kills), restarts=list(settings.restarts),
                    switch_offs=list(options.switch_offs), switch_ons=list(options.switch_ons),
                    world=settings.world_name)
     return spec, options
+
+
+def _check_placement(settings: RunSettings, robots: set[str]) -> None:
+    """Transport, address and placements that fit together (clear errors, nothing started)."""
+    import ipaddress
+
+    from experiments.run_checks import RunSetupError
+
+    try:
+        bind = ipaddress.IPv4Address(settings.bind)
+    except ValueError:
+        raise RunSetupError(f"--bind {settings.bind!r}: expected an IPv4 address") from None
+    if bind.is_unspecified or bind.is_multicast:
+        raise RunSetupError(f"--bind {settings.bind}: expected one address of this host (the "
+                            "robots are told it), not a wildcard or a group")
+    for name, _ in settings.placements:
+        if name not in robots:
+            raise RunSetupError(f"--place {name}=...: the world has no robot {name!r} "
+                                f"(robots: {', '.join(sorted(robots))})")
+    if settings.transport != "zenoh" and (settings.placements or settings.bind != "127.0.0.1"):
+        raise RunSetupError("robots on other hosts (--place, --bind) need --transport zenoh: "
+                            "the multicast bus stays on this host's loopback")
+    if settings.transport == "zenoh" and settings.extras.bus_loss is not None:
+        raise RunSetupError("--bus-loss is a layer of the multicast receiver; it cannot be "
+                            "combined with --transport zenoh")
 
 
 def run_config(settings: RunSettings, options: RunOptions,
@@ -129,6 +162,7 @@ def run_config(settings: RunSettings, options: RunOptions,
         "kills": labels(settings.kills), "restarts": labels(settings.restarts),
         "team_key": "given" if settings.key or os.environ.get(KEY_ENV) else "fresh",
         "allocator": options.allocator,
+        "transport": settings.transport, "bind": settings.bind,
     }
     config.update(settings.experiment.config(options))
     if settings.metric_terms:
@@ -152,7 +186,7 @@ def assemble(settings: RunSettings, options: RunOptions, spec: WorldSpec) -> Run
     """Build every piece of the run (nothing runs yet)."""
     from experiments.recorder import RunRecorder
     from experiments.run_checks import RunSetupError, describe_os_error
-    from experiments.run_cli import free_udp_port
+    from experiments.run_cli import free_tcp_port, free_udp_port
     from player_server.drivers.team_clock import TeamClock, TeamClockDriver
     from player_server.server.affinity import allowed_cpus, pin_current_thread, plan_split
     from player_server.server.assembly import world_endpoints
@@ -163,6 +197,8 @@ def assemble(settings: RunSettings, options: RunOptions, spec: WorldSpec) -> Run
     lockstep = settings.lockstep
     referee = settings.experiment.referee(spec, options)
     mcast_port = free_udp_port()
+    zenoh_endpoint = (f"tcp/{settings.bind}:{free_tcp_port(settings.bind)}"
+                      if settings.transport == "zenoh" else "")
     own_cpus = allowed_cpus()
     split = plan_split(own_cpus) if settings.pin_cpus and own_cpus is not None else None
     # a team of its own: a fresh key (and epoch) per run unless one is given; robots get
@@ -195,23 +231,27 @@ def assemble(settings: RunSettings, options: RunOptions, spec: WorldSpec) -> Run
         pin_current_thread(split.others)
     server = PlayerServer(
         rec.observe(sim, samplers=referee.samplers), endpoints, interval_s=sim.interval_s,
-        clock=time.monotonic, speedup=settings.speedup, quit_time_s=0.0,
+        clock=time.monotonic, speedup=settings.speedup, quit_time_s=0.0, host=settings.bind,
         config=CoreConfig(lockstep=lockstep, lockstep_clients=1,
                           lockstep_timeout_s=0.0 if lockstep else 5.0,
                           pipelined=settings.pipelined),
         cpus=split.serving if split is not None else None,
     )
     env = {**os.environ, KEY_ENV: secret, EPOCH_ENV: epoch}
+    bus = BusPlace(server_host=settings.bind, mcast_port=mcast_port,
+                   zenoh_endpoint=zenoh_endpoint)
+    launches = dict(settings.placements)
     specs = {ep.name: robot_process(
-        ep.name, world=str(spec.source), mcast_port=mcast_port, seed=options.seed,
+        ep.name, world=str(spec.source), bus=bus, seed=options.seed,
         logs=rec.run.logs, metric_terms=settings.metric_terms, lockstep=lockstep,
-        read_timeout_s=STALL_LIMIT_S * 4, allocator=options.allocator) for ep in endpoints}
+        read_timeout_s=STALL_LIMIT_S * 4, allocator=options.allocator,
+        launch=launches.get(ep.name, ())) for ep in endpoints}
     rec.config["processes"] = [p.as_dict() for p in specs.values()]
     bus_loss = _bus_loss(settings, env)
     supervisor = RobotSupervisor(specs, lambda n: rec.run.log_file(f"robot-{n}"), env,
                                  settings.robot_nice)
     transport, node, loop = _user(settings, options, spec, sim, server, supervisor, rec,
-                                  referee, team_clock, mcast_port, secret, epoch, bus_loss)
+                                  referee, team_clock, bus, secret, epoch, bus_loss)
     return RunParts(settings, options, rec, sim, server, supervisor, transport, node, loop,
                     referee, split, own_cpus, bus_loss, [ep.name for ep in endpoints])
 
@@ -230,16 +270,21 @@ def _bus_loss(settings: RunSettings, env: dict[str, str]) -> LossyReceiver | Non
 
 def _user(settings: RunSettings, options: RunOptions, spec: WorldSpec, sim: Simulation,
           server: PlayerServer, supervisor: RobotSupervisor, rec: RunRecorder,
-          referee: Referee, team_clock: Any, mcast_port: int, secret: str, epoch: str,
-          bus_loss: LossyReceiver | None) -> tuple[MulticastTransport, Node, RunLoop]:
-    """The user's side: its transport on the team's bus, its MURDOCH node and the loop."""
+          referee: Referee, team_clock: Any, bus: BusPlace, secret: str, epoch: str,
+          bus_loss: LossyReceiver | None,
+          ) -> tuple[MulticastTransport | ZenohTransport, Node, RunLoop]:
+    """The user's side: its transport on the team's bus (the Zenoh hub when the bus is
+    Zenoh), its MURDOCH node and the loop."""
+    from experiments.run_checks import RunSetupError
     from experiments.run_loop import RunLoop
     from experiments.task_source import longterm_tasks
     from murdoch.auth import TeamKey
-    from murdoch.multicast import MulticastConfig, MulticastTransport
+    from murdoch.multicast import MulticastConfig
     from murdoch.node import Node
     from murdoch.transport import TickConfig
+    from murdoch.transport_choice import TransportChoice, open_transport
     from murdoch.user_agent import RandomizedBackoff
+    from murdoch.zenoh_transport import ZenohConfig, ZenohUnavailable
 
     lockstep, extras = settings.lockstep, settings.extras
     interval = float(sim.interval_s)
@@ -250,9 +295,16 @@ def _user(settings: RunSettings, options: RunOptions, spec: WorldSpec, sim: Simu
     sim_now = lambda: float(sim.time_s)  # noqa: E731 - a float read across threads
     ticks = TickConfig(user_tick, epoch=epoch, ordered=lockstep, late_joiner=False,
                        stale_after_ticks=0 if lockstep else 100, require_tick=True)
-    transport = MulticastTransport("user", sim_now, MulticastConfig(port=mcast_port),
-                                   key=TeamKey(secret), instance="0", ticks=ticks,
-                                   loss=bus_loss)
+    if bus.zenoh_endpoint:
+        choice = TransportChoice("zenoh", zenoh=ZenohConfig(
+            endpoint=bus.zenoh_endpoint, hub=True, allow_remote=settings.bind != "127.0.0.1"))
+    else:
+        choice = TransportChoice("multicast", multicast=MulticastConfig(port=bus.mcast_port))
+    try:
+        transport = open_transport(choice, "user", sim_now, key=TeamKey(secret), instance="0",
+                                   ticks=ticks, loss=bus_loss)
+    except (ZenohUnavailable, OSError) as exc:
+        raise RunSetupError(f"cannot open the team's bus ({choice.describe()}): {exc}") from exc
     loop_ref: list[RunLoop] = []
     node = Node(transport, sim_now, agent_id="user",
                 observer=lambda e: loop_ref[0].on_auction_event(e.to_dict()),

@@ -30,12 +30,16 @@ fault schedule says so (a restart or a switch-on); nothing restarts by itself.""
 class ProcessSpec:
     """One process of a run. In `args`, ``{port}`` (the Player port of the process's
     endpoint) and ``{instance}`` (how many times it was started before) are filled in at
-    each start."""
+    each start. `launch` is a command prefix that places the process elsewhere: empty runs
+    it here; ``ip netns exec NS`` runs it in network namespace NS; ``ssh HOST`` on another
+    host (which needs the same installation and run directory paths, see
+    docs/experiments.md)."""
 
     name: str
     command: tuple[str, ...]
     args: tuple[str, ...]
     restart: str = "on-schedule"
+    launch: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if self.restart not in RESTART_POLICIES:
@@ -44,11 +48,11 @@ class ProcessSpec:
 
     def argv(self, *, port: int, instance: int) -> list[str]:
         values = {"port": str(port), "instance": str(instance)}
-        return [*self.command, *(a.format_map(values) for a in self.args)]
+        return [*self.launch, *self.command, *(a.format_map(values) for a in self.args)]
 
     def as_dict(self) -> dict[str, Any]:
         return {"name": self.name, "command": list(self.command), "args": list(self.args),
-                "restart": self.restart}
+                "restart": self.restart, "launch": list(self.launch)}
 
 
 def robot_command() -> list[str]:
@@ -57,12 +61,35 @@ def robot_command() -> list[str]:
     return [str(exe)] if exe.exists() else [sys.executable, "-m", "behaviors"]
 
 
-def robot_process(name: str, *, world: str, mcast_port: int, seed: int, logs: Path,
+@dataclass(frozen=True)
+class BusPlace:
+    """How a robot process reaches the run: the Player server's address and the team bus
+    (multicast on this host's loopback, or Zenoh through the runner's hub)."""
+
+    server_host: str = "127.0.0.1"
+    mcast_port: int = 0
+    zenoh_endpoint: str = ""
+    """Non-empty: the robots join MURDOCH over Zenoh through this hub endpoint."""
+
+    def args(self) -> list[str]:
+        out = ["-h", self.server_host]
+        if self.zenoh_endpoint:
+            out += ["--transport", "zenoh", "--zenoh-endpoint", self.zenoh_endpoint]
+            if not self.zenoh_endpoint.startswith("tcp/127.0.0.1:"):
+                out.append("--zenoh-allow-remote")
+        else:
+            out += ["--mcast-port", str(self.mcast_port)]
+        return out
+
+
+def robot_process(name: str, *, world: str, bus: BusPlace, seed: int, logs: Path,
                   metric_terms: tuple[str, ...], lockstep: bool,
-                  read_timeout_s: float, allocator: str = "murdoch") -> ProcessSpec:
-    """The `murdoch-robot` process that drives the endpoint `name` (with `allocator` other
-    than MURDOCH, its command line names it; MURDOCH's stays as it always was)."""
-    args = ["-p", "{port}", "--name", name, "--world", world, "--mcast-port", str(mcast_port),
+                  read_timeout_s: float, allocator: str = "murdoch",
+                  launch: tuple[str, ...] = ()) -> ProcessSpec:
+    """The `murdoch-robot` process that drives the endpoint `name` (placed by `launch`; with
+    `allocator` other than MURDOCH, its command line names it; MURDOCH's stays as it always
+    was)."""
+    args = ["-p", "{port}", "--name", name, "--world", world, *bus.args(),
             "--seed", str(seed), "--instance", "{instance}",
             "--events", str(logs / f"{name}.events.jsonl"),
             "--auction-log", str(logs / f"{name}.auction.jsonl")]
@@ -75,7 +102,7 @@ def robot_process(name: str, *, world: str, mcast_port: int, seed: int, logs: Pa
         # loaded machine, say): the runner's own stall limit ends a run that truly hangs
         args += ["--lockstep-bus", "--request-timeout", "120",
                  "--read-timeout", str(int(read_timeout_s))]
-    return ProcessSpec(name, tuple(robot_command()), tuple(args))
+    return ProcessSpec(name, tuple(robot_command()), tuple(args), launch=launch)
 
 
 @dataclass

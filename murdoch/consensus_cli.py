@@ -128,8 +128,12 @@ def allocate(scenario: str, algorithm: str, task_quitting: bool, team_reward: bo
               show_default=True,
               help="How the team-reward variants bid: 'bonus' or 'total' (the paper's "
                    "total value of the group task).")
+@click.option("--dask", "dask_address", default=None, metavar="tcp://HOST:PORT",
+              help="Run the allocations on the workers of this Dask scheduler instead of "
+                   "--jobs local processes (pip install 'murdoch[dask]'; same records).")
 def sweep(experiment: str, agents: str | None, runs: int, seed: int, jobs: int,
-          out: Path | None, refine: bool, cost: str, team_mode: str) -> None:
+          out: Path | None, refine: bool, cost: str, team_mode: str,
+          dask_address: str | None) -> None:
     """Reproduce the CBGA paper's experiments: table (mean ± std) and figures."""
     from murdoch.consensus import plots
     from murdoch.consensus.sweep import (
@@ -149,9 +153,17 @@ def sweep(experiment: str, agents: str | None, runs: int, seed: int, jobs: int,
         counts = {n: parse_agents(agents) if agents else DEFAULT_AGENTS[n] for n in names}
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="--agents") from exc
+    if dask_address is not None:
+        from murdoch.consensus.dask_jobs import check_address
+
+        try:
+            check_address(dask_address)
+        except ValueError as exc:
+            raise click.BadParameter(str(exc), param_hint="--dask") from None
     all_jobs = [j for n in names
                 for j in jobs_for(n, counts[n], runs, seed, refine, cost, team_mode)]
-    click.echo(f"{len(all_jobs)} allocations in {jobs} process(es) -> {out}", err=True)
+    where = f"on the Dask cluster at {dask_address}" if dask_address else f"in {jobs} process(es)"
+    click.echo(f"{len(all_jobs)} allocations {where} -> {out}", err=True)
     t0 = time.monotonic()
     last = [0.0]
 
@@ -161,11 +173,16 @@ def sweep(experiment: str, agents: str | None, runs: int, seed: int, jobs: int,
             last[0] = now
             click.echo(f"  {done}/{total} ({now - t0:.0f} s)", err=True)
 
-    records = run_jobs(all_jobs, jobs, progress)
+    from murdoch.consensus.dask_jobs import DaskUnavailable
+
+    try:
+        records = run_jobs(all_jobs, jobs, progress, dask_address=dask_address)
+    except (DaskUnavailable, OSError) as exc:
+        raise click.ClickException(str(exc)) from None
     rows = summarise(records)
     meta = {"experiments": names, "agents": {n: list(c) for n, c in counts.items()},
             "runs": runs, "seed": seed, "jobs": jobs, "refine": refine, "cost": cost,
-            "team_mode": team_mode,
+            "team_mode": team_mode, "dask": dask_address,
             "wall_s": round(time.monotonic() - t0, 1)}
     files = write_outputs(out, records, rows, meta)
     for n in names:

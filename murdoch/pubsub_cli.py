@@ -1,4 +1,5 @@
-"""`murdoch listen` and `murdoch announce`: the bus from a terminal (multicast, loopback)."""
+"""`murdoch listen` and `murdoch announce`: the bus from a terminal (loopback multicast by
+default, or Zenoh with `--transport zenoh`)."""
 
 from __future__ import annotations
 
@@ -14,11 +15,13 @@ import click
 
 from murdoch.auction.messages import AuctionEvent, Outcome, TaskSpec
 from murdoch.auth import TeamKey
-from murdoch.multicast import DEFAULT_GROUP, DEFAULT_PORT, MulticastConfig, MulticastTransport
+from murdoch.multicast import DEFAULT_GROUP, DEFAULT_PORT, MulticastConfig
 from murdoch.node import Node
 from murdoch.subjects import SubjectError, matches, subject_set
+from murdoch.transport_choice import TRANSPORTS, TransportChoice, open_transport
 from murdoch.user_agent import RandomizedBackoff
 from murdoch.wire import Codec, Frame, WireError
+from murdoch.zenoh_transport import DEFAULT_ENDPOINT, ZenohConfig, ZenohUnavailable
 
 KEY_ENV = "MURDOCH_TEAM_KEY"
 
@@ -36,6 +39,32 @@ def _config(group: str, port: int, reply_lane: bool = False) -> MulticastConfig:
         return MulticastConfig(group, port, reply_lane=reply_lane)
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="--group/--port") from None
+
+
+def _open(sender: str, clock: Any, net: dict[str, Any]) -> Any:
+    """The transport the network options ask for (clear errors, no traceback)."""
+    if net["transport"] == "zenoh":
+        try:
+            zenoh = ZenohConfig(endpoint=net["zenoh_endpoint"], hub=net["zenoh_hub"])
+        except ValueError as exc:
+            raise click.BadParameter(str(exc), param_hint="--zenoh-endpoint") from None
+        choice = TransportChoice("zenoh", zenoh=zenoh)
+    else:
+        choice = TransportChoice(
+            "multicast", multicast=_config(net["group"], net["port"], net["reply_lane"]))
+    try:
+        return open_transport(choice, sender, clock, key=_key(net["key"]))
+    except (ZenohUnavailable, OSError) as exc:
+        raise click.ClickException(str(exc)) from None
+
+
+def _where(transport: Any, net: dict[str, Any]) -> str:
+    if net["transport"] == "zenoh":
+        role = "as the hub on" if net["zenoh_hub"] else "through the hub at"
+        return f"zenoh {role} {net['zenoh_endpoint']}"
+    lanes = (f" and replies on {transport.config.replies_group}:{net['port']}"
+             if net["reply_lane"] else "")
+    return f"{net['group']}:{net['port']}{lanes} (loopback)"
 
 
 def _subjects(value: str | None) -> frozenset[str] | None:
@@ -90,6 +119,18 @@ def _network_options(func: Any) -> Any:
         "--reply-lane", is_flag=True,
         help="Replies on a second group (the whole team must use it).",
     )(func)
+    func = click.option(
+        "--transport", type=click.Choice(TRANSPORTS), default="multicast", show_default=True,
+        help="UDP multicast, or Zenoh through a hub (pip install 'murdoch[zenoh]').",
+    )(func)
+    func = click.option(
+        "--zenoh-endpoint", default=DEFAULT_ENDPOINT, show_default=True,
+        help="--transport zenoh: the hub's tcp/127.0.0.1:PORT.",
+    )(func)
+    func = click.option(
+        "--zenoh-hub", is_flag=True,
+        help="--transport zenoh: be the hub (listen on the endpoint) rather than a client.",
+    )(func)
     return func
 
 
@@ -106,17 +147,14 @@ def listen(
     duration: float | None,
     count: int | None,
     as_json: bool,
-    group: str,
-    port: int,
-    key: str | None,
-    reply_lane: bool,
+    **net: Any,
 ) -> None:
     """Print live MURDOCH traffic with decoded fields."""
     wanted = _subjects(subjects)
     clock = time.monotonic
     start = clock()
     sender = f"listen-{os.getpid()}"
-    transport = MulticastTransport(sender, clock, _config(group, port, reply_lane), key=_key(key))
+    transport = _open(sender, clock, net)
     codec = transport.codec
     shown = 0
     invalid: dict[str, int] = {}
@@ -147,8 +185,7 @@ def listen(
         sys.stdout.flush()
 
     transport.core.frame_tap = show
-    lanes = f" and replies on {transport.config.replies_group}:{port}" if reply_lane else ""
-    click.echo(f"listening on {group}:{port}{lanes} (loopback)", err=True)
+    click.echo(f"listening on {_where(transport, net)}", err=True)
     try:
         while (duration is None or clock() - start < duration) and (
             count is None or shown < count
@@ -207,10 +244,7 @@ def announce(
     wait: float,
     seed: int | None,
     quiet: bool,
-    group: str,
-    port: int,
-    key: str | None,
-    reply_lane: bool,
+    **net: Any,
 ) -> None:
     """Auction one task and print its outcome (exit 0 only when completed)."""
     metric_pairs = []
@@ -237,7 +271,7 @@ def announce(
     clock = time.monotonic
     rng = random.Random(seed)
     sender = f"announce-{os.getpid()}-{rng.getrandbits(24):06x}"
-    transport = MulticastTransport(sender, clock, _config(group, port, reply_lane), key=_key(key))
+    transport = _open(sender, clock, net)
     outcomes: list[Outcome] = []
 
     def show(event: AuctionEvent) -> None:

@@ -1,11 +1,12 @@
 """A stand-alone bidder process for demonstrations, tests and benchmarks.
 
-It joins the multicast group with some resource subjects, bids a fixed score on every task it
-hears, "executes" an awarded task by waiting the task's `duration_s` on its clock while
-reporting progress, then reports completion. It prints one line per event on stdout (JSON)
-and exits after `--lifetime` seconds (or at SIGTERM / Ctrl-C). With the environment variable
-``MURDOCH_BIDDER_PROFILE_DIR`` set it writes a cProfile of its loop, in CPU time, to
-``<dir>/<name>.prof`` on exit. Run it as ``python -m murdoch.sample_bidder``.
+It joins the team's bus (multicast, or Zenoh with `--transport zenoh`) with some resource
+subjects, bids a fixed score on every task it hears, "executes" an awarded task by waiting
+the task's `duration_s` on its clock while reporting progress, then reports completion. It
+prints one line per event on stdout (JSON) and exits after `--lifetime` seconds (or at
+SIGTERM / Ctrl-C). With the environment variable ``MURDOCH_BIDDER_PROFILE_DIR`` set it
+writes a cProfile of its loop, in CPU time, to ``<dir>/<name>.prof`` on exit. Run it as
+``python -m murdoch.sample_bidder``.
 """
 
 from __future__ import annotations
@@ -18,14 +19,14 @@ import signal
 import sys
 import time
 from collections.abc import Callable
+from typing import Any
 
 import click
 
 from murdoch.auction.bidder import Contract
 from murdoch.auction.messages import Announce, AuctionEvent
-from murdoch.auth import TeamKey
-from murdoch.multicast import DEFAULT_GROUP, DEFAULT_PORT, MulticastConfig, MulticastTransport
 from murdoch.node import Node
+from murdoch.pubsub_cli import _network_options, _open
 
 PROFILE_ENV = "MURDOCH_BIDDER_PROFILE_DIR"
 """When set, each bidder writes a CPU-time profile of its loop there (<name>.prof) on exit."""
@@ -66,27 +67,21 @@ class TimedExecutor:
 @click.option("--name", required=True, help="Agent id (a subject-safe name).")
 @click.option("--score", type=float, required=True, help="The score bid on every task.")
 @click.option("--subjects", default="camera,mobile", show_default=True)
-@click.option("--group", default=DEFAULT_GROUP, show_default=True)
-@click.option("--port", type=int, default=DEFAULT_PORT, show_default=True)
-@click.option("--key", default=None, help="Shared team key (enables authentication).")
-@click.option("--reply-lane", is_flag=True, help="Replies on a second group (whole team).")
 @click.option("--lifetime", type=float, default=30.0, show_default=True, help="Seconds to run.")
 @click.option("--quiet", is_flag=True, help="Print only the ready line.")
 @click.option(
     "--batch-ms", type=float, default=0.0, show_default=True,
     help="Rest this long after handling traffic while bids are out (read bursts at once).",
 )
+@_network_options
 def main(
     name: str,
     score: float,
     subjects: str,
-    group: str,
-    port: int,
-    key: str | None,
-    reply_lane: bool,
     lifetime: float,
     quiet: bool,
     batch_ms: float,
+    **net: Any,
 ) -> None:
     clock = time.monotonic
 
@@ -100,10 +95,7 @@ def main(
 
     node_ref: list[Node] = []
     executor = TimedExecutor(node_ref)
-    transport = MulticastTransport(
-        name, clock, MulticastConfig(group=group, port=port, reply_lane=reply_lane),
-        key=TeamKey(key) if key else None,
-    )
+    transport = _open(name, clock, net)
     node = Node(
         transport,
         clock,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import functools
 import json
 import logging
 import math
@@ -96,8 +97,11 @@ def _run_chunk(chunk: list[Job]) -> list[RunRecord]:
 
 
 def run_jobs(jobs: Sequence[Job], n_procs: int,
-             progress: Callable[[int, int], None] | None = None) -> list[RunRecord]:
-    """Run jobs in `n_procs` worker processes (1 = in this process)."""
+             progress: Callable[[int, int], None] | None = None,
+             dask_address: str | None = None) -> list[RunRecord]:
+    """Run jobs in `n_procs` worker processes (1 = in this process), or on the workers of
+    the Dask scheduler at `dask_address` (`murdoch.consensus.dask_jobs`); the records come
+    in job order either way."""
     size = max(1, min(25, len(jobs) // max(1, n_procs * 8)))
     chunks = [list(jobs[i:i + size]) for i in range(0, len(jobs), size)]
     out: list[RunRecord] = []
@@ -108,6 +112,19 @@ def run_jobs(jobs: Sequence[Job], n_procs: int,
     cbba, cbga = "cbba" in algorithms, "cbga" in algorithms
     if cbba or cbga:
         load_kernels(cbba, cbga)
+    if dask_address is not None:
+        from murdoch.consensus.dask_jobs import run_chunks_on_dask
+
+        finished = [0]
+
+        def chunk_done(count: int) -> None:
+            finished[0] += count
+            if progress:
+                progress(finished[0], len(jobs))
+
+        results = run_chunks_on_dask(dask_address, chunks, _run_chunk,
+                                     functools.partial(load_kernels, cbba, cbga), chunk_done)
+        return [r for records in results for r in records]
     if n_procs <= 1:
         for chunk in chunks:
             out.extend(_run_chunk(chunk))

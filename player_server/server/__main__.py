@@ -27,8 +27,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "world: the recorded robots, commands ignored")
     p.add_argument("-p", "--port", type=int, default=DEFAULT_PORT,
                    help="base port (default %(default)s; 0 = ephemeral ports)")
-    p.add_argument("-h", "--host", default="127.0.0.1",
-                   help="address to bind (default %(default)s)")
+    p.add_argument("-h", "--host", "--bind", dest="host", default="127.0.0.1",
+                   help="address to bind (default %(default)s; another address only when "
+                        "robots on other hosts must reach the server)")
     p.add_argument("--speedup", type=float, default=None,
                    help="simulated seconds per wall second, 0 = as fast as possible "
                         "(default: 1, real time; with --lockstep 0, the clients set the pace)")

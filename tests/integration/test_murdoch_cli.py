@@ -112,3 +112,56 @@ def test_listen_without_a_filter_shows_every_kind(config: MulticastConfig) -> No
     lines = out.splitlines()
     assert " announce " in lines[0] and 'name="cleanup"' in lines[0]
     assert " award " in lines[1] and 'reason="no capable agent bid"' in lines[1]
+
+
+@pytest.mark.timeout(90)
+def test_the_same_auction_runs_over_zenoh_through_a_hub() -> None:
+    pytest.importorskip("zenoh", reason="the zenoh extra (eclipse-zenoh) is not installed")
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        endpoint = f"tcp/127.0.0.1:{probe.getsockname()[1]}"
+    net = ["--transport", "zenoh", "--zenoh-endpoint", endpoint]
+    procs = []
+    try:
+        # the listener is the team's hub; everyone else connects to it
+        listener = subprocess.Popen(
+            [*murdoch_command(), "listen", "--json", "--duration", "40", "--zenoh-hub", *net],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        procs.append(listener)
+        assert listener.stderr is not None
+        assert listener.stderr.readline().startswith(f"listening on zenoh as the hub on {endpoint}")
+        for name, score in (("zb1", 1.0), ("zb2", 2.0)):
+            proc = subprocess.Popen(
+                [sys.executable, "-m", "murdoch.sample_bidder", "--name", name, "--score",
+                 str(score), "--lifetime", "40", "--quiet", *net],
+                stdout=subprocess.PIPE, text=True)
+            procs.append(proc)
+        for proc in procs[1:]:
+            assert proc.stdout is not None and "ready" in proc.stdout.readline()
+        done = subprocess.run(
+            [*murdoch_command(), "announce", "object-tracking", "--subjects", "camera,mobile",
+             "--duration", "0.3", "--bid-window", "1.0", "--wait", "30", *net],
+            capture_output=True, text=True, timeout=60)
+        assert done.returncode == 0, done.stderr
+        result = json.loads(done.stdout.strip().splitlines()[-1])
+        assert (result["status"], result["winner"]) == ("completed", "zb2")
+        listener.send_signal(signal.SIGINT)
+        out, _ = listener.communicate(timeout=30)
+        kinds = [json.loads(line)["kind"] for line in out.splitlines()]
+        assert kinds[0] == "announce" and kinds.count("bid") == 2 and "award" in kinds
+        assert "report" in kinds
+    finally:
+        for proc in procs:
+            if proc.poll() is None:
+                proc.terminate()
+            proc.wait(timeout=10)
+
+
+def test_a_zenoh_endpoint_off_loopback_is_refused_by_name() -> None:
+    done = subprocess.run(
+        [*murdoch_command(), "listen", "--duration", "1", "--transport", "zenoh",
+         "--zenoh-endpoint", "tcp/192.0.2.1:7447"],
+        capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2
+    assert "--zenoh-endpoint" in done.stderr and "only 127.0.0.1" in done.stderr
+    assert "Traceback" not in done.stderr

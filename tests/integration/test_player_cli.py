@@ -177,3 +177,31 @@ def test_listen_errors_read_as_one_line() -> None:
     denied = OSError(errno.EACCES, "Permission denied")
     assert describe_listen_error(denied, "127.0.0.1", [80]) == (
         "cannot listen on 127.0.0.1: Permission denied")
+
+
+def _listening_addresses(port: int) -> set[str]:
+    """Local addresses (hex, as /proc writes them) of TCP sockets listening on `port`."""
+    out = set()
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        try:
+            rows = Path(table).read_text().splitlines()[1:]
+        except OSError:
+            continue
+        for row in rows:
+            cols = row.split()
+            addr, hex_port = cols[1].rsplit(":", 1)
+            if int(hex_port, 16) == port and cols[3] == "0A":  # LISTEN
+                out.add(addr)
+    return out
+
+
+@pytest.mark.parametrize("bind", [(), ("--bind", "127.0.0.1")])
+def test_the_server_listens_on_loopback_unless_told_otherwise(bind: tuple[str, ...]) -> None:
+    with server_process("worlds/longterm.toml", "-p", "0", "--speedup", "0", "-q",
+                        *bind) as table:
+        assert len(table) == 7
+        for port, _ in table.values():
+            assert _listening_addresses(port) == {"0100007F"}
+        port = next(iter(table.values()))[0]
+        done = player_print("-h", "127.0.0.1", "-p", str(port), "-c", "1", "position2d")
+        assert done.returncode == 0, done.stderr

@@ -11,7 +11,7 @@ from experiments import boxpush as bp
 from experiments.experiment import NoReferee, RunOptions
 from experiments.plugins import EXPERIMENTS, experiment
 from experiments.plugins.boxpush import BoxpushReferee
-from experiments.supervisor import ProcessSpec, robot_process
+from experiments.supervisor import BusPlace, ProcessSpec, robot_process
 from worlds import load_world, world_path
 
 
@@ -71,8 +71,9 @@ def test_the_goal_section_and_verdict_come_from_the_boxpush_plugin() -> None:
 
 
 def test_a_process_is_described_as_data_and_filled_in_at_each_start(tmp_path: Path) -> None:
-    spec = robot_process("r1", world="w.toml", mcast_port=4000, seed=7, logs=tmp_path,
-                         metric_terms=("distance",), lockstep=True, read_timeout_s=720.0)
+    spec = robot_process("r1", world="w.toml", bus=BusPlace(mcast_port=4000), seed=7,
+                         logs=tmp_path, metric_terms=("distance",), lockstep=True,
+                         read_timeout_s=720.0)
     d = spec.as_dict()
     assert d["name"] == "r1" and d["restart"] == "on-schedule" and "{port}" in d["args"]
     argv = spec.argv(port=6001, instance=2)
@@ -80,5 +81,25 @@ def test_a_process_is_described_as_data_and_filled_in_at_each_start(tmp_path: Pa
     rest = argv[len(spec.command):]
     assert rest[rest.index("-p") + 1] == "6001" and rest[rest.index("--instance") + 1] == "2"
     assert rest[rest.index("--metric") + 1] == "distance" and "--lockstep-bus" in rest
+    assert rest[rest.index("-h") + 1] == "127.0.0.1"
+    assert rest[rest.index("--mcast-port") + 1] == "4000" and "--transport" not in rest
     with pytest.raises(ValueError, match="restart must be one of"):
         ProcessSpec("x", ("true",), (), restart="always")
+
+
+def test_a_robot_placed_elsewhere_is_launched_through_its_prefix_and_joins_over_zenoh(
+    tmp_path: Path,
+) -> None:
+    bus = BusPlace(server_host="10.199.0.1", zenoh_endpoint="tcp/10.199.0.1:7500")
+    spec = robot_process("r2", world="w.toml", bus=bus, seed=1, logs=tmp_path,
+                         metric_terms=(), lockstep=False, read_timeout_s=60.0,
+                         launch=("ip", "netns", "exec", "robots"))
+    argv = spec.argv(port=6002, instance=0)
+    assert argv[:4] == ["ip", "netns", "exec", "robots"]
+    assert argv[4:4 + len(spec.command)] == list(spec.command)
+    rest = argv[4 + len(spec.command):]
+    assert rest[rest.index("-h") + 1] == "10.199.0.1"
+    assert rest[rest.index("--transport") + 1] == "zenoh"
+    assert rest[rest.index("--zenoh-endpoint") + 1] == "tcp/10.199.0.1:7500"
+    assert "--zenoh-allow-remote" in rest and "--mcast-port" not in rest
+    assert spec.as_dict()["launch"] == ["ip", "netns", "exec", "robots"]

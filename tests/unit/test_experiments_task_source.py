@@ -8,7 +8,7 @@ import random
 import click
 import pytest
 
-from experiments.run_cli import parse_at, parse_duration_s
+from experiments.run_cli import parse_at, parse_duration_s, parse_place
 from experiments.task_source import LONGTERM_KINDS, longterm_tasks
 from worlds import load_world, world_path
 
@@ -49,3 +49,11 @@ def test_durations_and_times() -> None:
             parse_duration_s(bad)
     with pytest.raises(click.BadParameter):
         parse_at("p3")
+
+
+def test_placements_are_a_robot_and_a_command_prefix() -> None:
+    assert parse_place("p2=ip netns exec robots") == ("p2", ("ip", "netns", "exec", "robots"))
+    assert parse_place("p3=ssh 'lab host'") == ("p3", ("ssh", "lab host"))
+    for bad in ("p2", "=ssh x", "p2=", "p2=ssh 'open"):
+        with pytest.raises(click.BadParameter, match="ROBOT=COMMAND PREFIX"):
+            parse_place(bad)

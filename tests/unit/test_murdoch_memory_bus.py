@@ -158,3 +158,40 @@ def test_closed_endpoint_stops_receiving_and_publishing() -> None:
         b.publish({"x"}, bid(2))
     with pytest.raises(ValueError):
         bus.endpoint("a")
+
+
+def test_with_hundreds_of_subscriptions_each_message_reaches_exactly_its_holders() -> None:
+    # through the whole receive pipeline (header match, its cache, monitors, updates, closes)
+    clock = FakeClock()
+    rng = random.Random(19)
+    bus = MemoryBus(clock, rng)
+    sender, receiver = bus.endpoint("s"), bus.endpoint("r")
+    vocabulary = ["camera", "laser", "sonar", "mobile", "gripper", "idle", "ptz"]
+    holds: dict[int, frozenset[str]] = {}
+    got: dict[int, list[float]] = {}
+    expected: dict[int, list[float]] = {}
+    subs = {}
+    for n in range(300):
+        holds[n] = frozenset({*rng.sample(vocabulary, rng.randint(1, 4)), f"task.{n % 60}"})
+        got[n], expected[n] = [], []
+        subs[n] = receiver.subscribe(
+            holds[n], callback=lambda e, n=n: got[n].append(e.message.score))
+    monitor = receiver.subscribe(None)
+    for i in range(200):
+        if i == 100:  # half-way, some subscriptions change and some close
+            for n in range(0, 300, 5):
+                holds[n] = frozenset(rng.sample(vocabulary, 2))
+                subs[n].update(holds[n])
+            for n in range(1, 300, 9):
+                subs[n].close()
+                del holds[n]
+        subjects = frozenset(rng.sample([*vocabulary, *(f"task.{k}" for k in range(60))],
+                                        rng.randint(1, 2)))
+        for n, held in holds.items():
+            if subjects <= held:
+                expected[n].append(float(i))
+        sender.publish(subjects, bid(i, "s"))
+        bus.deliver_due()
+    assert got == expected
+    assert sum(len(v) for v in expected.values()) > 200  # the case is not vacuous
+    assert len(monitor.drain()) == 200
