@@ -52,6 +52,7 @@ class RunOptions:
     goal_radius_m: float | None = None
     goal_plan: Any = None
     """`experiments.boxpush.GoalPlan` (None: the goal stays where the world puts it)."""
+    allocator: str = "murdoch"
 
 
 Sampler = tuple[float, Callable[[Any, float], None]]

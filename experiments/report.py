@@ -64,6 +64,8 @@ def build_report(run: rd.RunDir, *, replay: bool = True) -> Report:
     summary["events_sha256"] = (hashlib.sha256(run.events.read_bytes()).hexdigest()
                                 if run.events.is_file() else None)
     summary["malformed_event_lines"] = stats.malformed
+    summary["allocator"] = (str(run.read_config().get("allocator", "murdoch"))
+                            if run.config.is_file() else "murdoch")
     spec = world_of(run)
     robots = tuple(r.name for r in spec.robots) if spec is not None else ()
     run.write_summary(summary)

@@ -26,6 +26,7 @@ from experiments.plugins import EXPERIMENTS
 from experiments.supervisor import RobotProcess, RobotSupervisor
 from experiments.supervisor import start_robot as _start_robot
 from experiments.supervisor import stop_robot as _stop_robot
+from murdoch.allocators import ALLOCATORS
 
 if TYPE_CHECKING:
     from experiments.run_extras import RunExtras
@@ -98,6 +99,10 @@ def free_udp_port() -> int:
 @click.option("--metric", "metric_terms", default="",
               help="Terms added to every robot's task metrics: distance (metres to where the "
                    "task is), specialist (fewer spare resources bid higher), comma-separated.")
+@click.option("--allocator", type=click.Choice(list(ALLOCATORS)), default="murdoch",
+              show_default=True,
+              help="The team's allocator, the same on the runner and on every robot: "
+                   + "; ".join(f"{a.name}: {a.summary}" for a in ALLOCATORS.values()) + ".")
 @click.option("--no-replay", is_flag=True, help="Do not write replay.html.")
 @click.option("--pipelined/--no-pipelined", default=True, show_default=True,
               help="Lockstep: the server sends each round before it steps and computes the "
@@ -124,7 +129,7 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
         meshcat: bool, out: Path, world: str | None, task_interval: float,
         kills: tuple[str, ...], restarts: tuple[str, ...], switch_offs: tuple[str, ...],
         switch_ons: tuple[str, ...], goal_radius: float | None, goal_velocity: str | None,
-        retargets: tuple[str, ...], metric_terms: str, no_replay: bool,
+        retargets: tuple[str, ...], metric_terms: str, allocator: str, no_replay: bool,
         pipelined: bool, robot_nice: int, key: str | None, pin_cpus: bool,
         record_rate: float, no_record: bool, trails: int, lasers: bool) -> None:
     """Run EXPERIMENT end to end and leave a run directory behind."""
@@ -147,7 +152,7 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
             pipelined=pipelined, robot_nice=robot_nice, pin_cpus=pin_cpus, key=key,
             record=not no_record, record_rate_hz=record_rate, trails=trails, lasers=lasers,
             goal_plan=_goal_plan(goal_velocity, retargets),
-            metric_terms=_metric_terms(metric_terms),
+            metric_terms=_metric_terms(metric_terms), allocator=allocator,
         )
     except RunSetupError as exc:
         click.echo(f"murdoch run: {exc}", err=True)
@@ -185,7 +190,7 @@ def run_experiment(
     pipelined: bool = True, robot_nice: int = 0, pin_cpus: bool = False,
     key: str | None = None, trails: int = 0, lasers: bool = False, record: bool = True,
     record_rate_hz: float = 2.0, goal_plan: Any = None, metric_terms: tuple[str, ...] = (),
-    extras: RunExtras | None = None,
+    extras: RunExtras | None = None, allocator: str = "murdoch",
 ) -> int:
     """Run one experiment end to end; the exit code of `murdoch run`."""
     from experiments.experiment import RunOptions
@@ -199,7 +204,7 @@ def run_experiment(
         trails=trails, lasers=lasers, record=record, record_rate_hz=record_rate_hz,
         metric_terms=metric_terms, extras=extras if extras is not None else RunExtras())
     options = RunOptions(duration_s, seed, task_interval_s, tuple(switch_offs or ()),
-                         tuple(switch_ons or ()), goal_radius_m, goal_plan)
+                         tuple(switch_ons or ()), goal_radius_m, goal_plan, allocator)
     spec, options = check_run(settings, options)
     parts = assemble(settings, options, spec)
     reason = serve(parts)

@@ -34,8 +34,8 @@ if TYPE_CHECKING:
     from experiments.run_extras import RunExtras
     from experiments.run_loop import RunLoop
     from murdoch.lossy import LossyReceiver
+    from murdoch.member import TeamMember
     from murdoch.multicast import MulticastTransport
-    from murdoch.node import Node
     from player_server.server.affinity import CpuSplit
     from player_server.server.runner import PlayerServer
     from player_server.sim import Simulation
@@ -87,7 +87,7 @@ class RunParts:
     server: PlayerServer
     supervisor: RobotSupervisor
     transport: MulticastTransport
-    node: Node
+    node: TeamMember
     loop: RunLoop
     referee: Referee
     split: CpuSplit | None
@@ -128,6 +128,7 @@ def run_config(settings: RunSettings, options: RunOptions,
         "cpu_affinity": split.as_dict() if split is not None else None,
         "kills": labels(settings.kills), "restarts": labels(settings.restarts),
         "team_key": "given" if settings.key or os.environ.get(KEY_ENV) else "fresh",
+        "allocator": options.allocator,
     }
     config.update(settings.experiment.config(options))
     if settings.metric_terms:
@@ -145,6 +146,27 @@ def task_spec(planned: Any) -> Any:
     return USER_TASK.task(kind, TASKS[kind].subjects, planned.params,
                           duration_s=float(planned.params.get("duration_s", 0.0)),
                           timeout_s=float(planned.params["duration_s"]) + 600.0)
+
+
+def task_place(spec: WorldSpec, sim: Simulation) -> Any:
+    """Where a task is to be done, for allocators that plan paths: the ground-truth position,
+    when the task is introduced, of the object or box of the task's colour (the overhead
+    camera's desk for monitoring; the arena's centre when nothing matches)."""
+    bodies = {f"#{o.colour:06x}": o.name for o in spec.objects}
+    bodies.update({f"#{b.colour:06x}": b.name for b in spec.boxes if f"#{b.colour:06x}"
+                   not in bodies})
+    camera = spec.overhead_camera
+
+    def place(name: str, params: Any) -> tuple[float, float]:
+        if name == "monitor-object" and camera is not None:
+            return (float(camera.x), float(camera.y))
+        body = bodies.get(str(params.get("colour", "")).lower())
+        if body is None:
+            return (0.0, 0.0)
+        x, y, _ = sim.get_pose(body)
+        return (float(x), float(y))
+
+    return place
 
 
 def assemble(settings: RunSettings, options: RunOptions, spec: WorldSpec) -> RunParts:
@@ -204,7 +226,7 @@ def assemble(settings: RunSettings, options: RunOptions, spec: WorldSpec) -> Run
     specs = {ep.name: robot_process(
         ep.name, world=str(spec.source), mcast_port=mcast_port, seed=options.seed,
         logs=rec.run.logs, metric_terms=settings.metric_terms, lockstep=lockstep,
-        read_timeout_s=STALL_LIMIT_S * 4) for ep in endpoints}
+        read_timeout_s=STALL_LIMIT_S * 4, allocator=options.allocator) for ep in endpoints}
     rec.config["processes"] = [p.as_dict() for p in specs.values()]
     bus_loss = _bus_loss(settings, env)
     supervisor = RobotSupervisor(specs, lambda n: rec.run.log_file(f"robot-{n}"), env,
@@ -230,13 +252,13 @@ def _bus_loss(settings: RunSettings, env: dict[str, str]) -> LossyReceiver | Non
 def _user(settings: RunSettings, options: RunOptions, spec: WorldSpec, sim: Simulation,
           server: PlayerServer, supervisor: RobotSupervisor, rec: RunRecorder,
           referee: Referee, team_clock: Any, mcast_port: int, secret: str, epoch: str,
-          bus_loss: LossyReceiver | None) -> tuple[MulticastTransport, Node, RunLoop]:
+          bus_loss: LossyReceiver | None) -> tuple[MulticastTransport, TeamMember, RunLoop]:
     """The user's side: its transport on the team's bus, its MURDOCH node and the loop."""
     from experiments.run_loop import RunLoop
     from experiments.task_source import longterm_tasks
+    from murdoch.allocators import UserHooks, allocator
     from murdoch.auth import TeamKey
     from murdoch.multicast import MulticastConfig, MulticastTransport
-    from murdoch.node import Node
     from murdoch.transport import TickConfig
     from murdoch.user_agent import RandomizedBackoff
 
@@ -249,13 +271,15 @@ def _user(settings: RunSettings, options: RunOptions, spec: WorldSpec, sim: Simu
     sim_now = lambda: float(sim.time_s)  # noqa: E731 - a float read across threads
     ticks = TickConfig(user_tick, epoch=epoch, ordered=lockstep, late_joiner=False,
                        stale_after_ticks=0 if lockstep else 100, require_tick=True)
+    team = allocator(options.allocator)
     transport = MulticastTransport("user", sim_now, MulticastConfig(port=mcast_port),
-                                   key=TeamKey(secret), instance="0", ticks=ticks,
-                                   loss=bus_loss)
+                                   codec=team.codec, key=TeamKey(secret), instance="0",
+                                   ticks=ticks, loss=bus_loss)
     loop_ref: list[RunLoop] = []
-    node = Node(transport, sim_now, agent_id="user",
-                observer=lambda e: loop_ref[0].on_auction_event(e.to_dict()),
-                backoff=RandomizedBackoff(random.Random(options.seed), base_s=5.0, cap_s=60.0))
+    node = team.user(transport, sim_now, UserHooks(
+        "user", observer=lambda e: loop_ref[0].on_auction_event(e.to_dict()),
+        backoff=RandomizedBackoff(random.Random(options.seed), base_s=5.0, cap_s=60.0),
+        locate=task_place(spec, sim)))
     faults = ([Fault(t, "kill", r) for r, t in settings.kills]
               + [Fault(t, "restart", r) for r, t in settings.restarts]
               + settings.experiment.faults(options) + list(extras.faults))

@@ -59,12 +59,12 @@ def robot_command() -> list[str]:
 
 def robot_process(name: str, *, world: str, mcast_port: int, seed: int, logs: Path,
                   metric_terms: tuple[str, ...], lockstep: bool,
-                  read_timeout_s: float) -> ProcessSpec:
+                  read_timeout_s: float, allocator: str = "murdoch") -> ProcessSpec:
     """The `murdoch-robot` process that drives the endpoint `name`."""
     args = ["-p", "{port}", "--name", name, "--world", world, "--mcast-port", str(mcast_port),
             "--seed", str(seed), "--instance", "{instance}",
             "--events", str(logs / f"{name}.events.jsonl"),
-            "--auction-log", str(logs / f"{name}.auction.jsonl")]
+            "--auction-log", str(logs / f"{name}.auction.jsonl"), "--allocator", allocator]
     if metric_terms:
         args += ["--metric", ",".join(metric_terms)]
     if lockstep:

@@ -5,14 +5,16 @@ Each step (once per tick of the robot's loop, on simulation time) the member:
 1. takes what the bus brought (in lockstep, the previous tick's datagrams in tick order):
    offers join its task list, grants and withdrawals leave it, neighbours' consensus state
    waits in an inbox;
-2. notices silent agents: one not heard for `SILENT_S` simulated seconds has died (or lost
-   its link), and its bids are dropped (`forget_agent`); heard again, it is back;
+2. notices silent agents: one that holds bids in its view and has not been heard for
+   `SILENT_S` simulated seconds has died (or lost its link), and its bids are dropped
+   (`forget_agent`); heard again, it is back;
 3. re-plans when its task list, its subjects (none while charging), its silent agents or
    its own task changed: a fresh agent over the live offers, from where the robot is now
    (`planning.plan_problem`), keeps what it learns from the inbox of this step;
 4. merges the inbox, releases what it was outbid on, builds its bundle;
-5. publishes its state when it changed, and every `HEARTBEAT_S` anyway (the liveness others
-   judge it by, and what a lost datagram carried);
+5. publishes its state when it changed, and every `HEARTBEAT_S` anyway while there are live
+   offers or it holds bids (the liveness others judge it by, and what a lost datagram
+   carried); an agent whose bids are held is expected to keep sending;
 6. when idle, claims the task at the head of its path if it wins it and its view has not
    changed for `STABLE_S`; the user grants each offer to one claim, and the grant starts the
    task (`on_start`); the executor reports progress every renewal period and the end, and
@@ -248,8 +250,13 @@ class ConsensusRobot:
         self.hooks.on_start(Assignment(offer.task_id, offer.name, offer.params))
 
     def _notice_silence(self, now: float) -> None:
+        holders: set[int] | None = None
         for k, t in self.heard.items():
-            if k not in self.silent and now - t > SILENT_S:
+            if k in self.silent or now - t <= SILENT_S:
+                continue
+            if holders is None:  # (rarely: only when someone is overdue)
+                holders = set().union(*self.agent.winners_view()) if self.agent else set()
+            if k in holders:  # it holds bids, so it would be sending its state
                 self.silent.add(k)
                 self.counters["silent"] += 1
                 if self.agent is not None:
@@ -304,7 +311,9 @@ class ConsensusRobot:
             self._stable_since = now
         sent = (tuple(self.order), a.sent_data())
         last_sent = self._last_sent
-        if last_sent is None or last_sent[0] != sent or now - last_sent[1] >= HEARTBEAT_S:
+        beat = bool(a.bundle or self.offers) and (last_sent is None
+                                                  or now - last_sent[1] >= HEARTBEAT_S)
+        if last_sent is None or last_sent[0] != sent or beat:
             self._last_sent = (sent, now)
             for chunk in state_chunks(a.message(now), self.order):
                 self._publish(STATE_SUBJECT, chunk)

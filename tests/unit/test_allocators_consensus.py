@@ -194,8 +194,23 @@ def test_a_dead_robots_task_is_reallocated_and_its_bids_dropped(algorithm: str) 
     assert "reallocation" in kinds
     finisher = [r for _, r, t, what in team.log if what == "done" and t == task]
     assert finisher and finisher[0] != holder
-    for member in team.members.values():
-        assert team.names.index(holder) in member.silent
+    team.check_never_two_at_once()
+
+
+@pytest.mark.parametrize("algorithm", ALGORITHMS)
+def test_a_dead_robots_queued_bids_are_dropped_after_its_silence(algorithm: str) -> None:
+    team = Team(algorithm, seed=2, robots={"a": (0.0, 0.0), "b": (40.0, 0.0)})
+    tasks = {team.offer("track", 0.0, 1.0, duration_s=30.0),
+             team.offer("track", 0.0, 2.0, duration_s=30.0)}
+    team.run(4.0)
+    agent = team.members["b"].agent
+    assert agent is not None
+    assert "a" in team.running and 0 in set().union(*agent.winners_view())  # a queued one
+    team.kill("a")
+    team.run(200.0)
+    assert 0 in team.members["b"].silent
+    assert {t: team.outcomes()[t] for t in tasks} == {t: ["completed"] for t in tasks}
+    assert {r for _, r, _, what in team.log if what == "done"} == {"b"}
     team.check_never_two_at_once()
 
 
