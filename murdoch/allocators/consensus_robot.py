@@ -235,10 +235,11 @@ class ConsensusRobot:
         offer = None
         if claim is not None and claim[0] == grant.offer:
             offer = self._claimed
-        if offer is None or self._executing is not None:
+        if offer is None or self._executing is not None or not self._subjects:
+            why = ("left the team (charging)" if not self._subjects and offer is not None
+                   else "granted a task it no longer claims")
             self._publish(STATE_SUBJECT, TaskReport(grant.task_id, grant.offer,
-                                                    self.hooks.agent_id, "abandoned", 0.0,
-                                                    "granted a task it no longer claims"))
+                                                    self.hooks.agent_id, "abandoned", 0.0, why))
             return
         self._executing = offer
         self._started_at = now

@@ -279,3 +279,20 @@ def test_the_murdoch_allocator_builds_a_node() -> None:
                        on_stop=lambda a, r: None)
     member = allocator("murdoch").robot(bus.endpoint("r"), clock, hooks)
     assert isinstance(member, Node)
+
+
+@pytest.mark.parametrize("algorithm", ALGORITHMS)
+def test_a_grant_that_finds_its_robot_gone_to_charge_is_given_back(algorithm: str) -> None:
+    team = Team(algorithm, robots={"a": (0.0, 0.0), "b": (30.0, 0.0)})
+    task = team.offer("track", 0.0, 1.0, duration_s=3.0)
+    member = team.members["a"]
+    for _ in range(40):  # until a has claimed, not yet been granted
+        team.run(DT)
+        if member.counters["claims"]:
+            break
+    assert member.counters["claims"] == 1 and not team.running
+    member.set_subjects(())  # the battery policy sent it to charge meanwhile
+    team.run(40.0)
+    kinds = [e.kind for e in team.events if e.task_id == task]
+    assert "reallocation" in kinds
+    assert [r for _, r, t, what in team.log if what == "done"] == ["b"]
