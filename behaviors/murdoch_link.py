@@ -222,9 +222,15 @@ class MurdochLink:
             return None
 
     def _on_start(self, a: Assignment) -> None:
+        try:
+            self.agent.start_task(a.name, dict(a.params), a.task_id)
+        except ParamError as exc:  # parameters this robot cannot use: the task fails
+            log.warning("cannot start %s %s: %s", a.name, a.task_id, exc)
+            self._finished.append((a.task_id, "failed", f"bad parameters: {exc}"))
+            self._current = a.task_id
+            return
         self._current = a.task_id
         self._current_params = dict(a.params)
-        self.agent.start_task(a.name, dict(a.params), a.task_id)
 
     def _on_stop(self, a: Assignment, reason: str) -> None:
         if self._current == a.task_id:
