@@ -82,3 +82,10 @@ def test_a_process_is_described_as_data_and_filled_in_at_each_start(tmp_path: Pa
     assert rest[rest.index("--metric") + 1] == "distance" and "--lockstep-bus" in rest
     with pytest.raises(ValueError, match="restart must be one of"):
         ProcessSpec("x", ("true",), (), restart="always")
+
+
+def test_boxpush_refuses_an_allocator_whose_robots_offer_no_sub_tasks() -> None:
+    spec = load_world(world_path("boxpush"))
+    with pytest.raises(click.BadParameter, match="expected one of murdoch, found cbga"):
+        EXPERIMENTS["boxpush"].check(spec, RunOptions(60.0, 1, allocator="cbga"))
+    assert EXPERIMENTS["boxpush"].check(spec, RunOptions(60.0, 1)).allocator == "murdoch"
