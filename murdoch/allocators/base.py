@@ -69,10 +69,18 @@ UserFactory = Callable[[Transport, Clock, UserHooks], TeamMember]
 
 @dataclass(frozen=True)
 class Allocator:
+    """An allocator by name. Its parts are loaded when first used (`load_codec` and the
+    factories import what they need), so naming every allocator costs a process nothing."""
+
     name: str
     summary: str
-    codec: Codec
+    load_codec: Callable[[], Codec]
     robot: RobotFactory
     user: UserFactory
     sub_tasks: bool
     """Whether a robot's member can introduce sub-tasks of its running task (boxpush)."""
+
+    @property
+    def codec(self) -> Codec:
+        """The codec of every message this allocator's team sends."""
+        return self.load_codec()

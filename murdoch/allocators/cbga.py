@@ -5,17 +5,29 @@ mobile ...) are its equipment, and a task's required subjects the equipment it n
 
 from __future__ import annotations
 
-from murdoch.allocators.base import Allocator, RobotHooks
-from murdoch.allocators.consensus_robot import ConsensusRobot
-from murdoch.allocators.consensus_user import ConsensusUser
-from murdoch.allocators.team_messages import TEAM_CODEC
+from murdoch.allocators.base import Allocator, RobotHooks, UserHooks
 from murdoch.member import TeamMember
 from murdoch.transport import Clock, Transport
+from murdoch.wire import Codec
 
 
 def robot_member(transport: Transport, clock: Clock, hooks: RobotHooks) -> TeamMember:
+    from murdoch.allocators.consensus_robot import ConsensusRobot
+
     return ConsensusRobot(transport, clock, hooks, "cbga")
 
 
+def user_member(transport: Transport, clock: Clock, hooks: UserHooks) -> TeamMember:
+    from murdoch.allocators.consensus_user import ConsensusUser
+
+    return ConsensusUser(transport, clock, hooks)
+
+
+def codec() -> Codec:
+    from murdoch.allocators.team_messages import TEAM_CODEC
+
+    return TEAM_CODEC
+
+
 CBGA = Allocator("cbga", "consensus-based grouping: bundles with equipment and groups",
-                 TEAM_CODEC, robot_member, ConsensusUser, sub_tasks=False)
+                 codec, robot_member, user_member, sub_tasks=False)

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import logging
 import threading
+from collections import deque
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
@@ -83,7 +84,8 @@ class ConsensusUser:
         self._views: dict[int, tuple[float, frozenset[int]]] = {}
         """Per agent index: when last heard, and the offers its state gives a winner."""
         self._lock = threading.RLock()
-        self.outcomes: list[Outcome] = []
+        self.outcomes: deque[Outcome] = deque(maxlen=1024)
+        """The latest outcomes of the tasks this member introduced."""
         self._sub = transport.subscribe({TEAM_SUBJECT, STATE_SUBJECT})
         self.closed = False
 

@@ -41,4 +41,4 @@ def user_member(transport: Transport, clock: Clock, hooks: UserHooks) -> TeamMem
 
 
 MURDOCH = Allocator("murdoch", "auctions: each task to the best idle bidder, one at a time",
-                    AUCTION_CODEC, robot_member, user_member, sub_tasks=True)
+                    lambda: AUCTION_CODEC, robot_member, user_member, sub_tasks=True)
