@@ -253,7 +253,8 @@ def _user(settings: RunSettings, options: RunOptions, spec: WorldSpec, sim: Simu
           server: PlayerServer, supervisor: RobotSupervisor, rec: RunRecorder,
           referee: Referee, team_clock: Any, mcast_port: int, secret: str, epoch: str,
           bus_loss: LossyReceiver | None) -> tuple[MulticastTransport, TeamMember, RunLoop]:
-    """The user's side: its transport on the team's bus, its MURDOCH node and the loop."""
+    """The user's side: its transport on the team's bus, its allocator's member (a MURDOCH
+    node by default) and the loop."""
     from experiments.run_loop import RunLoop
     from experiments.task_source import longterm_tasks
     from murdoch.allocators import UserHooks, allocator
