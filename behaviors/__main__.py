@@ -3,13 +3,15 @@
     murdoch-robot -p 6665 [-h 127.0.0.1] [--name r1] [--world longterm]
                   [--task goto-goal --param x=1 --param y=2] [--events run/r1.jsonl]
                   [--mcast-port 5xxxx [--mcast-group 239.255.74.17] [--auction-log F]]
-                  [--metric distance,specialist]
+                  [--allocator murdoch|cbba|cbga] [--metric distance,specialist]
 
 Connects to the robot's port, subscribes to every device listed there, derives the robot's
 resource subjects and runs until SIGINT/SIGTERM (or, with --exit-when-done, until its task
 ends). Events (JSON lines) go to --events ("-" = stdout). With --mcast-port the robot joins
 MURDOCH on that loopback multicast group (`behaviors.murdoch_link`): it offers its subjects,
-bids on announcements with its tasks' metrics and runs the tasks it wins.
+bids on announcements with its tasks' metrics and runs the tasks it wins. `--allocator`
+picks the team's allocator from `murdoch.allocators` (MURDOCH auctions by default; CBBA or
+CBGA plan paths of tasks by consensus, with the world's robots as the team).
 
 With ``MURDOCH_ROBOT_PROFILE_DIR`` set, a MURDOCH robot writes a cProfile of its main loop, in
 the main thread's CPU time, to ``<dir>/<name>.prof`` when it stops.
@@ -36,6 +38,8 @@ from behaviors.events import TASK_DONE, TASK_FAILED, TASK_STOPPED, Event, EventL
 from behaviors.library import TASKS, parse_bid_terms
 from behaviors.params import ParamError, parse_assignments
 from behaviors.robot import build_agent
+from murdoch.allocators import ALLOCATORS
+from murdoch.allocators import DEFAULT as DEFAULT_ALLOCATOR
 from player_server.client import (
     PlayerClient,
     PlayerConnectionClosed,
@@ -100,6 +104,8 @@ def _parser() -> argparse.ArgumentParser:
                         "numbers each start of a robot 0, 1, ...)")
     p.add_argument("--auction-log", default="",
                    help="append this robot's auctioneer and bidder events (JSON lines) here")
+    p.add_argument("--allocator", default=DEFAULT_ALLOCATOR, choices=list(ALLOCATORS),
+                   help="the team's allocator (default murdoch): " + ", ".join(ALLOCATORS))
     p.add_argument("--metric", default="",
                    help="optional terms added to every task's metric, comma-separated: "
                         "distance, specialist (default: none)")
@@ -201,7 +207,10 @@ def main(argv: list[str] | None = None) -> int:
             if args.auction_log:
                 auction_log = open(args.auction_log, "a", encoding="utf-8")  # noqa: SIM115
             transport, sync = _team_transport(args, name, agent, client, world)
-            link = MurdochLink(agent, transport, events, auction_log, tick_sync=sync)
+            team = _team(world, name)
+            speed = agent.profile.max_speed_mps if "mobile" in agent.subjects() else 0.0
+            link = MurdochLink(agent, transport, events, auction_log, tick_sync=sync,
+                               allocator_name=args.allocator, team=team, speed_mps=speed)
             _step_until_stopped(link, stop, args.max_ticks, name)
         else:
             agent.run(stop, max_ticks=args.max_ticks or None)
@@ -230,6 +239,17 @@ def main(argv: list[str] | None = None) -> int:
         if stream is not None and stream is not sys.stdout:
             stream.close()
     return code
+
+
+def _team(world: Any, name: str) -> tuple[str, ...]:
+    """Every member of the team in the world's order (its robots, then the overhead camera's
+    desk), the order consensus allocators index agents by; this robot is always in it."""
+    team: tuple[str, ...] = ()
+    if world is not None:
+        team = tuple(r.name for r in world.robots)
+        if world.overhead_camera is not None:
+            team = (*team, world.overhead_camera.name)
+    return team if name in team else (*team, name)
 
 
 def _team_transport(args: argparse.Namespace, name: str, agent: Any, client: PlayerClient,
@@ -268,7 +288,8 @@ def _team_transport(args: argparse.Namespace, name: str, agent: Any, client: Pla
             choice = TransportChoice("multicast", multicast=MulticastConfig(
                 group=args.mcast_group, port=args.mcast_port))
         transport = open_transport(
-            choice, name, lambda: float(agent.status().time_s), key=key,
+            choice, name, lambda: float(agent.status().time_s),
+            codec=ALLOCATORS[args.allocator].codec, key=key,
             instance=args.instance or None, ticks=ticks, loss=loss)
     except (ValueError, ZenohUnavailable, OSError) as exc:
         raise PlayerError(f"cannot join the team's bus: {exc}") from None

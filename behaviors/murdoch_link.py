@@ -1,13 +1,17 @@
-"""Glue between one robot's `RobotAgent` and one MURDOCH `Node` (``murdoch-robot --mcast-port``).
+"""Glue between one robot's `RobotAgent` and its allocator (``murdoch-robot --mcast-port``).
 
-One thread does everything in turn, so nothing here needs a lock: read one data round and run
-the robot's behaviours (`RobotAgent.step`), then let the MURDOCH node receive, bid, renew and
-report (`Node.step`). The node offers the robot's resource subjects (plus ``idle`` while it
-holds no contract, and nothing while it charges), scores announcements with the robot's task
-metrics, starts awarded tasks on the agent, and reports their completion or failure back to
-the auctioneer. A running task that says which tasks it needs (the box watcher's ``need``
-events) has them auctioned as its sub-tasks by this robot's own node. Time is simulation time
-from the robot's data.
+The allocator is a `murdoch.member.TeamMember` taken by name from the registry
+(`murdoch.allocators`, ``murdoch-robot --allocator murdoch|cbba|cbga``); the link uses only
+that interface. One thread does everything in turn, so nothing here needs a lock: read one
+data round and run the robot's behaviours (`RobotAgent.step`), then let the member receive,
+bid or plan, and report (`step`). The member offers the robot's resource subjects (none
+while it charges), scores or plans tasks with what the robot says of itself (`RobotHooks`:
+its task metrics, where it is, its nominal speed), says which task to execute next
+(`on_start`/`on_stop`), and hears their completion or failure. With MURDOCH (a `Node`) the
+node adds ``idle`` while it holds no contract and bids with the task metrics. A running
+task that says which tasks it needs (the box watcher's ``need`` events) has them auctioned
+as its sub-tasks by this robot's own node (MURDOCH only). Time is simulation time from the
+robot's data.
 
 In a lockstep run (`TickSync`) the node acts on the team's datagrams only at the tick
 boundary, in tick order, and the robot declares how many it sent before it asks for the
@@ -26,11 +30,10 @@ from typing import IO, Any, Protocol
 from behaviors.events import TASK_DONE, TASK_FAILED, TASK_STOPPED, Event, EventSink
 from behaviors.library import TASKS
 from behaviors.params import ParamError
-from murdoch.auction.bidder import Contract
+from murdoch.allocators import Assignment, RobotHooks, allocator
 from murdoch.auction.messages import Announce, AuctionEvent, Outcome
 from murdoch.auction.timing import SUB_TASK
 from murdoch.member import TeamMember
-from murdoch.node import Node
 from murdoch.transport import Clock, Transport
 from murdoch.user_agent import RandomizedBackoff
 from player_server.protocol.team_clock import Declaration, decode_table
@@ -139,11 +142,16 @@ class TickSync:
 
 
 class MurdochLink:
-    """Glue between one `RobotAgent` and one MURDOCH `Node` (owner thread only)."""
+    """Glue between one `RobotAgent` and its allocator's team member (owner thread only).
+
+    `allocator` names it in `murdoch.allocators.ALLOCATORS`; `team` lists every member of
+    the team in a fixed order (the world's robots: consensus allocators index agents by
+    it) and `speed_mps` is the robot's nominal speed (0: it does not move)."""
 
     def __init__(self, agent: LinkedAgent, transport: Transport, events: EventSource,
                  auction_log: IO[str] | None = None, *, subtask_patience_s: float = 60.0,
-                 tick_sync: TickSync | None = None) -> None:
+                 tick_sync: TickSync | None = None, allocator_name: str = "murdoch",
+                 team: tuple[str, ...] = (), speed_mps: float = 0.5) -> None:
         self.agent = agent
         self.tick_sync = tick_sync
         self.metric_errors = 0
@@ -157,12 +165,15 @@ class MurdochLink:
         self._patience_s = subtask_patience_s
         self._auction_log = auction_log
         events.add_sink(self._on_event)
-        self.node: TeamMember = Node(
-            transport, self._now, agent_id=agent.name, subjects=agent.subjects(),
-            metric=self._metric, on_start=self._on_start, on_stop=self._on_stop,
+        self.allocator = allocator(allocator_name)
+        hooks = RobotHooks(
+            agent.name, frozenset(agent.subjects()), score=self._score,
+            knows=lambda name: name in TASKS, on_start=self._on_start, on_stop=self._on_stop,
+            position=self._position, speed_mps=speed_mps, team=team or (agent.name,),
             on_outcome=self._on_outcome, observer=self._observe,
             backoff=RandomizedBackoff(random.Random(agent.name), base_s=2.0, cap_s=10.0),
         )
+        self.node: TeamMember = self.allocator.robot(transport, self._now, hooks)
 
     def _observe(self, event: AuctionEvent) -> None:
         if self._auction_log is not None:
@@ -183,32 +194,46 @@ class MurdochLink:
     def _now(self) -> float:
         return float(self.agent.status().time_s)
 
+    def _position(self) -> tuple[float, float]:
+        """Where the robot is (its odometric pose; the origin before the first reading)."""
+        snapshot = getattr(self.agent, "snapshot", None)
+        pose = getattr(snapshot(), "pose", None) if snapshot is not None else None
+        return (0.0, 0.0) if pose is None else (float(pose.x_m), float(pose.y_m))
+
     def _metric(self, announce: Announce) -> float | None:
-        """The robot's score for an announced task; None: it cannot do it (no bid).
+        return self._score(announce.name, announce.params, announce.task_id)
+
+    def _score(self, name: str, params: Mapping[str, Any], task_id: str) -> float | None:
+        """The robot's score for a task; None: it cannot do it (no bid).
 
         A task the robot does not know, or parameters it refuses, mean no bid; a metric that
         raises on a task it knows is a bug: logged with its traceback and counted
         (`metric_errors`), and the robot does not bid."""
-        if announce.name not in TASKS:
+        if name not in TASKS:
             return None
         try:
-            return self.agent.evaluate(announce.name, dict(announce.params))
+            return self.agent.evaluate(name, dict(params))
         except ParamError as exc:  # parameters this robot cannot use: do not bid
-            log.info("not bidding on %s %s: %s", announce.name, announce.task_id, exc)
+            log.info("not bidding on %s %s: %s", name, task_id, exc)
             return None
         except Exception:
             self.metric_errors += 1
-            log.exception("the metric of %s raised on %s", announce.name, announce.task_id)
+            log.exception("the metric of %s raised on %s", name, task_id)
             return None
 
-    def _on_start(self, contract: Contract) -> None:
-        a = contract.announce
+    def _on_start(self, a: Assignment) -> None:
+        try:
+            self.agent.start_task(a.name, dict(a.params), a.task_id)
+        except ParamError as exc:  # parameters this robot cannot use: the task fails
+            log.warning("cannot start %s %s: %s", a.name, a.task_id, exc)
+            self._finished.append((a.task_id, "failed", f"bad parameters: {exc}"))
+            self._current = a.task_id
+            return
         self._current = a.task_id
         self._current_params = dict(a.params)
-        self.agent.start_task(a.name, dict(a.params), a.task_id)
 
-    def _on_stop(self, contract: Contract, reason: str) -> None:
-        if self._current == contract.task_id:
+    def _on_stop(self, a: Assignment, reason: str) -> None:
+        if self._current == a.task_id:
             self._current = None
             self.agent.stop_task(reason)
             self._cancel_subtasks(reason)
@@ -239,6 +264,10 @@ class MurdochLink:
                 continue
             for name in names:
                 if name in self._subtasks or name not in TASKS:
+                    continue
+                if not self.allocator.sub_tasks:
+                    log.warning("%s: cannot offer sub-task %s under %s", parent, name,
+                                self.allocator.name)
                     continue
                 spec = TASKS[name]
                 params: dict[str, Any] = {

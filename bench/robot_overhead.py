@@ -10,16 +10,28 @@ start-up and the shutdown cancel: per tick = (cpu(long) - cpu(short)) / (ticks(l
 ticks(short)); 2000 ticks apart by default, so that a busy machine's noise stays small.
 
 Prints one line per run and, last, `robot_cpu_us_per_tick_median=<x>`.
+
+With `--allocator murdoch,cbba,cbga` it measures instead the robot processes of whole team
+runs under each allocator: `murdoch run longterm --allocator A --until 20m --seed 1` (lockstep,
+no recording), the allocators taken in turn within each round so that a busy machine loads
+them alike. The runner samples each process's CPU time (processes.jsonl, `cpu_s`, about every
+two wall seconds); a robot's CPU per tick is the CPU it used between the first sample after
+`--from` simulated seconds (start-up and the first tasks left out) and the last sample,
+divided by the ticks in between. Per run, the median over the six mobile robots (the overhead
+camera's desk apart); printed: the median over runs per allocator and its ratio to MURDOCH's.
+`--existing RUN_DIR ...` reports the same figures from runs already made.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import signal
 import statistics
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -99,12 +111,106 @@ def robot_cpu_s(port: int, ticks: int, task: bool = True) -> float:
     return usage.ru_utime + usage.ru_stime - ready_at
 
 
+def team_run_cpu(allocator: str, until: str, from_s: float, out: Path) -> dict[str, float]:
+    """One `murdoch run longterm` under `allocator`: CPU microseconds per tick of each robot
+    process, from processes.jsonl."""
+    proc = subprocess.run(
+        [str(BIN / "murdoch"), "run", "longterm", "--allocator", allocator, "--until", until,
+         "--seed", "1", "--no-record", "--no-replay", "--out", str(out)],
+        capture_output=True, text=True, check=False)
+    if proc.returncode != 0:
+        raise SystemExit(f"murdoch run --allocator {allocator} exited with "
+                         f"{proc.returncode}: {proc.stderr[-500:]}")
+    (run,) = out.iterdir()
+    return run_cpu(run, from_s)
+
+
+def run_cpu(run: Path, from_s: float) -> dict[str, float]:
+    """CPU microseconds per tick of each robot process of a finished run (by robot name),
+    between its first CPU sample at or after `from_s` simulated seconds and its last."""
+    config = json.loads((run / "config.json").read_text())
+    interval_s = 0.1
+    samples: dict[str, list[tuple[float, float]]] = {}
+    for line in (run / "processes.jsonl").read_text().splitlines():
+        e = json.loads(line)
+        name = str(e.get("name", ""))
+        if e.get("kind") == "process" and "cpu_s" in e and name.startswith("robot-"):
+            samples.setdefault(name[len("robot-"):], []).append((float(e["t"]),
+                                                                 float(e["cpu_s"])))
+    out_us: dict[str, float] = {}
+    for name, points in samples.items():
+        later = [p for p in points if p[0] >= from_s]
+        if len(later) < 2 or later[-1][0] <= later[0][0]:
+            continue
+        (t0, c0), (t1, c1) = later[0], later[-1]
+        out_us[name] = (c1 - c0) / ((t1 - t0) / interval_s) * 1e6
+    if not out_us:
+        raise SystemExit(f"{run}: no CPU samples after {from_s} s "
+                         f"(allocator {config.get('allocator', 'murdoch')})")
+    return out_us
+
+
+def _robot_median(cpu: dict[str, float]) -> tuple[float, list[float], dict[str, float]]:
+    mobile = [us for robot, us in cpu.items() if robot.startswith("p")]
+    others = {r: round(us, 1) for r, us in cpu.items() if not r.startswith("p")}
+    return statistics.median(mobile or list(cpu.values())), mobile, others
+
+
+def existing_runs_main(runs: list[Path], from_s: float) -> int:
+    """The same figures from run directories already made (e.g. runs made side by side)."""
+    per: dict[str, list[float]] = {}
+    for run in runs:
+        allocator = json.loads((run / "config.json").read_text()).get("allocator", "murdoch")
+        value, mobile, others = _robot_median(run_cpu(run, from_s))
+        per.setdefault(allocator, []).append(value)
+        print(f"{run}: {allocator} robot median {value:.1f} us/tick (robots "
+              f"{sorted(round(v) for v in mobile)}, others {others})")
+    names = list(per)
+    base = statistics.median(per.get("murdoch", per[names[0]]))
+    for name in names:
+        median = statistics.median(per[name])
+        print(f"robot_cpu_us_per_tick_median[{name}]={median:.1f} ratio_vs_murdoch="
+              f"{median / base:.2f}")
+    return 0
+
+
+def allocators_main(args: argparse.Namespace) -> int:
+    names = [a for a in args.allocator.split(",") if a]
+    per: dict[str, list[float]] = {a: [] for a in names}
+    with tempfile.TemporaryDirectory(prefix="robot-overhead-") as tmp:
+        for run in range(args.runs):
+            for name in names:
+                cpu = team_run_cpu(name, args.until, args.from_s, Path(tmp) / f"{name}-{run}")
+                value, mobile, others = _robot_median(cpu)
+                per[name].append(value)
+                print(f"run {run + 1} {name}: robot median {value:.1f} us/tick "
+                      f"(robots {sorted(round(v) for v in mobile)}, others {others})", flush=True)
+    base = statistics.median(per[names[0]])
+    for name in names:
+        median = statistics.median(per[name])
+        print(f"robot_cpu_us_per_tick_median[{name}]={median:.1f} "
+              f"ratio_vs_{names[0]}={median / base:.2f}")
+    return 0
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--short", type=int, default=100, help="ticks of the short run")
     parser.add_argument("--long", type=int, default=2100, help="ticks of the long run")
+    parser.add_argument("--allocator", default="",
+                        help="comma-separated allocators: measure whole team runs under each "
+                             "(the first is the baseline of the ratios)")
+    parser.add_argument("--until", default="20m", help="with --allocator: each run's length")
+    parser.add_argument("--from", dest="from_s", type=float, default=120.0,
+                        help="with --allocator: simulated seconds left out at the start")
+    parser.add_argument("--existing", nargs="+", type=Path, default=(), metavar="RUN_DIR",
+                        help="report the figures of run directories already made instead")
     args = parser.parse_args()
+    if args.existing:
+        return existing_runs_main(list(args.existing), args.from_s)
+    if args.allocator:
+        return allocators_main(args)
     server, port = start_server(WORLD)
     per_tick_us: list[float] = []
     idle_us: list[float] = []

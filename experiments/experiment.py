@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
+from murdoch.allocators import ALLOCATORS
+
 if TYPE_CHECKING:
     from experiments.run_loop import RunLoop
     from experiments.task_source import PlannedTask
@@ -40,7 +42,7 @@ class Fault:
         return f"{self.robot}@{self.t_s:g}s"
 
 
-ALLOCATOR_NAMES: tuple[str, ...] = ("murdoch", "cbba", "cbga")
+ALLOCATOR_NAMES: tuple[str, ...] = tuple(ALLOCATORS)
 """The allocators a run's robots may use (`murdoch run --allocator`); MURDOCH by default."""
 
 

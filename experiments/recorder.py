@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 import re
 import threading
 from collections.abc import Callable, Mapping
@@ -37,6 +38,16 @@ def parse_proc_status(text: str) -> dict[str, int]:
     """Resident and peak resident memory in bytes from /proc/<pid>/status."""
     values = {k: int(v) * 1024 for k, v in _STATUS_RE.findall(text)}
     return {"rss_bytes": values.get("VmRSS", 0), "peak_rss_bytes": values.get("VmHWM", 0)}
+
+
+def read_process_cpu_s(pid: int) -> float | None:
+    """CPU seconds (user + system) the process has used so far; None when it is gone."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        ticks = int(fields[11]) + int(fields[12])  # utime, stime (fields 14 and 15)
+    except (OSError, IndexError, ValueError):
+        return None
+    return ticks / os.sysconf("SC_CLK_TCK")
 
 
 def read_process_memory(pid: int) -> dict[str, int] | None:
@@ -211,12 +222,15 @@ class RunRecorder:
                               wall_s=round(self.wall_s(), 3), **fields)
 
     def sample_processes(self, t: float, pids: Mapping[str, int]) -> None:
-        """Memory of each process, into processes.jsonl (wall-clock facts, not events)."""
+        """Memory and CPU time so far of each process, into processes.jsonl (wall-clock
+        facts, not events)."""
         for name, pid in pids.items():
             mem = read_process_memory(pid)
             if mem is not None:
+                cpu = read_process_cpu_s(pid)
+                extra = {"cpu_s": round(cpu, 3)} if cpu is not None else {}
                 self._processes.write(t, ev.PROCESS, name=name, pid=pid,
-                                      wall_s=round(self.wall_s(), 3), **mem)
+                                      wall_s=round(self.wall_s(), 3), **mem, **extra)
 
     def tick(self) -> None:
         self.display.tick()

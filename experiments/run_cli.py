@@ -22,11 +22,11 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
-from experiments.experiment import ALLOCATOR_NAMES
 from experiments.plugins import EXPERIMENTS
 from experiments.supervisor import RobotProcess, RobotSupervisor
 from experiments.supervisor import start_robot as _start_robot
 from experiments.supervisor import stop_robot as _stop_robot
+from murdoch.allocators import ALLOCATORS
 
 if TYPE_CHECKING:
     from experiments.run_extras import RunExtras
@@ -121,6 +121,10 @@ def free_udp_port() -> int:
 @click.option("--metric", "metric_terms", default="",
               help="Terms added to every robot's task metrics: distance (metres to where the "
                    "task is), specialist (fewer spare resources bid higher), comma-separated.")
+@click.option("--allocator", type=click.Choice(list(ALLOCATORS)), default="murdoch",
+              show_default=True,
+              help="The team's allocator, the same on the runner and on every robot: "
+                   + "; ".join(f"{a.name}: {a.summary}" for a in ALLOCATORS.values()) + ".")
 @click.option("--no-replay", is_flag=True, help="Do not write replay.html.")
 @click.option("--pipelined/--no-pipelined", default=True, show_default=True,
               help="Lockstep: the server sends each round before it steps and computes the "
@@ -142,10 +146,6 @@ def free_udp_port() -> int:
 @click.option("--trails", type=click.IntRange(0, 5000), default=0, show_default=True,
               help="--meshcat: draw a trail of each robot's last N positions.")
 @click.option("--lasers", is_flag=True, help="--meshcat: draw the robots' laser rays.")
-@click.option("--allocator", type=click.Choice(ALLOCATOR_NAMES), default="murdoch",
-              show_default=True,
-              help="How the robots allocate tasks among themselves: MURDOCH auctions, or CBBA "
-                   "or CBGA consensus.")
 @click.option("--group-tasks", "group_tasks", type=click.FloatRange(0.0, 1.0), default=0.0,
               show_default=True,
               help="longterm: the fraction of tasks that are group tasks, each needing two "
@@ -166,9 +166,9 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
         meshcat: bool, out: Path, world: str | None, task_interval: float,
         kills: tuple[str, ...], restarts: tuple[str, ...], switch_offs: tuple[str, ...],
         switch_ons: tuple[str, ...], goal_radius: float | None, goal_velocity: str | None,
-        retargets: tuple[str, ...], metric_terms: str, no_replay: bool,
+        retargets: tuple[str, ...], metric_terms: str, allocator: str, no_replay: bool,
         pipelined: bool, robot_nice: int, key: str | None, pin_cpus: bool,
-        record_rate: float, no_record: bool, trails: int, lasers: bool, allocator: str,
+        record_rate: float, no_record: bool, trails: int, lasers: bool,
         group_tasks: float, transport: str, bind: str, places: tuple[str, ...]) -> None:
     """Run EXPERIMENT end to end and leave a run directory behind."""
     from experiments.run_checks import RunSetupError, check_out_dir, effective_speedup

@@ -34,8 +34,8 @@ if TYPE_CHECKING:
     from experiments.run_extras import RunExtras
     from experiments.run_loop import RunLoop
     from murdoch.lossy import LossyReceiver
+    from murdoch.member import TeamMember
     from murdoch.multicast import MulticastTransport
-    from murdoch.node import Node
     from murdoch.zenoh_transport import ZenohTransport
     from player_server.server.affinity import CpuSplit
     from player_server.server.runner import PlayerServer
@@ -94,7 +94,7 @@ class RunParts:
     server: PlayerServer
     supervisor: RobotSupervisor
     transport: MulticastTransport | ZenohTransport
-    node: Node
+    node: TeamMember
     loop: RunLoop
     referee: Referee
     split: CpuSplit | None
@@ -180,6 +180,30 @@ def task_spec(planned: Any) -> Any:
     return USER_TASK.task(kind, TASKS[kind].subjects, planned.params,
                           duration_s=float(planned.params.get("duration_s", 0.0)),
                           timeout_s=float(planned.params["duration_s"]) + 600.0)
+
+
+def task_place(spec: WorldSpec, sim: Simulation) -> Any:
+    """Where a task is to be done, for allocators that plan paths: the ground-truth position,
+    when the task is introduced, of the object or box of the task's colour (the overhead
+    camera's desk for monitoring; a group task member's own spot, `x` and `y`; the arena's
+    centre when nothing matches)."""
+    bodies = {f"#{o.colour:06x}": o.name for o in spec.objects}
+    bodies.update({f"#{b.colour:06x}": b.name for b in spec.boxes if f"#{b.colour:06x}"
+                   not in bodies})
+    camera = spec.overhead_camera
+
+    def place(name: str, params: Any) -> tuple[float, float]:
+        if name == "monitor-object" and camera is not None:
+            return (float(camera.x), float(camera.y))
+        if "x" in params and "y" in params:
+            return (float(params["x"]), float(params["y"]))
+        body = bodies.get(str(params.get("colour", "")).lower())
+        if body is None:
+            return (0.0, 0.0)
+        x, y, _ = sim.get_pose(body)
+        return (float(x), float(y))
+
+    return place
 
 
 def assemble(settings: RunSettings, options: RunOptions, spec: WorldSpec) -> RunParts:
@@ -272,15 +296,15 @@ def _user(settings: RunSettings, options: RunOptions, spec: WorldSpec, sim: Simu
           server: PlayerServer, supervisor: RobotSupervisor, rec: RunRecorder,
           referee: Referee, team_clock: Any, bus: BusPlace, secret: str, epoch: str,
           bus_loss: LossyReceiver | None,
-          ) -> tuple[MulticastTransport | ZenohTransport, Node, RunLoop]:
+          ) -> tuple[MulticastTransport | ZenohTransport, TeamMember, RunLoop]:
     """The user's side: its transport on the team's bus (the Zenoh hub when the bus is
-    Zenoh), its MURDOCH node and the loop."""
+    Zenoh), its allocator's member (a MURDOCH node by default) and the loop."""
     from experiments.run_checks import RunSetupError
     from experiments.run_loop import RunLoop
     from experiments.task_source import longterm_tasks
+    from murdoch.allocators import UserHooks, allocator
     from murdoch.auth import TeamKey
     from murdoch.multicast import MulticastConfig
-    from murdoch.node import Node
     from murdoch.transport import TickConfig
     from murdoch.transport_choice import TransportChoice, open_transport
     from murdoch.user_agent import RandomizedBackoff
@@ -295,20 +319,23 @@ def _user(settings: RunSettings, options: RunOptions, spec: WorldSpec, sim: Simu
     sim_now = lambda: float(sim.time_s)  # noqa: E731 - a float read across threads
     ticks = TickConfig(user_tick, epoch=epoch, ordered=lockstep, late_joiner=False,
                        stale_after_ticks=0 if lockstep else 100, require_tick=True)
+    team = allocator(options.allocator)
     if bus.zenoh_endpoint:
         choice = TransportChoice("zenoh", zenoh=ZenohConfig(
             endpoint=bus.zenoh_endpoint, hub=True, allow_remote=settings.bind != "127.0.0.1"))
     else:
         choice = TransportChoice("multicast", multicast=MulticastConfig(port=bus.mcast_port))
     try:
-        transport = open_transport(choice, "user", sim_now, key=TeamKey(secret), instance="0",
-                                   ticks=ticks, loss=bus_loss)
+        transport = open_transport(choice, "user", sim_now, codec=team.codec,
+                                   key=TeamKey(secret), instance="0", ticks=ticks,
+                                   loss=bus_loss)
     except (ZenohUnavailable, OSError) as exc:
         raise RunSetupError(f"cannot open the team's bus ({choice.describe()}): {exc}") from exc
     loop_ref: list[RunLoop] = []
-    node = Node(transport, sim_now, agent_id="user",
-                observer=lambda e: loop_ref[0].on_auction_event(e.to_dict()),
-                backoff=RandomizedBackoff(random.Random(options.seed), base_s=5.0, cap_s=60.0))
+    node = team.user(transport, sim_now, UserHooks(
+        "user", observer=lambda e: loop_ref[0].on_auction_event(e.to_dict()),
+        backoff=RandomizedBackoff(random.Random(options.seed), base_s=5.0, cap_s=60.0),
+        locate=task_place(spec, sim)))
     faults = ([Fault(t, "kill", r) for r, t in settings.kills]
               + [Fault(t, "restart", r) for r, t in settings.restarts]
               + settings.experiment.faults(options) + list(extras.faults))

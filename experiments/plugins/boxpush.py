@@ -339,6 +339,14 @@ def goal_section(evs: list[Mapping[str, Any]]) -> dict[str, Any]:
 @dataclass(frozen=True)
 class Boxpush(ExperimentBase):
     def check(self, spec: WorldSpec, options: RunOptions) -> RunOptions:
+        from murdoch.allocators import ALLOCATORS
+
+        able = [a.name for a in ALLOCATORS.values() if a.sub_tasks]
+        if options.allocator not in able:
+            raise click.BadParameter(
+                f"boxpush needs robots that auction sub-tasks (the watcher's pushes); "
+                f"expected one of {', '.join(able)}, found {options.allocator}",
+                param_hint="--allocator")
         options = resolve_switches(spec, options)
         if options.group_task_rate:
             raise click.UsageError("--group-tasks is for the longterm experiment")

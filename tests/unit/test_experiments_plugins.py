@@ -103,3 +103,8 @@ def test_a_robot_placed_elsewhere_is_launched_through_its_prefix_and_joins_over_
     assert rest[rest.index("--zenoh-endpoint") + 1] == "tcp/10.199.0.1:7500"
     assert "--zenoh-allow-remote" in rest and "--mcast-port" not in rest
     assert spec.as_dict()["launch"] == ["ip", "netns", "exec", "robots"]
+def test_boxpush_refuses_an_allocator_whose_robots_offer_no_sub_tasks() -> None:
+    spec = load_world(world_path("boxpush"))
+    with pytest.raises(click.BadParameter, match="expected one of murdoch, found cbga"):
+        EXPERIMENTS["boxpush"].check(spec, RunOptions(60.0, 1, allocator="cbga"))
+    assert EXPERIMENTS["boxpush"].check(spec, RunOptions(60.0, 1)).allocator == "murdoch"

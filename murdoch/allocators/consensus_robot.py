@@ -1,0 +1,370 @@
+"""A robot's CBBA or CBGA member: plans over the user's offers by consensus on the bus.
+
+Each step (once per tick of the robot's loop, on simulation time) the member:
+
+1. takes what the bus brought (in lockstep, the previous tick's datagrams in tick order):
+   offers join its task list, grants and withdrawals leave it, neighbours' consensus state
+   waits in an inbox;
+2. notices silent agents: one that holds bids in its view and has not been heard for
+   `SILENT_S` simulated seconds has died (or lost its link), and its bids are dropped
+   (`forget_agent`); heard again, it is back;
+3. re-plans when its task list, its subjects (none while charging), its silent agents or
+   its own task changed: a fresh agent over the live offers, from where the robot is now
+   (`planning.plan_problem`), keeps what it learns from the inbox of this step;
+4. merges the inbox, releases what it was outbid on, builds its bundle;
+5. publishes its state when it changed, and every `HEARTBEAT_S` anyway while there are live
+   offers or it holds bids (the liveness others judge it by, and what a lost datagram
+   carried); an agent whose bids are held is expected to keep sending;
+6. when idle, claims the task at the head of its path if it wins it and its view has not
+   changed for `STABLE_S`; the user grants each offer to one claim, and the grant starts the
+   task (`on_start`); the executor reports progress every renewal period and the end, and
+   hears the user repeat its grant every renewal period.
+
+A task the user withdraws while this robot executes it (revoked after a silence, cancelled)
+is stopped (`on_stop`), and so is one whose grant has not been repeated for the abandon
+time (the user may have revoked it in a message this robot missed). Robots under consensus
+offer no sub-tasks.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Iterable
+
+from murdoch.allocators.base import Assignment, RobotHooks
+from murdoch.allocators.consensus_state import local_message, state_chunks
+from murdoch.allocators.planning import plan_problem
+from murdoch.allocators.team_messages import (
+    SESSION,
+    STATE_SUBJECT,
+    TEAM_SUBJECT,
+    TaskClaim,
+    TaskGrant,
+    TaskOffer,
+    TaskReport,
+    TaskWithdraw,
+)
+from murdoch.auction.messages import AuctionEvent, TaskSpec
+from murdoch.auction.timing import USER_TASK
+from murdoch.consensus.async_runner import ConsensusChunk
+from murdoch.consensus.cbba import CbbaAgent
+from murdoch.consensus.cbga import CbgaAgent
+from murdoch.subjects import SubjectSet, subject_set
+from murdoch.transport import Clock, Transport
+
+log = logging.getLogger(__name__)
+
+HEARTBEAT_S = 2.0
+SILENT_S = 6.0
+"""Three heartbeats missed: the agent is taken for dead."""
+STABLE_S = 1.0
+CLAIM_RETRY_S = 3.0
+PROGRESS_S = USER_TASK.renew_period_s
+ABANDON_AFTER_S = USER_TASK.abandon_after_s
+ENDED_KEPT = 16
+
+Agent = CbbaAgent | CbgaAgent
+
+
+class ConsensusRobot:
+    """A robot's `TeamMember` for CBBA (`algorithm="cbba"`) or CBGA (`"cbga"`)."""
+
+    def __init__(self, transport: Transport, clock: Clock, hooks: RobotHooks,
+                 algorithm: str) -> None:
+        if algorithm not in ("cbba", "cbga"):
+            raise ValueError(f"unknown consensus algorithm {algorithm!r}")
+        if hooks.agent_id not in hooks.team:
+            raise ValueError(f"{hooks.agent_id!r} is not in the team {list(hooks.team)}")
+        self.transport = transport
+        self.clock = clock
+        self.hooks = hooks
+        self.algorithm = algorithm
+        self.index = hooks.team.index(hooks.agent_id)
+        self._subjects: SubjectSet = subject_set(hooks.subjects)
+        self._lock = threading.RLock()
+        self.offers: dict[int, TaskOffer] = {}
+        self.withdrawn: set[int] = set()
+        self.order: list[int] = []
+        self.agent: Agent | None = None
+        self.heard: dict[int, float] = {}
+        self.silent: set[int] = set()
+        self._inbox: list[ConsensusChunk] = []
+        self._replan = True
+        self._executing: TaskOffer | None = None
+        self._started_at = 0.0
+        self._fraction = 0.0
+        self._next_progress = 0.0
+        self._renewed_at = 0.0
+        self._ended: dict[int, TaskReport] = {}
+        """The end reports of the latest tasks, sent again while the user still renews."""
+        self._claim: tuple[int, float] | None = None
+        self._claimed: TaskOffer | None = None
+        self._last_sent: tuple[object, float] | None = None
+        self._state: object = None
+        self._stable_since = 0.0
+        self.counters = {"claims": 0, "grants": 0, "replans": 0, "silent": 0}
+        self._sub = transport.subscribe({TEAM_SUBJECT, STATE_SUBJECT})
+        self.closed = False
+
+    # -- capabilities
+    @property
+    def subjects(self) -> SubjectSet:
+        return self._subjects
+
+    def set_subjects(self, subjects: Iterable[str] | str) -> None:
+        with self._lock:
+            new = subject_set(subjects)
+            if new != self._subjects:
+                self._subjects = new
+                self._replan = True
+
+    # -- tasks: under consensus only the user introduces them
+    def announce(self, spec: TaskSpec, patience_s: float | None = None) -> str:
+        raise ValueError(f"{self.algorithm}: a robot cannot introduce sub-tasks ({spec.name}); "
+                         f"use the murdoch allocator for experiments that need them")
+
+    def cancel(self, task_id: str, reason: str = "cancelled") -> None:
+        raise ValueError(f"{self.algorithm}: a robot introduces no tasks to cancel")
+
+    def open_tasks(self) -> tuple[str, ...]:
+        return ()
+
+    # -- execution
+    @property
+    def executing(self) -> str | None:
+        ex = self._executing
+        return ex.task_id if ex is not None else None
+
+    def progress(self, task_id: str, fraction: float, note: str = "") -> None:
+        with self._lock:
+            if self.executing == task_id:
+                self._fraction = fraction
+
+    def complete(self, task_id: str, note: str = "") -> None:
+        self._end(task_id, "completed", note)
+
+    def fail(self, task_id: str, reason: str) -> None:
+        self._end(task_id, "failed", reason)
+
+    def abandon(self, task_id: str, reason: str) -> None:
+        self._end(task_id, "abandoned", reason)
+
+    def _end(self, task_id: str, status: str, reason: str) -> None:
+        with self._lock:
+            ex = self._executing
+            if ex is None or ex.task_id != task_id:
+                return
+            self._executing = None
+            self._replan = True
+            report = TaskReport(ex.task_id, ex.offer, self.hooks.agent_id, status,
+                                self._fraction, reason)
+            self._ended[ex.offer] = report
+            while len(self._ended) > ENDED_KEPT:
+                del self._ended[next(iter(self._ended))]
+            self._publish(STATE_SUBJECT, report)
+
+    # -- the loop
+    def step(self, timeout_s: float = 0.0) -> int:
+        with self._lock:
+            if self.closed:
+                return 0
+            self.transport.poll(timeout_s)
+            envelopes = self._sub.drain()
+            now = self.clock()
+            for envelope in envelopes:
+                self._handle(envelope.message, now)
+            self._notice_silence(now)
+            if self._replan:
+                self._rebuild(now)
+            self._consensus(now)
+            self._maybe_claim(now)
+            self._report_progress(now)
+            return len(envelopes)
+
+    def close(self) -> None:
+        with self._lock:
+            if not self.closed:
+                self.closed = True
+                self._sub.close()
+
+    # -- internals
+    def _handle(self, msg: object, now: float) -> None:
+        if isinstance(msg, ConsensusChunk):
+            if msg.session == SESSION and msg.sender != self.index and \
+                    0 <= msg.sender < len(self.hooks.team):
+                self.heard[msg.sender] = now
+                if msg.sender in self.silent:
+                    self.silent.discard(msg.sender)
+                    self._replan = True
+                self._inbox.append(msg)
+        elif isinstance(msg, TaskOffer):
+            if msg.offer not in self.offers and msg.offer not in self.withdrawn:
+                self.offers[msg.offer] = msg
+                self._replan = True
+        elif isinstance(msg, TaskGrant):
+            self._withdraw(msg.offer)
+            ex = self._executing
+            if ex is not None and ex.offer == msg.offer and msg.robot == self.hooks.agent_id:
+                self._renewed_at = now  # the user repeats its grant: a renewal
+            elif msg.offer in self._ended and msg.robot == self.hooks.agent_id:
+                self._publish(STATE_SUBJECT, self._ended[msg.offer])  # the report was lost
+            elif msg.robot == self.hooks.agent_id:
+                self._granted(msg, now)
+            elif self._claim is not None and self._claim[0] == msg.offer:
+                self._claim = None
+        elif isinstance(msg, TaskWithdraw):
+            self._withdraw(msg.offer)
+            ex = self._executing
+            if ex is not None and ex.offer == msg.offer:
+                self._executing = None
+                self._replan = True
+                self._emit(now, "stopped", ex.task_id, reason=msg.reason)
+                self.hooks.on_stop(Assignment(ex.task_id, ex.name, ex.params), msg.reason)
+            if self._claim is not None and self._claim[0] == msg.offer:
+                self._claim = None
+
+    def _withdraw(self, offer: int) -> None:
+        if offer not in self.withdrawn:
+            self.withdrawn.add(offer)
+            self._replan = True
+        self.offers.pop(offer, None)
+
+    def _granted(self, grant: TaskGrant, now: float) -> None:
+        claim, self._claim = self._claim, None
+        offer = None
+        if claim is not None and claim[0] == grant.offer:
+            offer = self._claimed
+        if offer is None or self._executing is not None or not self._subjects:
+            why = ("left the team (charging)" if not self._subjects and offer is not None
+                   else "granted a task it no longer claims")
+            self._publish(STATE_SUBJECT, TaskReport(grant.task_id, grant.offer,
+                                                    self.hooks.agent_id, "abandoned", 0.0, why))
+            return
+        self._executing = offer
+        self._started_at = now
+        self._fraction = 0.0
+        self._next_progress = now + PROGRESS_S
+        self._renewed_at = now
+        self.counters["grants"] += 1
+        self._emit(now, "start", offer.task_id, offer=offer.offer)
+        self.hooks.on_start(Assignment(offer.task_id, offer.name, offer.params))
+
+    def _notice_silence(self, now: float) -> None:
+        holders: set[int] | None = None
+        for k, t in self.heard.items():
+            if k in self.silent or now - t <= SILENT_S:
+                continue
+            if holders is None:  # (rarely: only when someone is overdue)
+                holders = set().union(*self.agent.winners_view()) if self.agent else set()
+            if k in holders:  # it holds bids, so it would be sending its state
+                self.silent.add(k)
+                self.counters["silent"] += 1
+                if self.agent is not None:
+                    self.agent.forget_agent(k)
+
+    def _rebuild(self, now: float) -> None:
+        self._replan = False
+        self.counters["replans"] += 1
+        self.order = sorted(self.offers)
+        offers = [self.offers[o] for o in self.order]
+        ex = self._executing
+        if ex is not None:
+            left = max(0.0, ex.duration_s - (now - self._started_at))
+            position = (ex.x, ex.y) if self.hooks.speed_mps > 0 else self.hooks.position()
+            available = now + left
+        else:
+            position, available = self.hooks.position(), now
+        names = {o.name for o in offers}
+        problem = plan_problem(
+            self.hooks.team, self.index, offers, subjects=frozenset(self._subjects),
+            can_do={n: self.hooks.knows(n) for n in names}, position=position,
+            speed_mps=self.hooks.speed_mps, available_at=available)
+        agent: Agent = (CbbaAgent(problem, self.index) if self.algorithm == "cbba"
+                        else CbgaAgent(problem, self.index))
+        for k in self.silent:
+            agent.forget_agent(k)
+        self.agent = agent
+        self._state = None
+
+    def _consensus(self, now: float) -> None:
+        a = self.agent
+        assert a is not None
+        inbox, self._inbox = self._inbox, []
+        groups: dict[tuple[int, float], list[ConsensusChunk]] = {}
+        for c in inbox:
+            groups.setdefault((c.sender, c.time), []).append(c)
+        for chunks in groups.values():
+            last = None
+            for c in chunks:
+                msg, tasks = local_message(c, a.kind, self.order, self.silent)
+                a.receive(msg, now, tasks, merge=False)
+                last = msg
+            if last is not None:
+                a.merge_stamps(last, now)
+        a.release_outbid()
+        if isinstance(a, CbgaAgent):
+            a.refresh_times()
+        a.build_bundle(now)
+        state = a.state_key()
+        if state != self._state:
+            self._state = state
+            self._stable_since = now
+        sent = (tuple(self.order), a.sent_data())
+        last_sent = self._last_sent
+        beat = bool(a.bundle or self.offers) and (last_sent is None
+                                                  or now - last_sent[1] >= HEARTBEAT_S)
+        if last_sent is None or last_sent[0] != sent or beat:
+            self._last_sent = (sent, now)
+            for chunk in state_chunks(a.message(now), self.order):
+                self._publish(STATE_SUBJECT, chunk)
+
+    def _maybe_claim(self, now: float) -> None:
+        a = self.agent
+        if a is None or self._executing is not None or not self._subjects or not a.path:
+            return
+        if self._claim is not None and now - self._claim[1] < CLAIM_RETRY_S:
+            return
+        if now - self._stable_since < STABLE_S:
+            return
+        j = a.path[0]
+        if self.index not in a.winners_view()[j]:
+            return
+        offer = self.offers[self.order[j]]
+        bid = a.y[j] if isinstance(a, CbbaAgent) else a.x[j][self.index]
+        self._claim = (offer.offer, now)
+        self._claimed = offer
+        self.counters["claims"] += 1
+        self._emit(now, "claim", offer.task_id, offer=offer.offer, bid=bid)
+        self._publish(STATE_SUBJECT, TaskClaim(offer.task_id, offer.offer, self.hooks.agent_id,
+                                               float(bid)))
+
+    def _report_progress(self, now: float) -> None:
+        ex = self._executing
+        if ex is not None and now - self._renewed_at > ABANDON_AFTER_S:
+            # the user has not renewed the grant: it may have given the task to another
+            self._executing = None
+            self._replan = True
+            reason = f"no renewal for {ABANDON_AFTER_S:g} s"
+            self._emit(now, "stopped", ex.task_id, reason=reason)
+            self.hooks.on_stop(Assignment(ex.task_id, ex.name, ex.params), reason)
+            report = TaskReport(ex.task_id, ex.offer, self.hooks.agent_id, "abandoned",
+                                self._fraction, reason)
+            self._ended[ex.offer] = report
+            self._publish(STATE_SUBJECT, report)
+            return
+        if ex is not None and now >= self._next_progress:
+            self._next_progress = now + PROGRESS_S
+            self._publish(STATE_SUBJECT, TaskReport(ex.task_id, ex.offer, self.hooks.agent_id,
+                                                    "progress", self._fraction))
+
+    def _publish(self, subject: str, message: object) -> None:
+        try:
+            self.transport.publish({subject}, message)
+        except OSError as exc:  # silence is handled like loss
+            log.warning("could not send %s: %s", type(message).__name__, exc)
+
+    def _emit(self, now: float, kind: str, task_id: str, **detail: object) -> None:
+        if self.hooks.observer is not None:
+            self.hooks.observer(AuctionEvent(now, self.hooks.agent_id, kind, task_id, 0,
+                                             dict(detail)))

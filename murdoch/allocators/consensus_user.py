@@ -1,0 +1,291 @@
+"""The user's side of a CBBA or CBGA team: offers tasks, grants claims, watches executors.
+
+The runner introduces each task as the user does under MURDOCH (`announce`, with patience
+for reintroduction). Here it *offers* the task on the bus (`TaskOffer`, repeated every
+`OFFER_REPEAT_S` so that a robot started later learns it) and the robots plan over it by
+consensus. The user listens to their consensus state too: an offer that nobody's view gives
+a winner for a whole bid window closes without a bid (the robots that could do it are
+charging, dead or lack the devices), and is offered again after a randomized backoff until
+its patience runs out, then it is `unachievable`, exactly as an auction without bids. The
+first claim the user acts on for a live offer gets it (`TaskGrant`, the award); the executor
+must report at least every contract timeout, or the task is revoked (`TaskWithdraw`) and
+offered again once the silent robot would have given it up. A report of completion or
+failure ends the task. The user repeats its grant every renewal period (the executor gives
+the task up when the repeats stop, so after a revocation it missed the two never overlap);
+an abandoned task is offered again at once. Every step is reported
+to the observer as the auctioneer's events are (announce, close, award, reallocation,
+outcome), so a run's events read the same under every allocator.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections import deque
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+
+from murdoch.allocators.base import UserHooks
+from murdoch.allocators.consensus_robot import SILENT_S
+from murdoch.allocators.team_messages import (
+    SESSION,
+    STATE_SUBJECT,
+    TEAM_SUBJECT,
+    TaskClaim,
+    TaskGrant,
+    TaskOffer,
+    TaskReport,
+    TaskWithdraw,
+)
+from murdoch.auction.messages import AuctionEvent, Outcome, TaskSpec
+from murdoch.consensus.async_runner import ConsensusChunk
+from murdoch.subjects import SubjectSet
+from murdoch.transport import Clock, Transport
+
+log = logging.getLogger(__name__)
+
+OFFER_REPEAT_S = 10.0
+
+
+@dataclass
+class _Task:
+    task_id: str
+    spec: TaskSpec
+    deadline: float | None
+    attempt: int = 0
+    phase: str = "waiting"  # offered, granted, waiting
+    offer: TaskOffer | None = None
+    unwon_since: float = 0.0
+    wake_at: float = 0.0
+    winner: str | None = None
+    awarded_at: float = 0.0
+    renew_at: float = 0.0
+    last_heard: float = 0.0
+    no_bid_rounds: int = 0
+    last_reason: str = ""
+    place: tuple[float, float] = (0.0, 0.0)
+    repeats: list[float] = field(default_factory=list)
+
+
+class ConsensusUser:
+    """The runner's `TeamMember` for a CBBA or CBGA team."""
+
+    def __init__(self, transport: Transport, clock: Clock, hooks: UserHooks) -> None:
+        self.transport = transport
+        self.clock = clock
+        self.hooks = hooks
+        self.agent_id = hooks.agent_id
+        inst = transport.instance
+        self._prefix = f"{hooks.agent_id}.{inst[:6]}" if inst else hooks.agent_id
+        self._counter = 0
+        self._offers = 0
+        self._tasks: dict[str, _Task] = {}
+        self._by_offer: dict[int, _Task] = {}
+        self._views: dict[int, tuple[float, frozenset[int]]] = {}
+        """Per agent index: when last heard, and the offers its state gives a winner."""
+        self._lock = threading.RLock()
+        self.outcomes: deque[Outcome] = deque(maxlen=1024)
+        """The latest outcomes of the tasks this member introduced."""
+        self._sub = transport.subscribe({TEAM_SUBJECT, STATE_SUBJECT})
+        self.closed = False
+
+    # -- the user executes nothing and offers no capabilities
+    @property
+    def subjects(self) -> SubjectSet:
+        return frozenset()
+
+    def set_subjects(self, subjects: Iterable[str] | str) -> None:
+        if subjects:
+            raise ValueError("the user of a consensus team executes no tasks")
+
+    @property
+    def executing(self) -> str | None:
+        return None
+
+    def progress(self, task_id: str, fraction: float, note: str = "") -> None:
+        pass
+
+    def complete(self, task_id: str, note: str = "") -> None:
+        pass
+
+    def fail(self, task_id: str, reason: str) -> None:
+        pass
+
+    def abandon(self, task_id: str, reason: str) -> None:
+        pass
+
+    # -- tasks
+    def announce(self, spec: TaskSpec, patience_s: float | None = None) -> str:
+        with self._lock:
+            now = self.clock()
+            self._counter += 1
+            task_id = f"{self._prefix}.{self._counter}"
+            task = _Task(task_id, spec, None if patience_s is None else now + patience_s,
+                         place=self.hooks.locate(spec.name, spec.params))
+            self._tasks[task_id] = task
+            self._offer(task, now)
+            return task_id
+
+    def cancel(self, task_id: str, reason: str = "cancelled") -> None:
+        with self._lock:
+            task = self._tasks.get(task_id)
+            if task is not None:
+                self._finish(task, self.clock(), "failed", reason)
+
+    def open_tasks(self) -> tuple[str, ...]:
+        return tuple(self._tasks)
+
+    # -- the loop
+    def step(self, timeout_s: float = 0.0) -> int:
+        with self._lock:
+            if self.closed:
+                return 0
+            self.transport.poll(timeout_s)
+            envelopes = self._sub.drain()
+            now = self.clock()
+            for envelope in envelopes:
+                self._handle(envelope.message, now)
+            for task in list(self._tasks.values()):
+                self._tick(task, now)
+            return len(envelopes)
+
+    def close(self) -> None:
+        with self._lock:
+            if not self.closed:
+                self.closed = True
+                self._sub.close()
+
+    # -- internals
+    def _handle(self, msg: object, now: float) -> None:
+        if isinstance(msg, ConsensusChunk):
+            if msg.session == SESSION:
+                _, won = self._views.get(msg.sender, (now, frozenset()))
+                lo, hi = msg.first_task, msg.first_task + msg.task_count
+                kept = {o for o in won if not lo <= o < hi}
+                kept |= {o for o, _, _ in msg.entries}
+                self._views[msg.sender] = (now, frozenset(kept))
+        elif isinstance(msg, TaskClaim):
+            task = self._by_offer.get(msg.offer)
+            if task is not None and task.phase == "offered" and task.task_id == msg.task_id:
+                self._grant(task, msg, now)
+        elif isinstance(msg, TaskReport):
+            task = self._by_offer.get(msg.offer)
+            if task is None or task.phase != "granted" or task.winner != msg.robot:
+                return
+            task.last_heard = now
+            if msg.status in ("completed", "failed"):
+                self._finish(task, now, msg.status, msg.reason or msg.status)
+            elif msg.status == "abandoned":
+                self._reallocate(task, now, f"winner {msg.robot} abandoned: {msg.reason}", 0.0)
+
+    def _winner_seen(self, offer: int, now: float) -> bool:
+        return any(offer in won and now - t <= SILENT_S for t, won in self._views.values())
+
+    def _tick(self, task: _Task, now: float) -> None:
+        spec = task.spec
+        if task.phase == "waiting":
+            if now >= task.wake_at:
+                self._offer(task, now)
+        elif task.phase == "offered":
+            assert task.offer is not None
+            if self._winner_seen(task.offer.offer, now):
+                task.unwon_since = now
+            elif now - task.unwon_since >= spec.bid_window_s:
+                self._no_bid(task, now)
+            elif now - task.offer.offered_at >= OFFER_REPEAT_S * (len(task.repeats) + 1):
+                task.repeats.append(now)
+                self._publish(TEAM_SUBJECT, task.offer)
+        elif task.phase == "granted":
+            if spec.timeout_s is not None and now - task.awarded_at > spec.timeout_s:
+                self._finish(task, now, "failed", f"not finished within {spec.timeout_s:g} s")
+            elif now - task.last_heard > spec.contract_timeout_s:
+                self._reallocate(task, now, f"winner {task.winner} silent for "
+                                 f"{spec.contract_timeout_s:g} s", spec.abandon_after_s)
+            elif now >= task.renew_at:
+                task.renew_at = now + spec.renew_period_s
+                assert task.offer is not None and task.winner is not None
+                self._publish(TEAM_SUBJECT, TaskGrant(task.task_id, task.offer.offer,
+                                                      task.winner))
+
+    def _offer(self, task: _Task, now: float) -> None:
+        spec = task.spec
+        if task.attempt >= spec.max_attempts:
+            task.winner = None
+            task.phase = "waiting"
+            self._finish(task, now, "failed", f"gave up after {task.attempt} attempts")
+            return
+        task.attempt += 1
+        task.phase = "offered"
+        task.winner = None
+        task.unwon_since = now
+        task.repeats = []
+        offer = TaskOffer(task.task_id, self._offers, spec.name, tuple(sorted(spec.subjects)),
+                          spec.params, spec.duration_s, task.place[0], task.place[1], now)
+        self._offers += 1
+        task.offer = offer
+        self._by_offer[offer.offer] = task
+        self._emit(now, "announce", task, name=spec.name, subjects=sorted(spec.subjects),
+                   offer=offer.offer)
+        self._publish(TEAM_SUBJECT, offer)
+
+    def _withdraw(self, task: _Task, reason: str) -> None:
+        if task.offer is not None:
+            self._by_offer.pop(task.offer.offer, None)
+            self._publish(TEAM_SUBJECT, TaskWithdraw(task.task_id, task.offer.offer, reason))
+
+    def _grant(self, task: _Task, claim: TaskClaim, now: float) -> None:
+        task.phase = "granted"
+        task.winner = claim.robot
+        task.awarded_at = task.last_heard = now
+        task.renew_at = now + task.spec.renew_period_s
+        self._emit(now, "close", task, bids=1)
+        self._emit(now, "award", task, winner=claim.robot, score=claim.bid, bids=1)
+        self._publish(TEAM_SUBJECT, TaskGrant(task.task_id, claim.offer, claim.robot))
+
+    def _no_bid(self, task: _Task, now: float) -> None:
+        self._emit(now, "close", task, bids=0)
+        reason = "no capable agent bid"
+        if task.attempt > 1 and task.last_reason:
+            reason = f"{task.last_reason}; no capable agent bid on reallocation"
+        self._withdraw(task, "no winner")
+        task.no_bid_rounds += 1
+        backoff = self.hooks.backoff
+        if task.deadline is not None:
+            delay = backoff.delay_s(task.no_bid_rounds)
+            if now + delay <= task.deadline and task.attempt < task.spec.max_attempts:
+                task.phase = "waiting"
+                task.wake_at = now + delay
+                self._emit(now, "retry", task, delay_s=delay, reason=reason)
+                return
+            reason = f"{reason}; retried {task.no_bid_rounds - 1} times until the deadline"
+        task.winner = None
+        self._finish(task, now, "unachievable", reason)
+
+    def _reallocate(self, task: _Task, now: float, reason: str, wait_s: float) -> None:
+        self._emit(now, "reallocation", task, winner=task.winner, reason=reason)
+        self._withdraw(task, reason)
+        task.last_reason = reason
+        task.phase = "waiting"
+        task.wake_at = now + wait_s
+
+    def _finish(self, task: _Task, now: float, status: str, reason: str) -> None:
+        self._tasks.pop(task.task_id, None)
+        if task.phase in ("offered", "granted"):
+            self._withdraw(task, reason)
+        winner = task.winner if status != "unachievable" else None
+        outcome = Outcome(task_id=task.task_id, name=task.spec.name, status=status,
+                          reason=reason, winner=winner, attempts=task.attempt, time_s=now,
+                          parent=task.spec.parent)
+        self.outcomes.append(outcome)
+        self._emit(now, "outcome", task, status=status, reason=reason, winner=winner)
+
+    def _publish(self, subject: str, message: object) -> None:
+        try:
+            self.transport.publish({subject}, message)
+        except OSError as exc:
+            log.warning("could not send %s: %s", type(message).__name__, exc)
+
+    def _emit(self, now: float, kind: str, task: _Task, **detail: object) -> None:
+        if self.hooks.observer is not None:
+            self.hooks.observer(AuctionEvent(now, self.agent_id, kind, task.task_id,
+                                             task.attempt, dict(detail)))

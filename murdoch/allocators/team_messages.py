@@ -1,0 +1,87 @@
+"""The messages CBBA and CBGA teams exchange on the bus besides their consensus state.
+
+The user (the runner, as the task source) offers each task as an *offer*: a number that
+names one attempt to allocate the task (`TaskOffer.offer`; a task re-offered after a
+reallocation or a round without a winner gets a new number). Agents plan over the live
+offers. The agent at the head of whose path an offer stands, and who wins it in its
+consensus view, claims it (`TaskClaim`); the user grants each offer to the first claim it
+acts on (`TaskGrant`), so no task is ever executed by two robots at once, and withdraws
+offers that ended (`TaskWithdraw`: granted elsewhere, no winner, revoked, ended). The
+executor reports progress and the end (`TaskReport`). Agents' consensus state travels as
+`murdoch.consensus.async_runner.ConsensusChunk`, entries naming offers, agents by their
+index in the team (the world's robot order).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+from murdoch.auction.messages import AUCTION_CODEC
+from murdoch.consensus.async_runner import ConsensusChunk
+
+TEAM_SUBJECT = "team.tasks"
+"""Offers, grants and withdrawals: every agent and the user listen."""
+STATE_SUBJECT = "team.state"
+"""Consensus state, claims and reports."""
+SESSION = "team"
+
+
+@dataclass(frozen=True)
+class TaskOffer:
+    KIND: ClassVar[str] = "team-offer"
+    task_id: str
+    offer: int
+    name: str
+    subjects: tuple[str, ...]
+    params: Mapping[str, Any]
+    duration_s: float
+    x: float
+    y: float
+    offered_at: float
+
+
+@dataclass(frozen=True)
+class TaskClaim:
+    KIND: ClassVar[str] = "team-claim"
+    REPLY: ClassVar[bool] = True
+    task_id: str
+    offer: int
+    robot: str
+    bid: float
+
+
+@dataclass(frozen=True)
+class TaskGrant:
+    KIND: ClassVar[str] = "team-grant"
+    task_id: str
+    offer: int
+    robot: str
+
+
+@dataclass(frozen=True)
+class TaskWithdraw:
+    KIND: ClassVar[str] = "team-withdraw"
+    task_id: str
+    offer: int
+    reason: str
+
+
+@dataclass(frozen=True)
+class TaskReport:
+    KIND: ClassVar[str] = "team-report"
+    REPLY: ClassVar[bool] = True
+    task_id: str
+    offer: int
+    robot: str
+    status: str
+    """progress, completed, failed or abandoned"""
+    fraction: float = 0.0
+    reason: str = ""
+
+
+TEAM_KINDS = (TaskOffer, TaskClaim, TaskGrant, TaskWithdraw, TaskReport, ConsensusChunk)
+TEAM_CODEC = AUCTION_CODEC.extended(TEAM_KINDS)
+"""Every message a CBBA or CBGA team sends (the auction kinds too, so tools that listen to
+a bus understand both)."""
