@@ -15,12 +15,13 @@ from experiments.plugins import EXPERIMENTS
 from experiments.run_cli import run
 from experiments.run_extras import RunExtras
 from experiments.run_parts import RunSettings, run_config
-from experiments.supervisor import robot_process
+from experiments.supervisor import BusPlace, robot_process
 from worlds import load_world, world_path
 
 
 def _robot(allocator: str) -> list[str]:
-    spec = robot_process("p1", world="longterm", mcast_port=5000, seed=1, logs=Path("/l"),
+    spec = robot_process("p1", world="longterm", bus=BusPlace(mcast_port=5000), seed=1,
+                         logs=Path("/l"),
                          metric_terms=(), lockstep=True, read_timeout_s=60.0,
                          allocator=allocator)
     return list(spec.args)
