@@ -76,11 +76,13 @@ def small(runs: int, seed: int) -> None:
               f"{100 * min(rs):.1f}% | {sum(x > 1 - 1e-9 for x in rs)}/{len(rs)} |")
 
 
-def large(runs: int, seed: int, n_agents: int, experiment: str = "fig5") -> None:
+def large(runs: int, seed: int, n_agents: int, experiment: str,
+          refined_ratios: list[tuple[float, float, float]]) -> None:
     print(f"\n## The paper's {experiment} set-ups at {n_agents} agents ({runs} runs each)\n")
-    print("| set-up | algorithm | score | rounds | messages | bytes | msgs ratio (median, "
-          "worst) | bytes ratio (median, worst) | valid | solve ms |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("| set-up | algorithm | score | rounds | messages | bytes | rounds ratio (median, "
+          "worst) | msgs ratio (median, worst) | bytes ratio (median, worst) | valid | "
+          "solve ms |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for _vi, variant in enumerate(EXPERIMENTS[experiment]):
         rows: dict[str, list[tuple[float, int, int, int, bool, float]]] = {}
         for run in range(runs):
@@ -100,10 +102,14 @@ def large(runs: int, seed: int, n_agents: int, experiment: str = "fig5") -> None
         base = rows["plain"]
         for name, rs in rows.items():
             med = [statistics.median(x[c] for x in rs) for c in range(1, 4)]
+            ratios_r = [x[1] / max(1, b[1]) for x, b in zip(rs, base, strict=True)]
             ratios_m = [x[2] / max(1, b[2]) for x, b in zip(rs, base, strict=True)]
             ratios_b = [x[3] / max(1, b[3]) for x, b in zip(rs, base, strict=True)]
+            if name == "--refine":
+                refined_ratios.extend(zip(ratios_r, ratios_m, ratios_b, strict=True))
             print(f"| {variant.name} | {name} | {statistics.mean(x[0] for x in rs):.1f} | "
                   f"{med[0]:.0f} | {med[1]:.0f} | {med[2]:.0f} | "
+                  f"{statistics.median(ratios_r):.2f}, {max(ratios_r):.2f} | "
                   f"{statistics.median(ratios_m):.2f}, {max(ratios_m):.2f} | "
                   f"{statistics.median(ratios_b):.2f}, {max(ratios_b):.2f} | "
                   f"{sum(x[4] for x in rs)}/{len(rs)} | "
@@ -128,8 +134,16 @@ def main() -> None:
                  f"(expected some of {', '.join(EXPERIMENTS)})")
     if not args.skip_small:
         small(args.runs, args.seed)
+    refined: list[tuple[float, float, float]] = []
     for name in names:
-        large(args.large_runs, args.seed, args.agents, name)
+        large(args.large_runs, args.seed, args.agents, name, refined)
+    if refined:
+        print(f"\n--refine / plain over all {len(refined)} runs of part 2 (rounds, messages, "
+              "bytes):")
+        for what, f in (("median", statistics.median), ("mean", statistics.mean),
+                        ("worst", max)):
+            print(f"- {what}: " + ", ".join(f"{f(r[c] for r in refined):.2f}"
+                                            for c in range(3)))
 
 
 if __name__ == "__main__":
