@@ -64,8 +64,10 @@ from murdoch.consensus.scenario import Scenario
 from murdoch.consensus.scoring import Problem, build_problem, evaluate_plan
 from murdoch.consensus.sync_runner import AllocationResult, build_result, graph_diameter
 
-__all__ = ["Plan", "PlanScorer", "Proposal", "RefineAgent", "RefineOptions", "canonical_plan",
-           "guess_plan", "refine_allocation", "run_refinement"]
+__all__ = ["Opening", "Plan", "PlanScorer", "Proposal", "RefineAgent", "RefineOptions",
+           "RefineOutcome", "canonical_plan", "complete_graph", "guess_plan",
+           "make_refine_agent", "refine_allocation", "run_refinement", "seeded_rank",
+           "select", "step_limit", "strongly_connected"]
 _HEADER_BYTES = 15
 
 # what an agent sends: its step, the entries it holds for that step, and (once) the complete
@@ -82,7 +84,8 @@ class RefineOptions:
     which every agent of a synchronous run knows), but allows at least `min_rounds`; None
     lifts the bound (then only `max_steps` applies). `opening` replaces the paths step by
     the opening (paths sent only where they differ from the plan guessed from the agreed
-    winners, with the first proposals)."""
+    winners, with the first proposals). `regroup` adds the move of a whole group task to a
+    new group (the proposer and the partners that gain most; old members may stay)."""
 
     seed: int = 0
     max_steps: int = 50
@@ -90,16 +93,19 @@ class RefineOptions:
     budget: float | None = 0.5
     min_rounds: int = 1
     opening: bool = True
+    regroup: bool = True
 
 
 class MoveSearch:
     """One agent's search for its best proposal on the agreed plan."""
 
-    def __init__(self, scorer: PlanScorer, agent: int, pair: PairReplan | None = None) -> None:
+    def __init__(self, scorer: PlanScorer, agent: int, pair: PairReplan | None = None,
+                 regroup: bool = True) -> None:
         self.s = scorer
         self.p = scorer.p
         self.i = agent
         self.pair = pair
+        self.regroup = regroup
 
     def _best_insert(self, plan: Plan, changes: dict[int, tuple[int, ...]], k: int, j: int
                      ) -> tuple[float, dict[int, tuple[int, ...]]]:
@@ -162,6 +168,10 @@ class MoveSearch:
                     consider(*self._best_insert(plan, c2, i, j))
             if need > 1 and not owners:
                 self._fill(plan, j, consider)
+            elif need > 1 and self.regroup and len(owners) >= need:
+                # move the whole group task: its members drop it, a new group takes it
+                freed = {k: without(plan[k], j) for k in owners}
+                self._fill(with_changes(plan, freed), j, consider, freed)
         # move one of my own tasks elsewhere in my path
         for l in mine:
             consider(*self._best_insert(plan, {i: without(mine, l)}, i, l))
@@ -211,16 +221,18 @@ class MoveSearch:
             if best_c is not None:
                 consider(best_v, best_c)
 
-    def _fill(self, plan: Plan, j: int, consider) -> None:
+    def _fill(self, plan: Plan, j: int, consider,
+              base: dict[int, tuple[int, ...]] | None = None) -> None:
         """Join group task j (no members yet) and complete its group with the partners
-        that give the best plan, one at a time."""
+        that give the best plan, one at a time (`base`: changes already made to `plan`,
+        kept in what is offered)."""
         p, i = self.p, self.i
         base_i = plan[i]
         if len(base_i) >= p.max_depth:
             return
         # my position is chosen with the full group in place: try each of my insertions
         for mine_q in insertions(base_i, j):
-            c: dict[int, tuple[int, ...]] = {i: mine_q}
+            c: dict[int, tuple[int, ...]] = {**(base or {}), i: mine_q}
             members = [i]
             ok = True
             while len(members) < p.required[j]:
@@ -306,6 +318,7 @@ class RefineAgent:
     entries: dict[int, object] = field(default_factory=dict)
     previous: tuple[int, dict[int, object]] | None = None
     pair: PairReplan | None = None
+    regroup: bool = True
     resend: bool = True  # False when every agent hears every other directly
     guess: Plan | None = None  # the plan derived from the agreed winners (opening step)
 
@@ -324,7 +337,7 @@ class RefineAgent:
         self.entries = {i: Opening(path, self._search(local))}
 
     def _search(self, plan: Plan) -> Proposal | None:
-        return MoveSearch(self.scorer, self.index, self.pair).best(plan)
+        return MoveSearch(self.scorer, self.index, self.pair, self.regroup).best(plan)
 
     def message(self) -> RefineMessage:
         prev, self.previous = self.previous, None
@@ -398,8 +411,8 @@ def make_refine_agent(scorer: PlanScorer, index: int, rank: Sequence[int],
     `guess` (the plan derived from the agreed winners) it opens with its first proposal."""
     pair = PairReplan(scorer, index) if options.pairs else None
     steps = options.max_steps if max_steps is None else max_steps
-    return RefineAgent(scorer, index, rank, own_path, steps, pair=pair, resend=resend,
-                       guess=guess)
+    return RefineAgent(scorer, index, rank, own_path, steps, pair=pair,
+                       regroup=options.regroup, resend=resend, guess=guess)
 
 
 def complete_graph(neighbours: Sequence[Sequence[int]]) -> bool:
