@@ -17,8 +17,10 @@ neighbours and acts when it holds the entries of all agents for that step:
   can make from its own side, or nothing. Moves are computed by the agent alone, on its
   copy of the plan: take a task from another agent or from the unassigned ones (a group
   task: replace one member, or join a group that is short), swap one of its tasks for
-  another agent's, move one of its own tasks to a better place in its path, or fill a
-  group task that has no complete group (itself and the partners that gain most).
+  another agent's, move one of its own tasks to a better place in its path, fill a
+  group task that has no complete group (itself and the partners that gain most), move a
+  whole group task to a new group of itself and such partners (regroup), or re-plan
+  itself and one other agent (`pair_replan.py`).
   A proposal carries the new paths of the agents it changes and the gain in the total
   score (`evaluate_plan`) it brings.
 - Holding all proposals of step t, every agent applies the same selection: proposals by
