@@ -141,11 +141,14 @@ class MoveSearch:
                 holders[j].append(k)
         mine = plan[i]
         best_v, best_c = base + _GAIN_TOL * max(1.0, abs(base)), None
+        self.best_v = best_v
+        self.alone = [self.s.path_value(k, q) for k, q in enumerate(plan)]
 
         def consider(v: float, c: dict[int, tuple[int, ...]]) -> None:
             nonlocal best_v, best_c
             if v > best_v:
                 best_v, best_c = v, c
+                self.best_v = v
 
         for j in range(p.n_tasks):
             if j in mine or not p.eligible[i, j]:
@@ -173,7 +176,8 @@ class MoveSearch:
             elif need > 1 and self.regroup and len(owners) >= need:
                 # move the whole group task: its members drop it, a new group takes it
                 freed = {k: without(plan[k], j) for k in owners}
-                self._fill(with_changes(plan, freed), j, consider, freed)
+                if self._regroup_bound(plan, freed, j) > self.best_v:
+                    self._fill(with_changes(plan, freed), j, consider, freed)
         # move one of my own tasks elsewhere in my path
         for l in mine:
             consider(*self._best_insert(plan, {i: without(mine, l)}, i, l))
@@ -257,6 +261,24 @@ class MoveSearch:
                 members.append(best_k)
             if ok:
                 consider(self._value(plan, c), c)
+
+    def _regroup_bound(self, plan: Plan, freed: dict[int, tuple[int, ...]], j: int) -> float:
+        """No regroup of j scores more: the agent-alone sum of all paths (which no joint
+        execution exceeds) after the members drop j, plus the best agent-alone insertion
+        gains of j for this agent and the best partners it needs."""
+        p, i = self.p, self.i
+        path_value = self.s.path_value
+        total = sum(self.alone) + sum(path_value(k, q) - self.alone[k]
+                                      for k, q in freed.items())
+
+        def gain(k: int) -> float:
+            q0 = freed.get(k, plan[k])
+            if not p.eligible[k, j] or len(q0) >= p.max_depth:
+                return -math.inf
+            return max(path_value(k, q) for q in insertions(q0, j)) - path_value(k, q0)
+
+        partners = sorted((gain(k) for k in range(p.n_agents) if k != i), reverse=True)
+        return total + gain(i) + sum(partners[: int(p.required[j]) - 1])
 
     def _partial_value(self, plan: Plan, changes: dict[int, tuple[int, ...]], j: int) -> float:
         """A group not yet full: the members' paths scored alone (j at each one's own
