@@ -236,6 +236,8 @@ class MoveSearch:
         base_i = plan[i]
         if len(base_i) >= p.max_depth:
             return
+        path_value = self.s.path_value
+        alone = sum(path_value(k, q) for k, q in enumerate(plan))
         # my position is chosen with the full group in place: try each of my insertions
         for mine_q in insertions(base_i, j):
             c: dict[int, tuple[int, ...]] = {**(base or {}), i: mine_q}
@@ -249,6 +251,11 @@ class MoveSearch:
                     for q in insertions(plan[k], j):
                         trial = {**c, k: q}
                         if len(members) + 1 == p.required[j]:
+                            # no joint execution beats the agent-alone sum of the paths
+                            bound = alone + sum(path_value(a, qa) - path_value(a, plan[a])
+                                                for a, qa in trial.items())
+                            if bound <= max(best_v, self.best_v):
+                                continue
                             v = self._value(plan, trial)
                         else:
                             v = self._partial_value(plan, trial, j)
