@@ -16,6 +16,8 @@ communication (rounds, messages, bytes; medians) with the ratio refined / plain 
     .venv/bin/python bench/optimality.py --runs 40 --large-runs 20
     .venv/bin/python bench/optimality.py --skip-small --large-runs 3 \
         --experiments fig7,fig8,fig10
+    .venv/bin/python bench/optimality.py --skip-small --large-runs 6 \
+        --experiments fig8,fig10 --skip-setups fig10:2
 """
 
 from __future__ import annotations
@@ -77,13 +79,16 @@ def small(runs: int, seed: int) -> None:
 
 
 def large(runs: int, seed: int, n_agents: int, experiment: str,
-          refined_ratios: list[tuple[float, float, float]]) -> None:
+          refined_ratios: list[tuple[float, float, float]],
+          skip: frozenset[str] = frozenset()) -> None:
     print(f"\n## The paper's {experiment} set-ups at {n_agents} agents ({runs} runs each)\n")
     print("| set-up | algorithm | score | rounds | messages | bytes | rounds ratio (median, "
           "worst) | msgs ratio (median, worst) | bytes ratio (median, worst) | valid | "
           "solve ms |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
-    for _vi, variant in enumerate(EXPERIMENTS[experiment]):
+    for vi, variant in enumerate(EXPERIMENTS[experiment]):
+        if f"{experiment}:{vi}" in skip:
+            continue
         rows: dict[str, list[tuple[float, int, int, int, bool, float]]] = {}
         for run in range(runs):
             s = variant.make(n_agents, run_seed(seed, n_agents, run))
@@ -126,6 +131,9 @@ def main() -> None:
                     help="the paper's experiments for part 2, comma-separated "
                          f"({', '.join(EXPERIMENTS)})")
     ap.add_argument("--skip-small", action="store_true", help="part 2 only")
+    ap.add_argument("--skip-setups", default="",
+                    help="set-ups of part 2 to leave out, as EXPERIMENT:INDEX, comma-separated "
+                         "(fig10:2 is the third set-up of fig10)")
     args = ap.parse_args()
     names = [e.strip() for e in args.experiments.split(",") if e.strip()]
     unknown = [e for e in names if e not in EXPERIMENTS]
@@ -134,9 +142,10 @@ def main() -> None:
                  f"(expected some of {', '.join(EXPERIMENTS)})")
     if not args.skip_small:
         small(args.runs, args.seed)
+    skip = frozenset(x.strip() for x in args.skip_setups.split(",") if x.strip())
     refined: list[tuple[float, float, float]] = []
     for name in names:
-        large(args.large_runs, args.seed, args.agents, name, refined)
+        large(args.large_runs, args.seed, args.agents, name, refined, skip)
     if refined:
         print(f"\n--refine / plain over all {len(refined)} runs of part 2 (rounds, messages, "
               "bytes):")
