@@ -108,6 +108,9 @@ class MoveSearch:
         self.i = agent
         self.pair = pair
         self.regroup = regroup
+        # agent-alone path scores bound joint ones only without prerequisites (a path
+        # whose prerequisites another agent does is not feasible alone)
+        self.bounds = not any(scorer.p.prereqs)
 
     def _best_insert(self, plan: Plan, changes: dict[int, tuple[int, ...]], k: int, j: int
                      ) -> tuple[float, dict[int, tuple[int, ...]]]:
@@ -238,6 +241,7 @@ class MoveSearch:
             return
         path_value = self.s.path_value
         alone = sum(path_value(k, q) for k, q in enumerate(plan))
+        bounded = self.bounds and math.isfinite(alone)
         # my position is chosen with the full group in place: try each of my insertions
         for mine_q in insertions(base_i, j):
             c: dict[int, tuple[int, ...]] = {**(base or {}), i: mine_q}
@@ -254,7 +258,7 @@ class MoveSearch:
                             # no joint execution beats the agent-alone sum of the paths
                             bound = alone + sum(path_value(a, qa) - path_value(a, plan[a])
                                                 for a, qa in trial.items())
-                            if bound <= max(best_v, self.best_v):
+                            if bounded and bound <= max(best_v, self.best_v):
                                 continue
                             v = self._value(plan, trial)
                         else:
@@ -275,6 +279,8 @@ class MoveSearch:
         gains of j for this agent and the best partners it needs."""
         p, i = self.p, self.i
         path_value = self.s.path_value
+        if not self.bounds or not all(math.isfinite(v) for v in self.alone):
+            return math.inf
         total = sum(self.alone) + sum(path_value(k, q) - self.alone[k]
                                       for k, q in freed.items())
 
