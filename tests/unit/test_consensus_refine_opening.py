@@ -6,6 +6,7 @@ the optimality benchmark's problems."""
 from __future__ import annotations
 
 import statistics
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -124,3 +125,41 @@ def test_targets_on_a_fixed_seeded_set(groups: bool, n: int, m: int, mean: float
         ratios.append(refined.total_score / opt if opt > 0 else 1.0)
     assert statistics.mean(ratios) >= mean
     assert min(ratios) >= worst
+
+
+def test_the_agent_alone_bounds_change_no_move(monkeypatch: pytest.MonkeyPatch) -> None:
+    # regroup and filling skip candidates whose agent-alone bound cannot beat the best move
+    # found; with the bounds switched off every candidate is evaluated, with the same plans
+    from murdoch.consensus import refine
+
+    plans = {}
+    for bounds in (True, False):
+        init = refine.MoveSearch.__init__
+
+        def patched(self, *args, _init=init, _bounds=bounds, **kwargs) -> None:
+            _init(self, *args, **kwargs)
+            self.bounds = self.bounds and _bounds
+
+        monkeypatch.setattr(refine.MoveSearch, "__init__", patched)
+        for k in range(8):
+            s = bench_problem(4, 8, k, True)
+            p = build_problem(s)
+            full = [[a for a in range(4) if a != i] for i in range(4)]
+            out = run_refinement(p, plain_paths(s, "cbga"), full, RefineOptions(budget=None))
+            plans[bounds, k] = out.plan
+        monkeypatch.undo()
+    assert all(plans[True, k] == plans[False, k] for k in range(8))
+
+
+def test_prerequisites_switch_the_bounds_off() -> None:
+    s = bench_problem(3, 6, 0, True)
+    assert refine_search(s).bounds
+    tasks = list(s.tasks)
+    tasks[1] = replace(tasks[1], prerequisites=(tasks[0].id,))
+    assert not refine_search(replace(s, tasks=tuple(tasks))).bounds
+
+
+def refine_search(s):
+    from murdoch.consensus.refine import MoveSearch
+
+    return MoveSearch(PlanScorer(build_problem(s)), 0)
