@@ -16,6 +16,8 @@ communication (rounds, messages, bytes; medians) with the ratio refined / plain 
     .venv/bin/python bench/optimality.py --runs 40 --large-runs 20
     .venv/bin/python bench/optimality.py --skip-small --large-runs 3 \
         --experiments fig7,fig8,fig10
+    .venv/bin/python bench/optimality.py --skip-small --large-runs 6 \
+        --experiments fig8,fig10 --skip-setups fig10:2
 """
 
 from __future__ import annotations
@@ -76,12 +78,17 @@ def small(runs: int, seed: int) -> None:
               f"{100 * min(rs):.1f}% | {sum(x > 1 - 1e-9 for x in rs)}/{len(rs)} |")
 
 
-def large(runs: int, seed: int, n_agents: int, experiment: str = "fig5") -> None:
+def large(runs: int, seed: int, n_agents: int, experiment: str,
+          refined_ratios: list[tuple[float, float, float]],
+          skip: frozenset[str] = frozenset()) -> None:
     print(f"\n## The paper's {experiment} set-ups at {n_agents} agents ({runs} runs each)\n")
-    print("| set-up | algorithm | score | rounds | messages | bytes | msgs ratio (median, "
-          "worst) | bytes ratio (median, worst) | valid | solve ms |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
-    for _vi, variant in enumerate(EXPERIMENTS[experiment]):
+    print("| set-up | algorithm | score | rounds | messages | bytes | rounds ratio (median, "
+          "worst) | msgs ratio (median, worst) | bytes ratio (median, worst) | valid | "
+          "solve ms |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for vi, variant in enumerate(EXPERIMENTS[experiment]):
+        if f"{experiment}:{vi}" in skip:
+            continue
         rows: dict[str, list[tuple[float, int, int, int, bool, float]]] = {}
         for run in range(runs):
             s = variant.make(n_agents, run_seed(seed, n_agents, run))
@@ -100,10 +107,14 @@ def large(runs: int, seed: int, n_agents: int, experiment: str = "fig5") -> None
         base = rows["plain"]
         for name, rs in rows.items():
             med = [statistics.median(x[c] for x in rs) for c in range(1, 4)]
+            ratios_r = [x[1] / max(1, b[1]) for x, b in zip(rs, base, strict=True)]
             ratios_m = [x[2] / max(1, b[2]) for x, b in zip(rs, base, strict=True)]
             ratios_b = [x[3] / max(1, b[3]) for x, b in zip(rs, base, strict=True)]
+            if name == "--refine":
+                refined_ratios.extend(zip(ratios_r, ratios_m, ratios_b, strict=True))
             print(f"| {variant.name} | {name} | {statistics.mean(x[0] for x in rs):.1f} | "
                   f"{med[0]:.0f} | {med[1]:.0f} | {med[2]:.0f} | "
+                  f"{statistics.median(ratios_r):.2f}, {max(ratios_r):.2f} | "
                   f"{statistics.median(ratios_m):.2f}, {max(ratios_m):.2f} | "
                   f"{statistics.median(ratios_b):.2f}, {max(ratios_b):.2f} | "
                   f"{sum(x[4] for x in rs)}/{len(rs)} | "
@@ -120,6 +131,9 @@ def main() -> None:
                     help="the paper's experiments for part 2, comma-separated "
                          f"({', '.join(EXPERIMENTS)})")
     ap.add_argument("--skip-small", action="store_true", help="part 2 only")
+    ap.add_argument("--skip-setups", default="",
+                    help="set-ups of part 2 to leave out, as EXPERIMENT:INDEX, comma-separated "
+                         "(fig10:2 is the third set-up of fig10)")
     args = ap.parse_args()
     names = [e.strip() for e in args.experiments.split(",") if e.strip()]
     unknown = [e for e in names if e not in EXPERIMENTS]
@@ -128,8 +142,17 @@ def main() -> None:
                  f"(expected some of {', '.join(EXPERIMENTS)})")
     if not args.skip_small:
         small(args.runs, args.seed)
+    skip = frozenset(x.strip() for x in args.skip_setups.split(",") if x.strip())
+    refined: list[tuple[float, float, float]] = []
     for name in names:
-        large(args.large_runs, args.seed, args.agents, name)
+        large(args.large_runs, args.seed, args.agents, name, refined, skip)
+    if refined:
+        print(f"\n--refine / plain over all {len(refined)} runs of part 2 (rounds, messages, "
+              "bytes):")
+        for what, f in (("median", statistics.median), ("mean", statistics.mean),
+                        ("worst", max)):
+            print(f"- {what}: " + ", ".join(f"{f(r[c] for r in refined):.2f}"
+                                            for c in range(3)))
 
 
 if __name__ == "__main__":

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 from murdoch.consensus.exact import ExactTooLarge, agent_sequences
 
 if TYPE_CHECKING:
-    from murdoch.consensus.refine import Plan, PlanScorer
+    from murdoch.consensus.refine_plan import Plan, PlanScorer
 
 Changes = dict[int, tuple[int, ...]]
 _SEQ_LIMIT = 20_000
@@ -128,14 +128,21 @@ class PairReplan:
                 extra, c = self._hand_on(plan, c, released)
                 consider(self._base + bound - old + extra, c)
             return
+        # the joint score is at most the agent-alone sum of all paths, and the tasks
+        # handed on gain at most their own bound each
+        hand = [max([0.0, *(lst.gain_bound[m][j] for m in range(p.n_agents)
+                            if m != i and m != k and p.eligible[m, j])])
+                for j in range(p.n_tasks)]
+        ranked = sorted(((bound + self._alone_total - old
+                          + sum(hand[j] for j in released
+                                if j not in qis[0] and j not in qks[0]), qis, qks)
+                         for bound, qis, qks in cands), key=lambda c: -c[0])
         best_v = -math.inf
         best_c: Changes | None = None
         spent = 0
-        for bound, qis, qks in cands:
-            if spent >= self.max_joint:
+        for ub, qis, qks in ranked:
+            if spent >= self.max_joint or (best_c is not None and ub <= best_v):
                 break
-            if best_c is not None and bound + self._alone_total - old <= best_v:
-                break  # the joint score is at most the agent-alone sum of all paths
             for qi, qk in product(qis, qks):
                 spent += 1
                 c = {i: qi, k: qk}
@@ -148,29 +155,36 @@ class PairReplan:
 
     def _hand_on(self, plan: Plan, changes: Changes, released: list[int]
                  ) -> tuple[float, Changes]:
-        """The single-agent tasks the pair gave up, each inserted where it gains most in
-        the path of a third agent (each third agent takes at most one): (gain, changes)."""
+        """The single-agent tasks the pair gave up, handed one at a time (largest gain
+        first) to the third agents, each inserted where it gains most (agent-alone):
+        (gain, changes)."""
         p = self.p
         kept = {j for q in changes.values() for j in q}
+        left = [j for j in released if j not in kept]
         gain = 0.0
         out = dict(changes)
-        for j in released:
-            if j in kept:
-                continue
-            best_g, best_m = 0.0, -1
+        third = [m for m in range(p.n_agents) if m not in changes]
+        while left:
+            best_g, best_m, best_j = 0.0, -1, -1
             best_q: tuple[int, ...] = ()
-            for m in range(p.n_agents):
-                if m in out or not p.eligible[m, j] or len(plan[m]) >= p.max_depth:
+            for m in third:
+                path = out.get(m, plan[m])
+                if len(path) >= p.max_depth:
                     continue
-                now = self.s.path_value(m, plan[m])
-                for pos in range(len(plan[m]) + 1):
-                    q = (*plan[m][:pos], j, *plan[m][pos:])
-                    g = self.s.path_value(m, q) - now
-                    if g > best_g:
-                        best_g, best_m, best_q = g, m, q
-            if best_m >= 0:
-                out[best_m] = best_q
-                gain += best_g
+                now = self.s.path_value(m, path)
+                for j in left:
+                    if not p.eligible[m, j]:
+                        continue
+                    for pos in range(len(path) + 1):
+                        q = (*path[:pos], j, *path[pos:])
+                        g = self.s.path_value(m, q) - now
+                        if g > best_g:
+                            best_g, best_m, best_j, best_q = g, m, j, q
+            if best_m < 0:
+                break
+            out[best_m] = best_q
+            gain += best_g
+            left.remove(best_j)
         return gain, out
 
     def prepare(self, plan: Plan, base: float) -> None:

@@ -6,12 +6,21 @@ neighbours and acts when it holds the entries of all agents for that step:
 
 - **step 0**: the entry is the agent's own path. Holding every path, each agent knows the
   agreed plan (identical on every agent).
+- **opening** (instead of step 0, when the plain run converged with every agent holding the
+  same winners): every agent derives the same guessed plan from the winners alone
+  (`refine_plan.guess_plan`: each agent's tasks in their best agent-alone order) and sends,
+  in one entry, its own path only where it differs from the guess (without group tasks an
+  agent whose guessed path scores at least as well adopts it) and its proposal on the
+  guessed plan. The agreed plan is the guess with the paths sent in place; the proposals
+  are selected on it like any step's. This saves the paths' round.
 - **step t >= 1**: the entry is the agent's proposal: the best change of the plan that it
   can make from its own side, or nothing. Moves are computed by the agent alone, on its
   copy of the plan: take a task from another agent or from the unassigned ones (a group
   task: replace one member, or join a group that is short), swap one of its tasks for
-  another agent's, move one of its own tasks to a better place in its path, or fill a
-  group task that has no complete group (itself and the partners that gain most).
+  another agent's, move one of its own tasks to a better place in its path, fill a
+  group task that has no complete group (itself and the partners that gain most), move a
+  whole group task to a new group of itself and such partners (regroup), or re-plan
+  itself and one other agent (`pair_replan.py`).
   A proposal carries the new paths of the agents it changes and the gain in the total
   score (`evaluate_plan`) it brings.
 - Holding all proposals of step t, every agent applies the same selection: proposals by
@@ -41,25 +50,31 @@ from typing import cast
 
 import numpy as np
 
-from murdoch.consensus.joint_score import joint_score
 from murdoch.consensus.pair_replan import PairReplan
-from murdoch.consensus.scenario import Scenario
-from murdoch.consensus.scoring import (
-    Problem,
-    build_problem,
-    evaluate_plan,
-    path_starts,
-    task_value,
+from murdoch.consensus.refine_moves import MoveSearch
+from murdoch.consensus.refine_plan import (
+    GAIN_TOL,
+    Plan,
+    PlanScorer,
+    Proposal,
+    canonical_plan,
+    guess_plan,
+    with_changes,
 )
+from murdoch.consensus.scenario import Scenario
+from murdoch.consensus.scoring import Problem, build_problem, evaluate_plan
 from murdoch.consensus.sync_runner import AllocationResult, build_result, graph_diameter
 
-Plan = tuple[tuple[int, ...], ...]
+__all__ = ["MoveSearch", "Opening", "Plan", "PlanScorer", "Proposal", "RefineAgent",
+           "RefineOptions", "RefineOutcome", "canonical_plan", "complete_graph", "guess_plan",
+           "make_refine_agent", "refine_allocation", "run_refinement", "seeded_rank",
+           "select", "step_limit", "strongly_connected"]
 _HEADER_BYTES = 15
 
 # what an agent sends: its step, the entries it holds for that step, and (once) the complete
 # entries of the step it left
 RefineMessage = tuple[int, dict[int, object], tuple[int, dict[int, object]] | None]
-_GAIN_TOL = 1e-7
+_GAIN_TOL = GAIN_TOL
 
 
 @dataclass(frozen=True)
@@ -68,262 +83,18 @@ class RefineOptions:
     the two-agent re-plan (`pair_replan.py`) to each agent's moves. `budget` bounds the
     phase's rounds by that fraction of the plain run's communication rounds (`comm_steps`,
     which every agent of a synchronous run knows), but allows at least `min_rounds`; None
-    lifts the bound (then only `max_steps` applies)."""
+    lifts the bound (then only `max_steps` applies). `opening` replaces the paths step by
+    the opening (paths sent only where they differ from the plan guessed from the agreed
+    winners, with the first proposals). `regroup` adds the move of a whole group task to a
+    new group (the proposer and the partners that gain most; old members may stay)."""
 
     seed: int = 0
     max_steps: int = 50
     pairs: bool = True
     budget: float | None = 0.5
-    min_rounds: int = 3
-
-
-@dataclass(frozen=True)
-class Proposal:
-    agent: int
-    gain: float
-    paths: tuple[tuple[int, tuple[int, ...]], ...]  # (agent, its new path)
-
-    def size(self) -> int:
-        return 12 + sum(4 + 2 * len(q) for _, q in self.paths)
-
-
-# ----------------------------------------------------------------------------- plan scoring
-
-
-class PlanScorer:
-    """Scores plans: a path sum when every task needs one agent (paths are then
-    independent), the joint execution of `evaluate_plan` otherwise. A plan is valid when
-    no task has more agents than it needs and every task on a path completes."""
-
-    def __init__(self, p: Problem) -> None:
-        self.p = p
-        self.groups = bool((p.required > 1).any())
-        self._paths: dict[tuple[int, tuple[int, ...]], float] = {}
-        self._plans: dict[Plan, float] = {}  # joint scores of plans with group tasks
-
-    def path_value(self, i: int, path: tuple[int, ...]) -> float:
-        key = (i, path)
-        v = self._paths.get(key)
-        if v is None:
-            p = self.p
-            if len(path) > p.max_depth or not all(p.eligible[i, j] for j in path):
-                v = -math.inf
-            else:
-                starts, ok = path_starts(p, i, list(path))
-                if not ok:
-                    v = -math.inf
-                else:
-                    lst = p.lists
-                    v = 0.0
-                    for j, t in zip(path, starts, strict=True):
-                        v += task_value(lst, j, t)
-            self._paths[key] = v
-        return v
-
-    def score(self, plan: Plan) -> float:
-        """Total score of a valid plan; -inf for an invalid one."""
-        p = self.p
-        if not self.groups:
-            held = [j for q in plan for j in q]
-            if len(held) != len(set(held)):
-                return -math.inf
-            return sum(self.path_value(i, q) for i, q in enumerate(plan))
-        count = [0] * p.n_tasks
-        for i, q in enumerate(plan):
-            if len(q) > p.max_depth:
-                return -math.inf
-            for j in q:
-                if not p.eligible[i, j]:
-                    return -math.inf
-                count[j] += 1
-        if any(c and c != p.required[j] for j, c in enumerate(count)):
-            return -math.inf
-        v = self._plans.get(plan)
-        if v is None:
-            v, completed = joint_score(p, plan)
-            if not all(completed[j] for j, c in enumerate(count) if c):
-                v = -math.inf
-            self._plans[plan] = v
-        return v
-
-
-def canonical_plan(p: Problem, paths: Sequence[Sequence[int]]) -> Plan:
-    """The plan without the tasks that do not complete (same score, every task done)."""
-    ev = evaluate_plan(p, [list(q) for q in paths])
-    return tuple(tuple(j for j in q if ev.completed[j]) for q in paths)
-
-
-def _with(plan: Plan, changes: dict[int, tuple[int, ...]]) -> Plan:
-    return tuple(changes.get(i, q) for i, q in enumerate(plan))
-
-
-def _insertions(path: tuple[int, ...], j: int) -> list[tuple[int, ...]]:
-    return [(*path[:k], j, *path[k:]) for k in range(len(path) + 1)]
-
-
-def _without(path: tuple[int, ...], j: int) -> tuple[int, ...]:
-    return tuple(x for x in path if x != j)
-
-
-class MoveSearch:
-    """One agent's search for its best proposal on the agreed plan."""
-
-    def __init__(self, scorer: PlanScorer, agent: int, pair: PairReplan | None = None) -> None:
-        self.s = scorer
-        self.p = scorer.p
-        self.i = agent
-        self.pair = pair
-
-    def _best_insert(self, plan: Plan, changes: dict[int, tuple[int, ...]], k: int, j: int
-                     ) -> tuple[float, dict[int, tuple[int, ...]]]:
-        """Best position of task j in agent k's path (after `changes`): (score, changes)."""
-        base = changes.get(k, plan[k])
-        if len(base) >= self.p.max_depth or not self.p.eligible[k, j]:
-            return -math.inf, changes
-        best, best_changes = -math.inf, changes
-        for q in _insertions(base, j):
-            c = {**changes, k: q}
-            v = self._value(plan, c)
-            if v > best:
-                best, best_changes = v, c
-        return best, best_changes
-
-    def _value(self, plan: Plan, changes: dict[int, tuple[int, ...]]) -> float:
-        if not self.s.groups:
-            # paths are independent: the changed ones decide
-            total = 0.0
-            for k, q in changes.items():
-                total += self.s.path_value(k, q) - self.s.path_value(k, plan[k])
-            return self.base + total
-        return self.s.score(_with(plan, changes))
-
-    def best(self, plan: Plan) -> Proposal | None:
-        p, i = self.p, self.i
-        self.base = base = self.s.score(plan)
-        holders: list[list[int]] = [[] for _ in range(p.n_tasks)]
-        for k, q in enumerate(plan):
-            for j in q:
-                holders[j].append(k)
-        mine = plan[i]
-        best_v, best_c = base + _GAIN_TOL * max(1.0, abs(base)), None
-
-        def consider(v: float, c: dict[int, tuple[int, ...]]) -> None:
-            nonlocal best_v, best_c
-            if v > best_v:
-                best_v, best_c = v, c
-
-        for j in range(p.n_tasks):
-            if j in mine or not p.eligible[i, j]:
-                continue
-            need = int(p.required[j])
-            owners = holders[j]
-            # take j: from its holder, replacing a member, joining a short group
-            sources: list[int | None] = list(owners) if len(owners) >= need else [None]
-            for src in sources:
-                c = {} if src is None else {src: _without(plan[src], j)}
-                v, c1 = self._best_insert(plan, c, i, j)
-                consider(v, c1)
-                if src is not None and need == 1 and v > -math.inf:
-                    self._chain(plan, holders, c1, src, {i, src}, consider)
-                # swap: give one of my tasks to src (or drop it) and take j
-                for l in mine:
-                    c2 = {**c, i: _without(mine, l)}
-                    if src is not None and l not in plan[src]:
-                        v2, c3 = self._best_insert(plan, c2, src, l)
-                        if v2 > -math.inf:
-                            consider(*self._best_insert(plan, c3, i, j))
-                    consider(*self._best_insert(plan, c2, i, j))
-            if need > 1 and not owners:
-                self._fill(plan, j, consider)
-        # move one of my own tasks elsewhere in my path
-        for l in mine:
-            consider(*self._best_insert(plan, {i: _without(mine, l)}, i, l))
-        if self.pair is not None:
-            self.pair.prepare(plan, base)
-            for k in range(p.n_agents):
-                if k != i:
-                    self.pair.moves(plan, holders, k, consider)
-        if best_c is None:
-            return None
-        changed = tuple(sorted((k, q) for k, q in best_c.items() if q != plan[k]))
-        if not changed:
-            return None
-        return Proposal(i, best_v - base, changed)
-
-    def _chain(self, plan: Plan, holders: list[list[int]], changes: dict[int, tuple[int, ...]],
-               k: int, touched: set[int], consider) -> None:
-        """Agent k, which has just lost a task, takes another single-agent task: an
-        unassigned one, or one of an agent not yet changed, which in turn takes the best
-        unassigned task it can (an ejection chain of up to three agents)."""
-        p = self.p
-        if not p.eligible[k].any():
-            return
-        for l in range(p.n_tasks):
-            if p.required[l] != 1 or not p.eligible[k, l] or l in changes.get(k, plan[k]):
-                continue
-            owners = holders[l]
-            m = owners[0] if owners else None
-            if m is not None and m in touched:
-                continue
-            c = dict(changes) if m is None else {**changes, m: _without(plan[m], l)}
-            v, c1 = self._best_insert(plan, c, k, l)
-            if v == -math.inf:
-                continue
-            consider(v, c1)
-            if m is None:
-                continue
-            best_v, best_c = v, None
-            for u in range(p.n_tasks):
-                if holders[u] or u == l or p.required[u] != 1 or not p.eligible[m, u]:
-                    continue
-                if any(u in q for q in c1.values()):
-                    continue
-                v2, c2 = self._best_insert(plan, c1, m, u)
-                if v2 > best_v:
-                    best_v, best_c = v2, c2
-            if best_c is not None:
-                consider(best_v, best_c)
-
-    def _fill(self, plan: Plan, j: int, consider) -> None:
-        """Join group task j (no members yet) and complete its group with the partners
-        that give the best plan, one at a time."""
-        p, i = self.p, self.i
-        base_i = plan[i]
-        if len(base_i) >= p.max_depth:
-            return
-        # my position is chosen with the full group in place: try each of my insertions
-        for mine_q in _insertions(base_i, j):
-            c: dict[int, tuple[int, ...]] = {i: mine_q}
-            members = [i]
-            ok = True
-            while len(members) < p.required[j]:
-                best_v, best_c, best_k = -math.inf, None, -1
-                for k in range(p.n_agents):
-                    if k in members or not p.eligible[k, j] or len(plan[k]) >= p.max_depth:
-                        continue
-                    for q in _insertions(plan[k], j):
-                        trial = {**c, k: q}
-                        if len(members) + 1 == p.required[j]:
-                            v = self._value(plan, trial)
-                        else:
-                            v = self._partial_value(plan, trial, j)
-                        if v > best_v:
-                            best_v, best_c, best_k = v, trial, k
-                if best_c is None:
-                    ok = False
-                    break
-                c = best_c
-                members.append(best_k)
-            if ok:
-                consider(self._value(plan, c), c)
-
-    def _partial_value(self, plan: Plan, changes: dict[int, tuple[int, ...]], j: int) -> float:
-        """A group not yet full: the members' paths scored alone (j at each one's own
-        arrival), which ranks the partners before the last one joins."""
-        total = 0.0
-        for k, q in changes.items():
-            total += self.s.path_value(k, q) - self.s.path_value(k, plan[k])
-        return total
+    min_rounds: int = 1
+    opening: bool = True
+    regroup: bool = True
 
 
 def select(scorer: PlanScorer, plan: Plan, proposals: Sequence[Proposal], rank: Sequence[int]
@@ -338,7 +109,7 @@ def select(scorer: PlanScorer, plan: Plan, proposals: Sequence[Proposal], rank: 
         agents = {k for k, _ in pr.paths}
         if agents & touched:
             continue
-        trial = _with(current, dict(pr.paths))
+        trial = with_changes(current, dict(pr.paths))
         v = scorer.score(trial)
         if v > value + _GAIN_TOL * max(1.0, abs(value)):
             current, value = trial, v
@@ -348,6 +119,19 @@ def select(scorer: PlanScorer, plan: Plan, proposals: Sequence[Proposal], rank: 
 
 
 # ----------------------------------------------------------------------------- one agent
+
+
+@dataclass(frozen=True)
+class Opening:
+    """An agent's entry of the opening step: its path where it differs from the guessed
+    plan (None: the guess is its path) and its proposal on the guessed plan."""
+
+    path: tuple[int, ...] | None
+    proposal: Proposal | None
+
+    def size(self) -> int:
+        path = 2 if self.path is None else 4 + 2 * len(self.path)
+        return path + (2 if self.proposal is None else self.proposal.size())
 
 
 @dataclass
@@ -366,10 +150,26 @@ class RefineAgent:
     entries: dict[int, object] = field(default_factory=dict)
     previous: tuple[int, dict[int, object]] | None = None
     pair: PairReplan | None = None
+    regroup: bool = True
     resend: bool = True  # False when every agent hears every other directly
+    guess: Plan | None = None  # the plan derived from the agreed winners (opening step)
 
     def __post_init__(self) -> None:
-        self.entries = {self.index: self.own_path}
+        if self.guess is None:
+            self.entries = {self.index: self.own_path}
+            return
+        # the opening: the paths step and the first proposals in one
+        i, own, guessed = self.index, self.own_path, self.guess[self.index]
+        path: tuple[int, ...] | None = own
+        if own == guessed or (not self.scorer.groups and self.scorer.path_value(i, guessed)
+                              >= self.scorer.path_value(i, own)):
+            path = None  # the guess is (or is adopted as) this agent's path
+        local = canonical_plan(self.scorer.p, with_changes(self.guess, {i: path or guessed}))
+        self.step = 1
+        self.entries = {i: Opening(path, self._search(local))}
+
+    def _search(self, plan: Plan) -> Proposal | None:
+        return MoveSearch(self.scorer, self.index, self.pair, self.regroup).best(plan)
 
     def message(self) -> RefineMessage:
         prev, self.previous = self.previous, None
@@ -407,6 +207,12 @@ class RefineAgent:
             paths = [tuple(cast("Iterable[int]", self.entries[k])) for k in range(n)]
             self.plan = canonical_plan(self.scorer.p, paths)
             proposals: list[Proposal] = []
+        elif self.step == 1 and self.guess is not None:
+            opening = cast("dict[int, Opening]", self.entries)
+            guessed = [opening[k].path for k in range(n)]
+            self.plan = canonical_plan(self.scorer.p, [self.guess[k] if q is None else q
+                                                       for k, q in enumerate(guessed)])
+            proposals = [e.proposal for e in opening.values() if e.proposal is not None]
         else:
             proposals = [e for e in self.entries.values() if isinstance(e, Proposal)]
         assert self.plan is not None
@@ -425,18 +231,20 @@ class RefineAgent:
             self.done = True
             self.entries = {}
             return True
-        self.entries = {self.index: MoveSearch(self.scorer, self.index,
-                                                   self.pair).best(self.plan)}
+        self.entries = {self.index: self._search(self.plan)}
         return True
 
 
 def make_refine_agent(scorer: PlanScorer, index: int, rank: Sequence[int],
                       own_path: tuple[int, ...], options: RefineOptions,
-                      max_steps: int | None = None, resend: bool = True) -> RefineAgent:
-    """Agent `index`'s part of the phase, starting from its own (canonical) path."""
+                      max_steps: int | None = None, resend: bool = True,
+                      guess: Plan | None = None) -> RefineAgent:
+    """Agent `index`'s part of the phase, starting from its own (canonical) path; with
+    `guess` (the plan derived from the agreed winners) it opens with its first proposal."""
     pair = PairReplan(scorer, index) if options.pairs else None
     steps = options.max_steps if max_steps is None else max_steps
-    return RefineAgent(scorer, index, rank, own_path, steps, pair=pair, resend=resend)
+    return RefineAgent(scorer, index, rank, own_path, steps, pair=pair,
+                       regroup=options.regroup, resend=resend, guess=guess)
 
 
 def complete_graph(neighbours: Sequence[Sequence[int]]) -> bool:
@@ -445,19 +253,20 @@ def complete_graph(neighbours: Sequence[Sequence[int]]) -> bool:
     return all(set(ks) >= set(range(n)) - {i} for i, ks in enumerate(neighbours))
 
 
-def step_limit(options: RefineOptions, plain_rounds: int, diameter: int) -> int:
+def step_limit(options: RefineOptions, plain_rounds: int, diameter: int,
+               opening: bool = False) -> int:
     """Proposal steps allowed by the round budget: a step takes at most `diameter` rounds,
-    and the paths (step 0) take one step."""
+    and the paths (step 0) take one step unless the phase opens with proposals."""
     if options.budget is None:
         return options.max_steps
     rounds = max(options.min_rounds, math.floor(options.budget * plain_rounds))
-    return max(1, min(options.max_steps, rounds // max(1, diameter) - 1))
+    return max(1, min(options.max_steps, rounds // max(1, diameter) - (not opening)))
 
 
 def _entries_size(step: int, entries: dict[int, object]) -> int:
     size = 4
     for e in entries.values():
-        if isinstance(e, Proposal):
+        if isinstance(e, Proposal | Opening):
             size += e.size()
         elif isinstance(e, tuple):
             size += 4 + 2 * len(e)
@@ -488,15 +297,19 @@ class RefineOutcome:
 
 def run_refinement(p: Problem, paths: Sequence[Sequence[int]],
                    neighbours: Sequence[Sequence[int]], options: RefineOptions,
-                   max_rounds: int = 1000, max_steps: int | None = None) -> RefineOutcome:
+                   max_rounds: int = 1000, max_steps: int | None = None,
+                   agreed: bool = True) -> RefineOutcome:
     """Run the improvement phase in synchronous rounds over the communication graph (every
-    agent sends to its out-neighbours each round until it has finished)."""
+    agent sends to its out-neighbours each round until it has finished). `agreed`: every
+    agent holds the same winners (which tasks each agent has), so with `options.opening`
+    every agent derives the same guessed plan from them."""
     n = p.n_agents
     scorer = PlanScorer(p)
     start = canonical_plan(p, paths)
     rank = seeded_rank(n, options.seed)
     resend = not complete_graph(neighbours)
-    agents = [make_refine_agent(scorer, i, rank, start[i], options, max_steps, resend)
+    guess = guess_plan(scorer, paths) if options.opening and agreed else None
+    agents = [make_refine_agent(scorer, i, rank, start[i], options, max_steps, resend, guess)
               for i in range(n)]
     rounds = messages = nbytes = 0
     while not all(a.done and a.previous is None for a in agents) and rounds < max_rounds:
@@ -561,8 +374,9 @@ def refine_allocation(scenario: Scenario, plain: AllocationResult,
                                       "agents cannot agree on one plan"}
         return replace(plain, extra=extra)
     diameter = graph_diameter(neighbours, [True] * p.n_agents)
-    limit = step_limit(options, plain.comm_steps, diameter)
-    out = run_refinement(p, paths, neighbours, options, max_steps=limit)
+    agreed = plain.converged and plain.agreed
+    limit = step_limit(options, plain.comm_steps, diameter, options.opening and agreed)
+    out = run_refinement(p, paths, neighbours, options, max_steps=limit, agreed=agreed)
     plan = [list(q) for q in out.plan]
     views = [[frozenset(g) for g in evaluate_plan(p, plan).group]] * p.n_agents
     res = build_result(plain.algorithm, p, plan, views, [True] * p.n_agents, neighbours,
