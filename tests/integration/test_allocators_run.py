@@ -65,8 +65,10 @@ def test_each_allocator_completes_tasks_through_a_kill_a_restart_and_charging(
     s = run["summary"]
     assert s["allocator"] == allocator
     assert run["config"]["allocator"] == allocator
-    assert all(f"--allocator {allocator}" in " ".join(p["args"])
-               for p in run["config"]["processes"])
+    # a MURDOCH robot's command line stays as it always was; the others name their allocator
+    named = [f"--allocator {allocator}" in " ".join(p["args"])
+             for p in run["config"]["processes"]]
+    assert all(named) if allocator != "murdoch" else not any(named)
     assert s["tasks"]["executed"] >= 2
     assert s["tasks"]["reallocations"] >= 1  # the killed robot's task
     assert s["robot_failures"] >= 1 and s["robot_restarts"] == 1
