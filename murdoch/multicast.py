@@ -39,7 +39,6 @@ from typing import Any
 
 from murdoch.auth import TeamKey
 from murdoch.lossy import LossyReceiver
-from murdoch.tick_order import LostDatagrams
 from murdoch.transport import (
     Clock,
     EndpointBacked,
@@ -243,21 +242,10 @@ class MulticastTransport(EndpointBacked):
         until all of them have arrived, then acts on those stamped tick-1 or earlier, in
         tick order (`EndpointCore.release`). `wait_clock` (wall seconds) only bounds the
         wait: a datagram still missing after `give_up_after_s` raises `LostDatagrams`."""
-        core = self._core
-        core.start_tick(tick, table)
-        self.poll(0.0)
-        missing = core.missing(table)
-        if missing:
-            deadline = wait_clock() + give_up_after_s
-            while missing:
-                left = deadline - wait_clock()
-                if left <= 0:
-                    core.counters.count_dropped("lost")
-                    raise LostDatagrams(tick, missing)
-                select.select(self._both, [], [], min(left, 0.05))
-                self.poll(0.0)
-                missing = core.missing(table)
-        return core.release(tick - 1, table)
+        return self._core.settle(
+            tick, table, poll=lambda: self.poll(0.0),
+            wait=lambda s: select.select(self._both, [], [], s), wait_clock=wait_clock,
+            give_up_after_s=give_up_after_s)
 
     def close(self) -> None:
         if not self.closed:

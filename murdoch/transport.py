@@ -50,7 +50,7 @@ from typing import Any, Protocol
 from murdoch.auth import ReplayWindow, TeamKey, is_signed
 from murdoch.ratelog import RateLimitedLog
 from murdoch.subjects import SubjectIndex, SubjectSet, subject_set
-from murdoch.tick_order import TickInbox, sender_key
+from murdoch.tick_order import LostDatagrams, TickInbox, sender_key
 from murdoch.wire import Codec, Envelope, Frame, WireError, check_token
 
 log = logging.getLogger(__name__)
@@ -502,6 +502,29 @@ class EndpointCore:
         with self._lock:
             if self.inbox is not None:
                 self.inbox.start(tick, table)
+
+    def settle(self, tick: int, table: Mapping[str, int], *, poll: Callable[[], object],
+               wait: Callable[[float], object], wait_clock: Clock,
+               give_up_after_s: float) -> int:
+        """Lockstep: the release point of `tick` for a transport that reads with `poll()` and
+        blocks up to a given time for input with `wait(seconds)`. Reads until every datagram
+        that `table` declares through tick-1 is in, then acts on those stamped tick-1 or
+        earlier (`release`). `wait_clock` only bounds the wait: a datagram still missing after
+        `give_up_after_s` raises `LostDatagrams`."""
+        self.start_tick(tick, table)
+        poll()
+        missing = self.missing(table)
+        if missing:
+            deadline = wait_clock() + give_up_after_s
+            while missing:
+                left = deadline - wait_clock()
+                if left <= 0:
+                    self.counters.count_dropped("lost")
+                    raise LostDatagrams(tick, missing)
+                wait(min(left, 0.05))
+                poll()
+                missing = self.missing(table)
+        return self.release(tick - 1, table)
 
     def release(self, through_tick: int, table: Mapping[str, int]) -> int:
         """Act on every held datagram stamped `through_tick` or earlier, in tick, sender,

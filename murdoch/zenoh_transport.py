@@ -43,7 +43,6 @@ from dataclasses import dataclass
 from typing import Any
 
 from murdoch.auth import TeamKey
-from murdoch.tick_order import LostDatagrams
 from murdoch.transport import Clock, EndpointBacked, EndpointCore, TickConfig
 from murdoch.wire import Codec
 
@@ -269,21 +268,8 @@ class ZenohTransport(EndpointBacked):
         give_up_after_s: float = 60.0,
     ) -> int:
         """Lockstep: the release point of `tick`, as `MulticastTransport.settle_tick`."""
-        core = self._core
-        core.start_tick(tick, table)
-        self.poll(0.0)
-        missing = core.missing(table)
-        if missing:
-            deadline = wait_clock() + give_up_after_s
-            while missing:
-                left = deadline - wait_clock()
-                if left <= 0:
-                    core.counters.count_dropped("lost")
-                    raise LostDatagrams(tick, missing)
-                self._wait(min(left, 0.05))
-                self.poll(0.0)
-                missing = core.missing(table)
-        return core.release(tick - 1, table)
+        return self._core.settle(tick, table, poll=lambda: self.poll(0.0), wait=self._wait,
+                                 wait_clock=wait_clock, give_up_after_s=give_up_after_s)
 
     def close(self) -> None:
         if not self.closed:
