@@ -19,6 +19,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
+from player_server.children import end_child
+
 log = logging.getLogger("murdoch.run")
 
 RESTART_POLICIES = ("never", "on-schedule")
@@ -128,17 +130,8 @@ def start_robot(rp: RobotProcess, args: list[str], log_path: Path, nice: int = 0
 
 
 def stop_robot(rp: RobotProcess, *, kill: bool = False, timeout_s: float = 5.0) -> None:
-    if rp.proc is not None and rp.proc.poll() is None:
-        if kill:
-            rp.proc.kill()
-        else:
-            rp.proc.send_signal(signal.SIGCONT)  # a stopped (frozen) process could not end
-            rp.proc.terminate()
-        try:
-            rp.proc.wait(timeout_s)
-        except subprocess.TimeoutExpired:
-            rp.proc.kill()
-            rp.proc.wait(timeout_s)
+    if rp.proc is not None:
+        end_child(rp.proc, timeout_s, kill=kill)
     if rp.log_file is not None:
         rp.log_file.close()
         rp.log_file = None

@@ -29,9 +29,19 @@ import math
 import numpy as np
 from numba import njit
 
-from murdoch.consensus.kernel_parts import DUR, EPS, NONE, WE, WS, conflict_action, gain, prepare
+from murdoch.consensus.kernel_parts import (
+    DUR,
+    EPS,
+    NONE,
+    WE,
+    conflict_action,
+    earliest_start,
+    gain,
+    merge_stamps,
+    prepare,
+)
 
-PARTS_SHA256 = "8a5d1efb25b5e0cf5499e367a9802172fb29968ab1cf187436e905eeb2320c44"
+PARTS_SHA256 = "8a9142c8045e32bcfce86fc52548a5afdd2302ea3c8404c4c7993d41bed57ffe"
 """The `kernel_parts.py` this module was written against (see its notes on numba's cache)."""
 
 
@@ -47,18 +57,10 @@ def _path_starts(at_row: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr:
     finish = np.full(tasks.shape[1], np.nan)  # nan: not (yet) on the path
     for n in range(n_path):
         j = path[n]
-        if prev < 0:
-            start = ready + at_row[j] / speed
-        else:
-            start = ready + tt[prev, j] / speed
-        if tasks[WS, j] > start:
-            start = tasks[WS, j]
-        for e in range(pre_ptr[j], pre_ptr[j + 1]):
-            f = finish[pre_idx[e]]
-            if math.isnan(f):
-                ok = False
-            elif f > start:
-                start = f
+        start, fits = earliest_start(j, prev, ready, at_row, tt, tasks, pre_ptr, pre_idx, speed,
+                                     finish)
+        if not fits:
+            ok = False
         if start > tasks[WE, j] + EPS:
             ok = False
         out[n] = start
@@ -168,7 +170,6 @@ def _merge(i: int, k: int, now: float, y: np.ndarray, z: np.ndarray, s: np.ndarr
            lut: np.ndarray) -> bool:
     """Receiver i applies sender k's message (`conflict.resolve_lists`, then
     `cbba.merge_timestamps`); rows are i's and k's. True if y or z changed."""
-    n = s.shape[0] - 1
     changed = False
     for j in range(y.shape[0]):
         zk = z_k[j]
@@ -186,13 +187,7 @@ def _merge(i: int, k: int, now: float, y: np.ndarray, z: np.ndarray, s: np.ndarr
             y[j] = 0.0
             z[j] = NONE
             changed = True
-    for q in range(n):
-        if s_k[q] > s[q]:
-            s[q] = s_k[q]
-    s[k] = now
-    if now > s[i]:
-        s[i] = now
-    s[n] = -math.inf
+    merge_stamps(s, s_k, k, i, now)
     return changed
 
 

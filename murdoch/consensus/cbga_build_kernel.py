@@ -18,9 +18,9 @@ import math
 import numpy as np
 from numba import njit
 
-from murdoch.consensus.kernel_parts import DUR, EPS, NONE, WE, WS, gain, prepare
+from murdoch.consensus.kernel_parts import DUR, EPS, NONE, WE, earliest_start, gain, prepare
 
-PARTS_SHA256 = "8a5d1efb25b5e0cf5499e367a9802172fb29968ab1cf187436e905eeb2320c44"
+PARTS_SHA256 = "8a9142c8045e32bcfce86fc52548a5afdd2302ea3c8404c4c7993d41bed57ffe"
 """The `kernel_parts.py` this module was written against (see its notes on numba's cache)."""
 
 
@@ -74,18 +74,10 @@ def _path_starts(i: int, xi: np.ndarray, ti: np.ndarray, single: np.ndarray,
     finish = np.full(tasks.shape[1], np.nan)
     for n in range(n_path):
         j = path[n]
-        if prev < 0:
-            start = r + at_row[j] / speed
-        else:
-            start = r + tt[prev, j] / speed
-        if tasks[WS, j] > start:
-            start = tasks[WS, j]
-        for e in range(pre_ptr[j], pre_ptr[j + 1]):
-            f = finish[pre_idx[e]]
-            if math.isnan(f):
-                ok = False
-            elif f > start:
-                start = f
+        start, fits = earliest_start(j, prev, r, at_row, tt, tasks, pre_ptr, pre_idx, speed,
+                                     finish)
+        if not fits:
+            ok = False
         ready[n] = start
         if groups and not single[j]:
             lb = _partners_time(i, j, xi, ti, latest)

@@ -47,11 +47,11 @@ from murdoch.consensus.cbga_build_kernel import (
     _rank,
     _select_group,
 )
-from murdoch.consensus.kernel_parts import EPS, NONE, WE, conflict_action
+from murdoch.consensus.kernel_parts import EPS, NONE, WE, conflict_action, merge_stamps
 
-PARTS_SHA256 = "8a5d1efb25b5e0cf5499e367a9802172fb29968ab1cf187436e905eeb2320c44"
+PARTS_SHA256 = "8a9142c8045e32bcfce86fc52548a5afdd2302ea3c8404c4c7993d41bed57ffe"
 """The `kernel_parts.py` this module was written against (see its notes on numba's cache)."""
-BUILD_SHA256 = "75a92576ca269dfe3869e64084800a71a5487b5c486301ce88e7939746852d22"
+BUILD_SHA256 = "e6f76754852317eb76a148882bc80de108673819875a9325559d6b1782f2c23c"
 """The `cbga_build_kernel.py` this module was written against."""
 
 
@@ -175,14 +175,7 @@ def _merge(i: int, k: int, now: float, xi: np.ndarray, ti: np.ndarray, s: np.nda
                 xi[j, q] = row[q]
                 ti[j, q] = starts[q]
             changed = True
-    # `cbba.merge_timestamps`
-    for q in range(n):
-        if s_k[q] > s[q]:
-            s[q] = s_k[q]
-    s[k] = now
-    if now > s[i]:
-        s[i] = now
-    s[n] = -math.inf
+    merge_stamps(s, s_k, k, i, now)
     return changed
 
 

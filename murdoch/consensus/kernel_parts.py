@@ -184,3 +184,40 @@ def conflict_action(i: int, k: int, yi: float, zi: int, yk: float, zk: int, s: n
     code = ((1 if beats else 0) + (2 if sk_zk > si_zk else 0)
             + (4 if s_k[zi_at] > s[zi_at] else 0) + (8 if si_zk > sk_zk else 0))
     return int(lut[table[sc, rc], code])
+
+
+@njit(cache=True)
+def earliest_start(j: int, prev: int, ready: float, at_row: np.ndarray, tt: np.ndarray,
+                   tasks: np.ndarray, pre_ptr: np.ndarray, pre_idx: np.ndarray, speed: float,
+                   finish: np.ndarray) -> tuple[float, bool]:
+    """When task j can start on a path, after `prev` (-1: from the agent's position) done at
+    `ready`: travel, then its window's start, then its prerequisites' finish times in
+    `finish` (nan: not on the path before it, which makes it infeasible: False)."""
+    if prev < 0:
+        start = ready + at_row[j] / speed
+    else:
+        start = ready + tt[prev, j] / speed
+    if tasks[WS, j] > start:
+        start = tasks[WS, j]
+    ok = True
+    for e in range(pre_ptr[j], pre_ptr[j + 1]):
+        f = finish[pre_idx[e]]
+        if math.isnan(f):
+            ok = False
+        elif f > start:
+            start = f
+    return start, ok
+
+
+@njit(cache=True)
+def merge_stamps(s: np.ndarray, s_k: np.ndarray, k: int, i: int, now: float) -> None:
+    """`cbba.merge_timestamps` of receiver i from sender k's stamps s_k at `now`; the last
+    entry stays -inf (it stands for "no winner")."""
+    n = s.shape[0] - 1
+    for q in range(n):
+        if s_k[q] > s[q]:
+            s[q] = s_k[q]
+    s[k] = now
+    if now > s[i]:
+        s[i] = now
+    s[n] = -math.inf

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import signal
 import sys
 import time
 
@@ -20,6 +19,7 @@ from player_server.replay.source import RecordedRun, ReplayClock
 from player_server.server.core import CoreConfig
 from player_server.server.endpoint import Endpoint
 from player_server.server.runner import PlayerServer
+from player_server.server.serve_loop import serve_until_done
 
 log = logging.getLogger(__name__)
 
@@ -68,21 +68,5 @@ def main(args: argparse.Namespace) -> int:
           f"{run.end_s:.1f} s at speedup {speedup:g}; commands are ignored", flush=True)
     print(server.table(), flush=True)
 
-    def _stop(signum: int, frame: object) -> None:
-        raise KeyboardInterrupt
-
-    signal.signal(signal.SIGTERM, _stop)
-    code = 0
-    try:
-        while not server.finished.wait(0.5):
-            pass
-        print(f"end of the recording at {server.sim.time_s:.1f} s", flush=True)
-    except KeyboardInterrupt:
-        pass
-    finally:
-        try:
-            server.stop()
-        except RuntimeError as exc:
-            print(f"player-server: {exc}: {exc.__cause__}", file=sys.stderr)
-            code = 1
-    return code
+    return serve_until_done(server, lambda: print(
+        f"end of the recording at {server.sim.time_s:.1f} s", flush=True))

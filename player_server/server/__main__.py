@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import signal
 import sys
 import time
 from pathlib import Path
@@ -13,6 +12,7 @@ from player_server.protocol.constants import DEFAULT_PORT
 from player_server.server.assembly import world_endpoints
 from player_server.server.core import CoreConfig
 from player_server.server.runner import PlayerServer
+from player_server.server.serve_loop import serve_until_done
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -150,24 +150,10 @@ def main(argv: list[str] | None = None) -> int:
     print(f"world {world.name!r} ({world.source}), {mode}", flush=True)
     print(server.table(), flush=True)
 
-    def _stop(signum: int, frame: object) -> None:
-        raise KeyboardInterrupt
-
-    signal.signal(signal.SIGTERM, _stop)
-    code = 0
     try:
-        while not server.finished.wait(0.5):
-            pass
-    except KeyboardInterrupt:
-        pass
+        return serve_until_done(server)
     finally:
-        try:
-            server.stop()
-        except RuntimeError as exc:
-            print(f"player-server: {exc}: {exc.__cause__}", file=sys.stderr)
-            code = 1
         sim.close()
-    return code
 
 
 if __name__ == "__main__":

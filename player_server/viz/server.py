@@ -19,6 +19,8 @@ from typing import Any
 import umsgpack
 import zmq
 
+from player_server.children import end_child
+
 log = logging.getLogger(__name__)
 
 
@@ -93,13 +95,7 @@ class ViewerProcess:
         return self._proc.poll() is None
 
     def stop(self, timeout_s: float = 5.0) -> None:
-        if self._proc.poll() is None:
-            self._proc.terminate()
-            try:
-                self._proc.wait(timeout_s)
-            except subprocess.TimeoutExpired:
-                self._proc.kill()
-                self._proc.wait(timeout_s)
+        end_child(self._proc, timeout_s)
         if self._proc.stdout is not None:
             self._proc.stdout.close()
 
