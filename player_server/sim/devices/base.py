@@ -33,3 +33,20 @@ class DeviceModel(Protocol):
     def advance(self, dt: float) -> None:
         """One tick of `dt` seconds has passed (after physics and odometry)."""
         ...
+
+
+class StatelessModel:
+    """A model whose readings follow from the world alone: nothing to build, nothing that
+    moves on with the ticks (`ticking` False). A model with state overrides `build`."""
+
+    kinds: ClassVar[tuple[str, ...]] = ()
+    ticking: ClassVar[bool] = False
+
+    def __init__(self, world: Simulation) -> None:
+        self.world = world
+
+    def build(self) -> None:
+        pass
+
+    def advance(self, dt: float) -> None:
+        pass

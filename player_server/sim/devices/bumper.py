@@ -7,24 +7,15 @@ from typing import TYPE_CHECKING, ClassVar
 
 import pybullet as pb
 
+from player_server.sim.devices.base import StatelessModel
 from player_server.sim.grid_index import FEW
 
 if TYPE_CHECKING:
-    from player_server.sim.simulation import Simulation
+    pass
 
 
-class BumperModel:
+class BumperModel(StatelessModel):
     kinds: ClassVar[tuple[str, ...]] = ("bumper",)
-    ticking: ClassVar[bool] = False
-
-    def __init__(self, world: Simulation) -> None:
-        self.world = world
-
-    def build(self) -> None:
-        pass
-
-    def advance(self, dt: float) -> None:
-        pass
 
     def bumpers(self, robot: str) -> tuple[bool, ...]:
         w = self.world

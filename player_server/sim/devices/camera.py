@@ -17,6 +17,7 @@ import pybullet as pb
 from numpy.typing import NDArray
 
 from player_server.sim import blobs as blobmod
+from player_server.sim.devices.base import StatelessModel
 from player_server.sim.fastsense import BlobPlan, Frame
 from player_server.sim.readings import Blob
 
@@ -24,9 +25,8 @@ if TYPE_CHECKING:
     from player_server.sim.simulation import Simulation
 
 
-class CameraModel:
+class CameraModel(StatelessModel):
     kinds: ClassVar[tuple[str, ...]] = ("camera", "blobfinder")
-    ticking: ClassVar[bool] = False
 
     def __init__(self, world: Simulation) -> None:
         self.world = world
@@ -35,9 +35,6 @@ class CameraModel:
     def build(self) -> None:
         self.plans: dict[tuple[int, ...], BlobPlan] = {}
         self.last: dict[int, tuple[Blob, ...]] = {}
-
-    def advance(self, dt: float) -> None:
-        pass
 
     def blobs(self, robot: str) -> tuple[Blob, ...]:
         w = self.world

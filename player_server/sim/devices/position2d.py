@@ -10,25 +10,18 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, ClassVar
 
+from player_server.sim.devices.base import StatelessModel
 from player_server.sim.drive import integrate, to_robot_frame, wrap_angle
 from player_server.sim.readings import Odometry
 
 if TYPE_CHECKING:
-    from player_server.sim.simulation import Simulation, _Robot
+    from player_server.sim.simulation import _Robot
 
 
-class Position2dModel:
+class Position2dModel(StatelessModel):
+    """Odometry advances with the bodies' poses (`advance_odometry`), not in `advance`."""
+
     kinds: ClassVar[tuple[str, ...]] = ("position2d",)
-    ticking: ClassVar[bool] = False
-
-    def __init__(self, world: Simulation) -> None:
-        self.world = world
-
-    def build(self) -> None:
-        pass
-
-    def advance(self, dt: float) -> None:
-        pass  # odometry advances with the bodies' poses (`advance_odometry`)
 
     def advance_odometry(self, st: _Robot, x: float, y: float, yaw: float, dt: float) -> None:
         """Odometry (with its noise), its velocity and the stall flag from the robot's true

@@ -14,6 +14,7 @@ import numpy as np
 import pybullet as pb
 from numpy.typing import NDArray
 
+from player_server.sim.devices.base import StatelessModel
 from player_server.sim.fastsense import Frame, RangePlan
 
 if TYPE_CHECKING:
@@ -23,9 +24,8 @@ RangeKey = tuple[int, str]
 """(robot index, device kind)"""
 
 
-class RangeModel:
+class RangeModel(StatelessModel):
     kinds: ClassVar[tuple[str, ...]] = ("sonar", "laser", "ranger")
-    ticking: ClassVar[bool] = False
 
     def __init__(self, world: Simulation) -> None:
         self.world = world
@@ -34,9 +34,6 @@ class RangeModel:
     def build(self) -> None:
         self.plans: dict[tuple[RangeKey, ...], RangePlan] = {}
         self.last: dict[RangeKey, np.ndarray] = {}
-
-    def advance(self, dt: float) -> None:
-        pass
 
     def reading(self, robot: str, kind: str) -> np.ndarray:
         w = self.world

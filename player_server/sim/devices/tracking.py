@@ -7,30 +7,24 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
+from player_server.sim.devices.base import StatelessModel
 from player_server.sim.drive import wrap_angle
 from player_server.sim.readings import BodyPose, Fiducial, TrackedObject, fast_constructor
 
 if TYPE_CHECKING:
-    from player_server.sim.simulation import Simulation
+    pass
 
 _make_tracked = fast_constructor(TrackedObject)
 
 
-class TrackingModel:
+class TrackingModel(StatelessModel):
     kinds: ClassVar[tuple[str, ...]] = ("fiducial",)
-    ticking: ClassVar[bool] = False
     """(and the world's overhead camera, which is not a robot's device)"""
-
-    def __init__(self, world: Simulation) -> None:
-        self.world = world
 
     def build(self) -> None:
         self._colours: dict[str, int] | None = None
         # the last pose of each body the overhead camera saw, and what it made of it
         self._seen: dict[str, tuple[BodyPose, TrackedObject]] = {}
-
-    def advance(self, dt: float) -> None:
-        pass
 
     def fiducials(self, robot: str) -> tuple[Fiducial, ...]:
         w = self.world
