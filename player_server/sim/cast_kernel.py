@@ -84,6 +84,21 @@ def _hit(f: int, ox: float, oy: float, dx: float, dy: float, b: float, n_rect: i
     return np.inf
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _every_footprint(skip: int, zi: float, ox: float, oy: float, dx: float, dy: float,
+                     b: float, n_rect: int, centre: np.ndarray, head_conj: np.ndarray,
+                     half: np.ndarray, radius: np.ndarray, top: np.ndarray) -> float:
+    """The nearest hit below `b` among every footprint at least as tall as the ray (except
+    `skip`, the one it starts inside), else `b`."""
+    for f in range(centre.shape[0]):
+        if f == skip or top[f] < zi:
+            continue
+        t = _hit(f, ox, oy, dx, dy, b, n_rect, centre, head_conj, half, radius)
+        if t < b:
+            b = t
+    return b
+
+
 @njit(cache=True, error_model="numpy")
 def cast_rays(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarray,
               own: np.ndarray, centre: np.ndarray, head_conj: np.ndarray, half: np.ndarray,
@@ -97,7 +112,6 @@ def cast_rays(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarray,
     of the arena's walls, or empty for none.
     """
     n = o.shape[0]
-    k = centre.shape[0]
     n_rect = head_conj.shape[0]
     has_room = room.shape[0] == 3
     best = np.empty(n)
@@ -112,14 +126,8 @@ def cast_rays(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarray,
             w = _wall(ox, oy, dx, dy, room[0], room[1])
             if w < b:
                 b = w
-        skip = own[i]
-        for f in range(k):
-            if f == skip or top[f] < zi:
-                continue
-            t = _hit(f, ox, oy, dx, dy, b, n_rect, centre, head_conj, half, radius)
-            if t < b:
-                b = t
-        best[i] = b
+        best[i] = _every_footprint(own[i], zi, ox, oy, dx, dy, b, n_rect, centre, head_conj,
+                                   half, radius, top)
     return best
 
 
@@ -158,13 +166,9 @@ def cast_rays_grid(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarra
         skip = own[i]
         if not (math.isfinite(ox) and math.isfinite(oy) and math.isfinite(dx)
                 and math.isfinite(dy)) or (dx == 0.0 and dy == 0.0):
-            for f in range(k):  # no cell to start from, or no way to go: every footprint
-                if f == skip or top[f] < zi:
-                    continue
-                t = _hit(f, ox, oy, dx, dy, b, n_rect, centre, head_conj, half, radius)
-                if t < b:
-                    b = t
-            best[i] = b
+            # no cell to start from, or no way to go: every footprint
+            best[i] = _every_footprint(skip, zi, ox, oy, dx, dy, b, n_rect, centre, head_conj,
+                                       half, radius, top)
             continue
         # The part of the ray inside the grid's box.
         t_in = 0.0
