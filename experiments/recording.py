@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -167,6 +168,41 @@ def _ranges(values: Any, digits: int = 3) -> list[float]:
     return np.round(a, digits).tolist()
 
 
+def _odometry(t: float, o: Any, command: tuple[float, float]) -> dict[str, Any]:
+    cmd_v, cmd_w = command
+    return {"timestamp": ch.stamp(t), "x": round(float(o.x), 4), "y": round(float(o.y), 4),
+            "yaw": round(float(o.yaw), 4), "vx": round(float(o.vx), 4),
+            "vy": round(float(o.vy), 4), "vyaw": round(float(o.vyaw), 4),
+            "stall": bool(o.stall), "cmd_vx": round(float(cmd_v), 4),
+            "cmd_vyaw": round(float(cmd_w), 4)}
+
+
+def _laser(t: float, name: str, mount: tuple[float, float, float, float], lo: float,
+           hi: float, ranges: Any) -> dict[str, Any]:
+    return ch.laser_scan(t, name, mount, lo, hi, _ranges(ranges))
+
+
+def _sonar_ranges(t: float, ranges: Any) -> dict[str, Any]:
+    return {"timestamp": ch.stamp(t), "ranges": _ranges(ranges)}
+
+
+def _sonar_scan(t: float, name: str, mounts: Any, max_range: float,
+                ranges: Any) -> dict[str, Any]:
+    return ch.sonar_ring_scan(t, name, mounts, _ranges(ranges), max_range)
+
+
+def _battery(t: float, p: Any) -> dict[str, Any]:
+    return {"timestamp": ch.stamp(t), "percent": round(float(p.percent), 3),
+            "charging": 1 if p.charging else 0, "volts": round(float(p.volts), 3),
+            "watts": round(float(p.watts), 3), "joules": round(float(p.joules), 1)}
+
+
+def _blobs(t: float, width: int, height: int, blobs: Any) -> dict[str, Any]:
+    seen = [[int(b.id), int(b.colour), int(b.area), int(b.x), int(b.y), int(b.l), int(b.r),
+             int(b.t), int(b.b), round(float(b.range_m), 3)] for b in blobs]
+    return {"timestamp": ch.stamp(t), "width": width, "height": height, "blobs": seen}
+
+
 class RunRecording:
     """Owns ``run.mcap`` of one run (see the module's doc)."""
 
@@ -205,50 +241,35 @@ class RunRecording:
             self.sample(sim, t)
 
     def sample(self, sim: Any, t: float) -> None:
+        """Take the readings of this tick; the messages are built from them, and encoded, on
+        the writer's thread (the serving thread only copies what the next step would
+        change)."""
         batch: list[tuple[str, float, Any]] = []
-
-        def put(topic: str, t: float, message: Any) -> None:
-            batch.append((topic, t, message))
-
         poses = snapshot_poses(sim.snapshot())
-        put(ch.TF, t, lambda: ch.frame_transforms(t, poses))
+        batch.append((ch.TF, t, partial(ch.frame_transforms, t, poses)))
         topic = ch.robot_topic
         for s in self._sensing:
             name = s.name
             if s.odometry:
-                o = sim.odometry(name)
-                cmd_v, cmd_w = sim.drive_command(name)
-                put(topic(name, ch.ODOMETRY), t, {
-                    "timestamp": ch.stamp(t), "x": round(float(o.x), 4),
-                    "y": round(float(o.y), 4), "yaw": round(float(o.yaw), 4),
-                    "vx": round(float(o.vx), 4), "vy": round(float(o.vy), 4),
-                    "vyaw": round(float(o.vyaw), 4), "stall": bool(o.stall),
-                    "cmd_vx": round(float(cmd_v), 4), "cmd_vyaw": round(float(cmd_w), 4)})
+                batch.append((topic(name, ch.ODOMETRY), t,
+                              partial(_odometry, t, sim.odometry(name), sim.drive_command(name))))
             if s.laser is not None:
                 mx, my, mz, myaw, lo, hi = s.laser
-                ranges = _ranges(sim.laser(name))
-                put(topic(name, ch.LASER), t, lambda n=name, r=ranges, a=(mx, my, mz, myaw),
-                    lo=lo, hi=hi: ch.laser_scan(t, n, a, lo, hi, r))
+                batch.append((topic(name, ch.LASER), t,
+                              partial(_laser, t, name, (mx, my, mz, myaw), lo, hi,
+                                      np.array(sim.laser(name)))))
             if s.sonar is not None:
                 mounts, max_range = s.sonar
-                sranges = _ranges(sim.sonar(name))
-                put(topic(name, ch.SONAR_RANGES), t,
-                    {"timestamp": ch.stamp(t), "ranges": sranges})
-                put(topic(name, ch.SONAR), t, lambda n=name, r=sranges, m=mounts,
-                    mr=max_range: ch.sonar_ring_scan(t, n, m, r, mr))
+                sonar = np.array(sim.sonar(name))
+                batch.append((topic(name, ch.SONAR_RANGES), t, partial(_sonar_ranges, t, sonar)))
+                batch.append((topic(name, ch.SONAR), t,
+                              partial(_sonar_scan, t, name, mounts, max_range, sonar)))
             if s.power:
-                p = sim.power(name)
-                put(topic(name, ch.BATTERY), t, {
-                    "timestamp": ch.stamp(t), "percent": round(float(p.percent), 3),
-                    "charging": 1 if p.charging else 0, "volts": round(float(p.volts), 3),
-                    "watts": round(float(p.watts), 3), "joules": round(float(p.joules), 1)})
+                batch.append((topic(name, ch.BATTERY), t, partial(_battery, t, sim.power(name))))
             if s.blobs is not None:
                 width, height = s.blobs
-                seen = [[int(b.id), int(b.colour), int(b.area), int(b.x), int(b.y), int(b.l),
-                         int(b.r), int(b.t), int(b.b), round(float(b.range_m), 3)]
-                        for b in sim.blobs(name)]
-                put(topic(name, ch.BLOBS), t, {"timestamp": ch.stamp(t), "width": width,
-                                               "height": height, "blobs": seen})
+                batch.append((topic(name, ch.BLOBS), t,
+                              partial(_blobs, t, width, height, sim.blobs(name))))
         self._sink.put_many(batch)
         self.samples += 1
 

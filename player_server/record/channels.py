@@ -17,6 +17,8 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
+import orjson
+
 PROFILE = "murdoch"
 ENCODING = "json"
 SCHEMA_ENCODING = "jsonschema"
@@ -165,7 +167,20 @@ def schema_bytes(name: str) -> bytes:
 
 
 def encode(message: Mapping[str, Any]) -> bytes:
-    return json.dumps(message, separators=(",", ":"), allow_nan=False).encode()
+    """The message as compact JSON; ValueError if it holds a NaN or an infinity (JSON has
+    neither), TypeError if it is not JSON data.
+
+    The fast encoder writes non-finite numbers as ``null`` and refuses some JSON that the
+    standard one takes (keys that are not strings): a body with a ``null`` in it, or one the
+    fast encoder refused, is encoded again by the strict standard one, which raises on
+    non-finite numbers and otherwise gives the same JSON value."""
+    try:
+        body = orjson.dumps(message)
+    except orjson.JSONEncodeError:
+        body = b"null"
+    if b"null" in body:
+        return json.dumps(message, separators=(",", ":"), allow_nan=False).encode()
+    return body
 
 
 # --- building blocks ---

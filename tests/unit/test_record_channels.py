@@ -59,3 +59,20 @@ def test_log_and_scene_messages_have_every_field_foxglove_reads() -> None:
     assert ent["cubes"][0]["color"] == {"r": 1.0, "g": 0.0, "b": 0.0, "a": 1.0}
     for key in ("arrows", "spheres", "cylinders", "lines", "triangles", "texts", "models"):
         assert ent[key] == []
+
+
+@pytest.mark.parametrize("message", [
+    {"x": 1.25, "ranges": [0.0, 1e-05, 12.5, 3.0], "s": "é \"q\" null", "n": None},
+    {"x": math.inf}, {"x": -math.inf}, {"nested": [{"y": math.nan}]},
+    {1: "an integer key"}, {"big": 2**70}, {"obj": object()},
+])
+def test_fast_json_means_what_the_standard_encoder_means(message: dict) -> None:
+    """The recording's encoder gives the same JSON value as the standard library, and
+    refuses what it refuses (non-finite numbers, objects that are not data) alike."""
+    try:
+        expected = json.loads(json.dumps(message, allow_nan=False))
+    except (ValueError, TypeError) as exc:
+        with pytest.raises(type(exc)):
+            ch.encode(message)
+    else:
+        assert json.loads(ch.encode(message)) == expected
