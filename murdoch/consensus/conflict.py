@@ -79,25 +79,14 @@ def rule_for(sender_believes: str, receiver_believes: str) -> Rule:
 
 
 def classify(i: int, k: int, z_kj: int, z_ij: int) -> tuple[str, str]:
-    """The (sender, receiver) belief labels of the table for one task."""
-    if z_kj == k:
-        sb = "k"
-    elif z_kj == i:
-        sb = "i"
-    elif z_kj == NONE:
-        sb = "none"
-    else:
-        sb = "m"
-    if z_ij == i:
-        rb = "i"
-    elif z_ij == k:
-        rb = "k"
-    elif z_ij == NONE:
-        rb = "none"
-    elif sb == "m":
-        rb = "m" if z_ij == z_kj else "n"
-    else:
-        rb = "m"
+    """The (sender, receiver) belief labels of the table for one task: "i", "k" or "none"
+    for a winner that is the receiver i, the sender k (never the same agent) or nobody;
+    otherwise "m", and for the receiver "n" when the sender believes in another "m"."""
+    named = {i: "i", k: "k", NONE: "none"}
+    sb = named.get(z_kj, "m")
+    rb = named.get(z_ij)
+    if rb is None:
+        rb = "n" if sb == "m" and z_ij != z_kj else "m"
     return sb, rb
 
 
