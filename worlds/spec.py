@@ -13,6 +13,40 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal, NamedTuple
 
+__all__ = [
+    "DEVICE_NAMES",
+    "FIDELITIES",
+    "ArenaSpec",
+    "BlobfinderSpec",
+    "BodySpec",
+    "BoxSpec",
+    "BumperSegment",
+    "BumperSpec",
+    "CameraSpec",
+    "ChargerSpec",
+    "DeviceSet",
+    "Fidelity",
+    "FiducialSpec",
+    "GripperSpec",
+    "LaserSpec",
+    "MarkerSpec",
+    "Mount",
+    "ObjectSpec",
+    "ObstacleSpec",
+    "OverheadCameraSpec",
+    "Pose",
+    "Position2dSpec",
+    "PowerSpec",
+    "PtzSpec",
+    "RangerSpec",
+    "RobotSpec",
+    "ScanSpec",
+    "SimSpec",
+    "SonarSpec",
+    "WorldSpec",
+]
+"""What `worlds` re-exports."""
+
 Fidelity = Literal["fast", "render"]
 FIDELITIES: tuple[str, ...] = ("fast", "render")
 

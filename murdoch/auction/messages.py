@@ -31,6 +31,24 @@ from murdoch.wire import Codec
 from murdoch.wire_values import freeze
 
 REPORT_STATUSES = ("completed", "failed", "declined", "abandoned")
+__all__ = [
+    "AUCTION_CODEC",
+    "AUCTION_MESSAGES",
+    "Announce",
+    "AuctionEvent",
+    "Award",
+    "Bid",
+    "Outcome",
+    "Outgoing",
+    "Progress",
+    "Renew",
+    "Report",
+    "Revoke",
+    "TaskSpec",
+    "negotiation_subject",
+]
+"""What `murdoch.auction` re-exports."""
+
 OUTCOME_STATUSES = ("completed", "failed", "unachievable")
 
 

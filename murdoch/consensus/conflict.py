@@ -19,6 +19,7 @@ everywhere (`test_consensus_conflict.py`, `test_consensus_gains.py`).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from enum import IntEnum
 
@@ -78,26 +79,29 @@ def rule_for(sender_believes: str, receiver_believes: str) -> Rule:
     raise KeyError((sender_believes, receiver_believes))
 
 
+def _named(i: int, k: int) -> dict[int, str]:
+    """The winners a belief names by label: the receiver i, the sender k and nobody."""
+    return {i: "i", k: "k", NONE: "none"}
+
+
+@functools.cache
+def _codes(i: int, k: int) -> tuple[dict[int, int], dict[int, int]]:
+    """`_named` as the sender's and the receiver's codes (`SENDER_CODES`, `RECEIVER_CODES`);
+    any other winner is "m" (2) to both (the receiver's "n", 3, is decided per task)."""
+    named = _named(i, k)
+    return ({z: SENDER_CODES.index(b) for z, b in named.items()},
+            {z: RECEIVER_CODES.index(b) for z, b in named.items()})
+
+
 def classify(i: int, k: int, z_kj: int, z_ij: int) -> tuple[str, str]:
-    """The (sender, receiver) belief labels of the table for one task."""
-    if z_kj == k:
-        sb = "k"
-    elif z_kj == i:
-        sb = "i"
-    elif z_kj == NONE:
-        sb = "none"
-    else:
-        sb = "m"
-    if z_ij == i:
-        rb = "i"
-    elif z_ij == k:
-        rb = "k"
-    elif z_ij == NONE:
-        rb = "none"
-    elif sb == "m":
-        rb = "m" if z_ij == z_kj else "n"
-    else:
-        rb = "m"
+    """The (sender, receiver) belief labels of the table for one task: "i", "k" or "none"
+    for a winner that is the receiver i, the sender k (never the same agent) or nobody;
+    otherwise "m", and for the receiver "n" when the sender believes in another "m"."""
+    named = _named(i, k)
+    sb = named.get(z_kj, "m")
+    rb = named.get(z_ij)
+    if rb is None:
+        rb = "n" if sb == "m" and z_ij != z_kj else "m"
     return sb, rb
 
 
@@ -217,30 +221,17 @@ def resolve_lists(i: int, k: int, y_i: list[float], z_i: list[int], s_i: list[fl
     stop = len(y_i) if end is None else end
     changed = False
     table, lut = _TABLE_T, _LUT_T
+    sender_code, receiver_code = _codes(i, k)
     differ = [j for j in range(first, stop) if z_k[j] != z_i[j] or y_k[j] != y_i[j]]
     for j in differ:
         zk = z_k[j]
         zi = z_i[j]
         yk = y_k[j]
         yi = y_i[j]
-        if zk == k:
-            sc = 0
-        elif zk == i:
-            sc = 1
-        elif zk == NONE:
-            sc = 3
-        else:
-            sc = 2
-        if zi == i:
-            rc = 0
-        elif zi == k:
-            rc = 1
-        elif zi == NONE:
-            rc = 4
-        elif sc == 2 and zi != zk:
+        sc = sender_code.get(zk, 2)
+        rc = receiver_code.get(zi, 2)
+        if rc == 2 and sc == 2 and zi != zk:
             rc = 3
-        else:
-            rc = 2
         sk_zk = s_k[zk]
         si_zk = s_i[zk]
         beats = yk > yi or (yk == yi and zk != NONE and (zi == NONE or zk < zi))

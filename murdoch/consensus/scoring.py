@@ -16,6 +16,7 @@ Marginal gains of inserting a task into a path are in `gains.py`.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -237,95 +238,113 @@ class Evaluation:
     total_score: float
 
 
-def evaluate_plan(p: Problem, paths: list[list[int]]) -> Evaluation:
-    """Execute the agents' paths jointly.
+def execute_jointly(p: Problem, paths: Sequence[Sequence[int]],
+                    per_agent_start: list[dict[int, float]] | None = None
+                    ) -> tuple[list[list[int]], list[bool], list[float]]:
+    """Execute the agents' paths jointly: (group, completed, start) per task.
 
-    A task completes when its whole group (L_j agents covering its equipment list) is on it,
-    all of them have arrived, the joint start is inside the window and every prerequisite has
-    finished before it. Members of a task that cannot complete skip it. Every member of a
-    completed task earns the task's score at the joint start time.
+    A task is usable when its whole group (L_j agents covering its equipment list) holds
+    it. Its members start it together when all have arrived, not before the window opens
+    and after its prerequisites have finished; one that cannot start in its window is
+    skipped by its members. Agents waiting on each other in a cycle drop the lowest-index
+    blocked task. A task's start is nan when it does not complete; `per_agent_start`, when
+    given (one dict per agent), receives each agent's start of the tasks it completes.
     """
+    lst = p.lists
     m = p.n_tasks
+    n = len(paths)
     group: list[list[int]] = [[] for _ in range(m)]
     for i, path in enumerate(paths):
         for j in path:
             group[j].append(i)
-    usable = np.zeros(m, dtype=bool)
+    usable = [False] * m
     for j in range(m):
         members = group[j]
-        if len(members) != p.required[j]:
+        if len(members) != lst.required[j]:
             continue
-        covered: set[str] = set()
-        for i in members:
-            covered |= p.agent_equipment[i]
-        if not p.task_equipment[j] <= covered:
-            continue
-        if not all(p.eligible[i, j] or p.required[j] > 1 for i in members):
+        need = p.task_equipment[j]
+        if need:
+            covered: set[str] = set()
+            for i in members:
+                covered |= p.agent_equipment[i]
+            if not need <= covered:
+                continue
+        if lst.required[j] == 1 and not lst.eligible[members[0]][j]:
             continue
         usable[j] = True
-
     queues = [[j for j in path if usable[j]] for path in paths]
-    ptr = [0] * len(paths)
-    ready = [float(p.availability[i]) for i in range(len(paths))]
-    pos = [-1] * len(paths)
-    start_of = np.full(m, np.nan)
-    completed = np.zeros(m, dtype=bool)
+    ptr = [0] * n
+    ready = [lst.availability[i] for i in range(n)]
+    pos = [-1] * n
+    completed = [False] * m
+    start_of = [math.nan] * m
     finish: dict[int, float] = {}
-    per_agent_start: list[dict[int, float]] = [{} for _ in paths]
     remaining = sum(len(q) for q in queues)
     while remaining:
         progressed = False
-        for i in range(len(paths)):
-            while ptr[i] < len(queues[i]):
-                j = queues[i][ptr[i]]
+        for i in range(n):
+            qi = queues[i]
+            while ptr[i] < len(qi):
+                j = qi[ptr[i]]
                 members = group[j]
-                if not all(ptr[k] < len(queues[k]) and queues[k][ptr[k]] == j for k in members):
+                if not all(ptr[k] < len(queues[k]) and queues[k][ptr[k]] == j
+                           for k in members):
                     break
                 arrive = 0.0
                 for k in members:
-                    d = (p.agent_task_dist[k, j] if pos[k] < 0 else p.task_task_dist[pos[k], j])
-                    arrive = max(arrive, ready[k] + d / p.speed[k])
-                start = max(float(p.window_start[j]), arrive)
-                pre_ok = True
+                    d = (lst.agent_task_dist[k][j] if pos[k] < 0
+                         else lst.task_task_dist[pos[k]][j])
+                    arrive = max(arrive, ready[k] + d / lst.speed[k])
+                start = max(lst.window_start[j], arrive)
+                ok = True
                 for q in p.prereqs[j]:
                     if q in finish:
                         start = max(start, finish[q])
                     else:
-                        pre_ok = False
-                ok = pre_ok and start <= p.window_end[j] + _EPS
+                        ok = False
+                ok = ok and start <= lst.window_end[j] + _EPS
                 for k in members:
                     ptr[k] += 1
                     remaining -= 1
                     if ok:
-                        ready[k] = start + p.duration[j]
+                        ready[k] = start + lst.duration[j]
                         pos[k] = j
-                        per_agent_start[k][j] = start
+                        if per_agent_start is not None:
+                            per_agent_start[k][j] = start
                 if ok:
                     completed[j] = True
                     start_of[j] = start
-                    finish[j] = start + p.duration[j]
+                    finish[j] = start + lst.duration[j]
                 progressed = True
         if not progressed:
-            # agents wait on each other in a cycle: drop the lowest-index blocked task
-            blocked = min(queues[i][ptr[i]] for i in range(len(paths)) if ptr[i] < len(queues[i]))
+            blocked = min(queues[i][ptr[i]] for i in range(n) if ptr[i] < len(queues[i]))
             for k in group[blocked]:
                 if ptr[k] < len(queues[k]) and queues[k][ptr[k]] == blocked:
                     ptr[k] += 1
-                    remaining -= 1
                 else:
                     queues[k].remove(blocked)
-                    remaining -= 1
+                remaining -= 1
+    return group, completed, start_of
+
+
+def evaluate_plan(p: Problem, paths: list[list[int]]) -> Evaluation:
+    """Execute the agents' paths jointly (`execute_jointly`). Every member of a completed
+    task earns the task's score at the joint start time."""
+    per_agent_start: list[dict[int, float]] = [{} for _ in paths]
+    group, completed, start_of = execute_jointly(p, paths, per_agent_start)
     score = 0.0
-    for j in np.flatnonzero(completed).tolist():
-        score += float(len(group[j]) * task_scores(p, np.array([j]), np.array([start_of[j]]))[0])
+    for j in range(p.n_tasks):
+        if completed[j]:
+            score += float(len(group[j])
+                           * task_scores(p, np.array([j]), np.array([start_of[j]]))[0])
     starts = tuple(
         tuple(float(per_agent_start[i].get(j, np.nan)) for j in path)
         for i, path in enumerate(paths)
     )
     return Evaluation(
         start_times=starts,
-        completed=tuple(bool(c) for c in completed),
+        completed=tuple(completed),
         group=tuple(tuple(g) for g in group),
-        task_start=tuple(float(x) for x in start_of),
+        task_start=tuple(start_of),
         total_score=score,
     )

@@ -224,10 +224,7 @@ class SyncRunner:
         for a in self.agents:
             a.build_bundle(now)
         self._count_messages()
-        if self.algorithm == "cbba":
-            self._consensus_cbba(now)
-        else:
-            self._consensus_cbga(now)
+        self._consensus(now)
         for a in self.agents:
             a.release_outbid()
             if isinstance(a, CbgaAgent):
@@ -265,37 +262,27 @@ class SyncRunner:
             self._last_sent[k] = data
         self.per_round.append((msgs, nbytes, pairs))
 
-    def _consensus_cbba(self, now: float) -> None:
-        # what every agent sends this round (lists are replaced, never shared)
-        sent = []
-        for k, a in enumerate(self.agents):
-            assert isinstance(a, CbbaAgent)
-            s_k = list(a.s)
-            s_k[k] = now
-            sent.append((list(a.y), list(a.z), s_k))
-        for i, ks in enumerate(self.neighbours):
-            agent = self.agents[i]
-            assert isinstance(agent, CbbaAgent)
-            for k in ks:
-                y_k, z_k, s_k = sent[k]
-                agent.apply(k, y_k, z_k, s_k, now)
+    def _consensus(self, now: float) -> None:
+        """Every agent receives what each of its neighbours sends this round.
 
-    def _consensus_cbga(self, now: float) -> None:
-        # what every agent sends this round: merging replaces an agent's rows (never
-        # changes one in place) and never keeps a sender's row, so a copy of the row lists
-        # holds the rows as they were sent
-        sent = []
+        What is sent is taken from every agent before any receives (copies of its lists,
+        with its own stamp set to `now`). CBBA's lists are replaced, never shared; merging
+        CBGA's replaces an agent's rows (never changes one in place) and never keeps a
+        sender's row, so a copy of the row lists holds the rows as they were sent."""
+        sent: list[tuple[list[Any], list[Any], list[float]]] = []
         for k, a in enumerate(self.agents):
-            assert isinstance(a, CbgaAgent)
             s_k = list(a.s)
             s_k[k] = now
-            sent.append((list(a.x), list(a.t), s_k))
+            if isinstance(a, CbbaAgent):
+                sent.append((list(a.y), list(a.z), s_k))
+            else:
+                sent.append((list(a.x), list(a.t), s_k))
         for i, ks in enumerate(self.neighbours):
             agent = self.agents[i]
-            assert isinstance(agent, CbgaAgent)
+            receive = agent.apply if isinstance(agent, CbbaAgent) else agent.receive_rows
             for k in ks:
-                x_k, t_k, s_k = sent[k]
-                agent.receive_rows(k, x_k, t_k, s_k, now)
+                first, second, s_k = sent[k]
+                receive(k, first, second, s_k, now)
 
     # -- running ------------------------------------------------------------------------
     def pending_quit(self) -> bool:

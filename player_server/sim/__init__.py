@@ -4,29 +4,12 @@ The only package that imports pybullet; it knows nothing of Player. ``Simulation
 one PyBullet DIRECT client; readings are plain values and the frozen dataclasses below.
 """
 
-from player_server.sim.readings import (
-    Blob,
-    BodyPose,
-    Fiducial,
-    GripperState,
-    Odometry,
-    PowerState,
-    PtzState,
-    SceneSnapshot,
-    TrackedObject,
-)
+from player_server.sim import readings
+from player_server.sim.readings import *  # noqa: F403 (the names readings.__all__ declares)
 from player_server.sim.simulation import Simulation, Timings
 
 __all__ = [
-    "Blob",
-    "BodyPose",
-    "Fiducial",
-    "GripperState",
-    "Odometry",
-    "PowerState",
-    "PtzState",
-    "SceneSnapshot",
     "Simulation",
     "Timings",
-    "TrackedObject",
 ]
+__all__ += readings.__all__

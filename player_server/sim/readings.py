@@ -12,6 +12,19 @@ from player_server.frozen import frozen_constructor
 
 fast_constructor = frozen_constructor
 
+__all__ = [
+    "Blob",
+    "BodyPose",
+    "Fiducial",
+    "GripperState",
+    "Odometry",
+    "PowerState",
+    "PtzState",
+    "SceneSnapshot",
+    "TrackedObject",
+]
+"""The reading types (what `player_server.sim` re-exports)."""
+
 
 @dataclass(frozen=True)
 class Odometry:
