@@ -17,7 +17,9 @@ phase's step 0, taken from the profiles' paths, so it costs no round of its own)
 `refine.RefineAgent` from there: proposals, the same selection everywhere, until a step
 without proposals or `REFINE_STEPS`. Messages are whole states, re-sent every step while
 the phase runs (`async_refine.refine_chunks`: entries of the current step and the complete
-step before), so lost or repeated datagrams cost steps, not the phase.
+step before, in one datagram while they fit), so lost or repeated datagrams cost steps,
+not the phase. A robot that has finished sends its final state again only when it hears a
+member that has not.
 
 The phase is given up (`failed`, and the robot claims as without `--refine`) when the paths
 conflict (the consensus had not settled everywhere), when it has not finished within
@@ -208,5 +210,15 @@ class RefinePhase:
             local = {o: j for j, o in enumerate(self.offers)}
             own = (self.local, 0, 0.0, tuple(local[o] for o in st.path))
             return [wrap(0, (own,), -1, ())]
-        return [wrap(c.step, c.entries, c.previous_step, c.previous)
-                for c in refine_chunks(self.agent, SESSION, self.local)]
+        chunks = refine_chunks(self.agent, SESSION, self.local)
+        current = [c for c in chunks if not c.previous]
+        previous = [c for c in chunks if c.previous]
+        out = []  # a part of the current step and one of the step before share a datagram
+        for k in range(max(len(current), len(previous))):
+            cur = current[k] if k < len(current) else None
+            prev = previous[k] if k < len(previous) else None
+            step = cur.step if cur is not None else self.agent.step
+            prev_step = prev.previous_step if prev is not None else -1
+            out.append(wrap(step, cur.entries if cur is not None else (), prev_step,
+                            prev.previous if prev is not None else ()))
+        return out

@@ -361,7 +361,8 @@ class ConsensusRobot:
         inbox, self._refine_inbox = self._refine_inbox, []
         a, profile = self.agent, self._profile
         settled = (a is not None and profile is not None and bool(self.offers)
-                   and len(self.order) <= MAX_OFFERS and now - self._stable_since >= STABLE_S)
+                   and len(self.order) <= MAX_OFFERS and now - self._stable_since >= STABLE_S
+                   and any(a.winners_view()))  # (nothing won: nothing to exchange)
         members = self._members(now)
         phase = self.phase
         if phase is not None and (not settled or self._phase_epoch != self._stable_since
