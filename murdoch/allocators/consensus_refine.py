@@ -31,6 +31,7 @@ grant still gives each offer to one claim: the phase can only change who claims 
 from __future__ import annotations
 
 import math
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -182,7 +183,9 @@ class RefinePhase:
         problem = team_problem([str(m) for m in self.members], profiles, self.offer_list)
         scorer = PlanScorer(problem)
         paths = [tuple(local[o] for o in self.stances[m].path) for m in self.members]
-        if scorer.score(canonical_plan(problem, paths)) == -math.inf:
+        held = Counter(j for q in paths for j in q)
+        if any(n > problem.required[j] for j, n in held.items()) or \
+                scorer.score(canonical_plan(problem, paths)) == -math.inf:
             self.failed = "the members' paths conflict"
             return
         rank = seeded_rank(len(self.members), OPTIONS.seed)
