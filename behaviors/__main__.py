@@ -3,7 +3,7 @@
     murdoch-robot -p 6665 [-h 127.0.0.1] [--name r1] [--world longterm]
                   [--task goto-goal --param x=1 --param y=2] [--events run/r1.jsonl]
                   [--mcast-port 5xxxx [--mcast-group 239.255.74.17] [--auction-log F]]
-                  [--allocator murdoch|cbba|cbga] [--metric distance,specialist]
+                  [--allocator murdoch|cbba|cbga [--refine]] [--metric distance,specialist]
 
 Connects to the robot's port, subscribes to every device listed there, derives the robot's
 resource subjects and runs until SIGINT/SIGTERM (or, with --exit-when-done, until its task
@@ -11,7 +11,8 @@ ends). Events (JSON lines) go to --events ("-" = stdout). With --mcast-port the 
 MURDOCH on that loopback multicast group (`behaviors.murdoch_link`): it offers its subjects,
 bids on announcements with its tasks' metrics and runs the tasks it wins. `--allocator`
 picks the team's allocator from `murdoch.allocators` (MURDOCH auctions by default; CBBA or
-CBGA plan paths of tasks by consensus, with the world's robots as the team).
+CBGA plan paths of tasks by consensus, with the world's robots as the team); `--refine` adds
+the consensus allocators' improvement phase (`murdoch.allocators.consensus_refine`).
 
 With ``MURDOCH_ROBOT_PROFILE_DIR`` set, a MURDOCH robot writes a cProfile of its main loop, in
 the main thread's CPU time, to ``<dir>/<name>.prof`` when it stops.
@@ -38,7 +39,7 @@ from behaviors.events import TASK_DONE, TASK_FAILED, TASK_STOPPED, Event, EventL
 from behaviors.library import TASKS, parse_bid_terms
 from behaviors.params import ParamError, parse_assignments
 from behaviors.robot import build_agent
-from murdoch.allocators import ALLOCATORS
+from murdoch.allocators import ALLOCATORS, REFINABLE
 from murdoch.allocators import DEFAULT as DEFAULT_ALLOCATOR
 from player_server.client import (
     PlayerClient,
@@ -106,6 +107,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="append this robot's auctioneer and bidder events (JSON lines) here")
     p.add_argument("--allocator", default=DEFAULT_ALLOCATOR, choices=list(ALLOCATORS),
                    help="the team's allocator (default murdoch): " + ", ".join(ALLOCATORS))
+    p.add_argument("--refine", action="store_true",
+                   help="cbba, cbga: improve each settled plan by agreed exchanges before "
+                        "claiming (see docs/allocators.md)")
     p.add_argument("--metric", default="",
                    help="optional terms added to every task's metric, comma-separated: "
                         "distance, specialist (default: none)")
@@ -148,7 +152,11 @@ def _step_until_stopped(link: Any, stop: threading.Event, max_ticks: int | None,
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if args.refine and args.allocator not in REFINABLE:
+        parser.error(f"--refine is for the consensus allocators ({', '.join(REFINABLE)}), "
+                     f"not --allocator {args.allocator}")
     logging.basicConfig(level=args.log_level.upper(),
                         format="%(asctime)s %(name)s %(levelname)s %(message)s")
     try:
@@ -210,7 +218,8 @@ def main(argv: list[str] | None = None) -> int:
             team = _team(world, name)
             speed = agent.profile.max_speed_mps if "mobile" in agent.subjects() else 0.0
             link = MurdochLink(agent, transport, events, auction_log, tick_sync=sync,
-                               allocator_name=args.allocator, team=team, speed_mps=speed)
+                               allocator_name=args.allocator, team=team, speed_mps=speed,
+                               refine=args.refine)
             _step_until_stopped(link, stop, args.max_ticks, name)
         else:
             agent.run(stop, max_ticks=args.max_ticks or None)

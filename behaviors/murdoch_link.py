@@ -146,12 +146,14 @@ class MurdochLink:
 
     `allocator` names it in `murdoch.allocators.ALLOCATORS`; `team` lists every member of
     the team in a fixed order (the world's robots: consensus allocators index agents by
-    it) and `speed_mps` is the robot's nominal speed (0: it does not move)."""
+    it) and `speed_mps` is the robot's nominal speed (0: it does not move); `refine` asks
+    for the allocator's refined form (`murdoch-robot --refine`)."""
 
     def __init__(self, agent: LinkedAgent, transport: Transport, events: EventSource,
                  auction_log: IO[str] | None = None, *, subtask_patience_s: float = 60.0,
                  tick_sync: TickSync | None = None, allocator_name: str = "murdoch",
-                 team: tuple[str, ...] = (), speed_mps: float = 0.5) -> None:
+                 team: tuple[str, ...] = (), speed_mps: float = 0.5,
+                 refine: bool = False) -> None:
         self.agent = agent
         self.tick_sync = tick_sync
         self.metric_errors = 0
@@ -165,7 +167,7 @@ class MurdochLink:
         self._patience_s = subtask_patience_s
         self._auction_log = auction_log
         events.add_sink(self._on_event)
-        self.allocator = allocator(allocator_name)
+        self.allocator = allocator(allocator_name, refine=refine)
         hooks = RobotHooks(
             agent.name, frozenset(agent.subjects()), score=self._score,
             knows=lambda name: name in TASKS, on_start=self._on_start, on_stop=self._on_stop,

@@ -9,6 +9,10 @@ writes `comparison.png` and prints the mean ± standard deviation over seeds per
 tasks completed, time from introduction to start, distance driven, messages and bytes per
 task, group tasks completed, reallocations after kills and unachievable tasks.
 
+A consensus allocator's refined form is compared as an allocator of its own: `cbba+refine`
+runs `--allocator cbba --refine` (`REFINED`); `--refine` adds the refined form of every
+consensus allocator listed, next to the plain one.
+
 The pure part (`run_row`, `start_waits`, `reallocations_after_kills`, `mean_std`,
 `by_allocator`, `format_table`) builds and reads rows; `run_one` and the click command are the
 process and file edges.
@@ -34,6 +38,7 @@ from experiments import events as ev
 from experiments.experiment import ALLOCATOR_NAMES
 from experiments.run_cli import parse_at, parse_duration_s
 from experiments.sweep_longterm import murdoch_command, parse_seeds
+from murdoch.allocators import REFINABLE
 
 METRICS: tuple[tuple[str, str], ...] = (
     ("tasks_completed", "tasks completed"),
@@ -53,6 +58,11 @@ COLUMNS: tuple[str, ...] = (
 )
 
 
+REFINED = "+refine"
+"""The suffix that names an allocator's refined form (`cbba+refine`)."""
+COMPARABLE: tuple[str, ...] = (*ALLOCATOR_NAMES, *(a + REFINED for a in REFINABLE))
+
+
 @dataclass(frozen=True, slots=True)
 class Job:
     allocator: str
@@ -60,6 +70,12 @@ class Job:
 
     def label(self) -> str:
         return f"{self.allocator}-s{self.seed}"
+
+    def allocator_args(self) -> list[str]:
+        """`murdoch run`'s options for this allocator (`--refine` for a refined form)."""
+        if self.allocator.endswith(REFINED):
+            return ["--allocator", self.allocator.removesuffix(REFINED), "--refine"]
+        return ["--allocator", self.allocator]
 
 
 # -- one run's figures (pure) ----------------------------------------------------------------
@@ -256,7 +272,7 @@ def run_one(job: Job, *, out: Path, until_s: float, extra: Sequence[str],
     run_out = out / job.label()
     run_out.mkdir(parents=True, exist_ok=True)
     args = [*murdoch_command(), "run", "longterm", "--until", f"{until_s:g}s",
-            "--allocator", job.allocator, "--seed", str(job.seed), "--out", str(run_out),
+            *job.allocator_args(), "--seed", str(job.seed), "--out", str(run_out),
             "--no-replay", *extra]
     if not pin:
         args.append("--no-pin-cpus")
@@ -279,13 +295,18 @@ def _span(seconds: float) -> str:
     return f"{seconds / 60.0:g} min" if seconds >= 60.0 else f"{seconds:g} s"
 
 
-def parse_allocators(text: str) -> list[str]:
+def parse_allocators(text: str, refine: bool = False) -> list[str]:
+    """The allocators to compare, in order; with `refine` each consensus allocator is
+    followed by its refined form."""
     names = [a.strip() for a in text.split(",") if a.strip()]
-    unknown = [a for a in names if a not in ALLOCATOR_NAMES]
+    unknown = [a for a in names if a not in COMPARABLE]
     if not names or unknown:
         raise click.BadParameter(
-            f"expected allocators among {', '.join(ALLOCATOR_NAMES)} (comma-separated), "
+            f"expected allocators among {', '.join(COMPARABLE)} (comma-separated), "
             f"got {text!r}", param_hint="--allocators")
+    if refine:
+        names = [n for a in names
+                 for n in ((a, a + REFINED) if a in REFINABLE else (a,))]
     return list(dict.fromkeys(names))
 
 
@@ -319,7 +340,11 @@ def _run_options(world: str | None, task_interval: float, group_tasks: float,
 @click.command("compare")
 @click.argument("experiment", type=click.Choice(["longterm"]))
 @click.option("--allocators", default=",".join(ALLOCATOR_NAMES), show_default=True,
-              help="Allocators to compare, comma-separated.")
+              help="Allocators to compare, comma-separated; cbba+refine, cbga+refine: "
+                   "with the robots' improvement phase (murdoch run --refine).")
+@click.option("--refine", is_flag=True,
+              help="Also run the refined form of every consensus allocator listed, next to "
+                   "the plain one.")
 @click.option("--seeds", default="1-5", show_default=True, help="Seeds: 1,2,3 or 1-5.")
 @click.option("--sim-hours", type=float, default=None, help="Simulated hours of every run.")
 @click.option("--until", "until", default=None, show_default="3h",
@@ -340,12 +365,13 @@ def _run_options(world: str | None, task_interval: float, group_tasks: float,
               help="Start it again in every run: ROBOT@TIME.")
 @click.option("--metric", "metric_terms", default="",
               help="Passed to every run: terms added to the robots' task metrics.")
-def compare(experiment: str, allocators: str, seeds: str, sim_hours: float | None,
+def compare(experiment: str, allocators: str, refine: bool, seeds: str,
+            sim_hours: float | None,
             until: str | None, jobs: int, out: Path, world: str | None, task_interval: float,
             group_tasks: float, kills: tuple[str, ...], restarts: tuple[str, ...],
             metric_terms: str) -> None:
     """Run EXPERIMENT with each allocator on each seed; CSV, figure and a table."""
-    names = parse_allocators(allocators)
+    names = parse_allocators(allocators, refine)
     seed_list = parse_seeds(seeds)
     if sim_hours is not None and until is not None:
         raise click.UsageError("give --sim-hours or --until, not both")

@@ -100,8 +100,9 @@ def build_report(run: rd.RunDir, *, replay: bool = True) -> Report:
     summary["events_sha256"] = (hashlib.sha256(run.events.read_bytes()).hexdigest()
                                 if run.events.is_file() else None)
     summary["malformed_event_lines"] = stats.malformed
-    summary["allocator"] = (str(run.read_config().get("allocator", "murdoch"))
-                            if run.config.is_file() else "murdoch")
+    config = run.read_config() if run.config.is_file() else {}
+    summary["allocator"] = str(config.get("allocator", "murdoch"))
+    summary["refine"] = bool(config.get("refine", False))
     spec = world_of(run)
     robots = tuple(r.name for r in spec.robots) if spec is not None else ()
     try:

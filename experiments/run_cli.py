@@ -26,7 +26,7 @@ from experiments.plugins import EXPERIMENTS
 from experiments.supervisor import RobotProcess, RobotSupervisor
 from experiments.supervisor import start_robot as _start_robot
 from experiments.supervisor import stop_robot as _stop_robot
-from murdoch.allocators import ALLOCATORS
+from murdoch.allocators import ALLOCATORS, REFINABLE
 
 if TYPE_CHECKING:
     from experiments.run_extras import RunExtras
@@ -125,6 +125,9 @@ def free_udp_port() -> int:
               show_default=True,
               help="The team's allocator, the same on the runner and on every robot: "
                    + "; ".join(f"{a.name}: {a.summary}" for a in ALLOCATORS.values()) + ".")
+@click.option("--refine", is_flag=True,
+              help="cbba, cbga: the robots improve each settled plan by exchanges agreed "
+                   "among them before claiming (docs/allocators.md); off by default.")
 @click.option("--no-replay", is_flag=True, help="Do not write replay.html.")
 @click.option("--pipelined/--no-pipelined", default=True, show_default=True,
               help="Lockstep: the server sends each round before it steps and computes the "
@@ -166,7 +169,8 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
         meshcat: bool, out: Path, world: str | None, task_interval: float,
         kills: tuple[str, ...], restarts: tuple[str, ...], switch_offs: tuple[str, ...],
         switch_ons: tuple[str, ...], goal_radius: float | None, goal_velocity: str | None,
-        retargets: tuple[str, ...], metric_terms: str, allocator: str, no_replay: bool,
+        retargets: tuple[str, ...], metric_terms: str, allocator: str, refine: bool,
+        no_replay: bool,
         pipelined: bool, robot_nice: int, key: str | None, pin_cpus: bool,
         record_rate: float, no_record: bool, trails: int, lasers: bool,
         group_tasks: float, transport: str, bind: str, places: tuple[str, ...]) -> None:
@@ -175,6 +179,9 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
 
     if sim_hours is not None and until is not None:
         raise click.UsageError("give --sim-hours or --until, not both")
+    if refine and allocator not in REFINABLE:
+        raise click.UsageError(f"--refine is for the consensus allocators "
+                               f"({', '.join(REFINABLE)}), not --allocator {allocator}")
     duration_s = (sim_hours * 3600.0 if sim_hours is not None
                   else parse_duration_s(until) if until is not None else DEFAULT_DURATION_S)
     try:
@@ -190,7 +197,7 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
             pipelined=pipelined, robot_nice=robot_nice, pin_cpus=pin_cpus, key=key,
             record=not no_record, record_rate_hz=record_rate, trails=trails, lasers=lasers,
             goal_plan=_goal_plan(goal_velocity, retargets),
-            metric_terms=_metric_terms(metric_terms), allocator=allocator,
+            metric_terms=_metric_terms(metric_terms), allocator=allocator, refine=refine,
             group_task_rate=group_tasks, transport=transport, bind=bind,
             placements=tuple(parse_place(p) for p in places),
         )
@@ -232,7 +239,7 @@ def run_experiment(
     record_rate_hz: float = 2.0, goal_plan: Any = None, metric_terms: tuple[str, ...] = (),
     extras: RunExtras | None = None, allocator: str = "murdoch", group_task_rate: float = 0.0,
     transport: str = "multicast", bind: str = "127.0.0.1",
-    placements: tuple[tuple[str, tuple[str, ...]], ...] = (),
+    placements: tuple[tuple[str, tuple[str, ...]], ...] = (), refine: bool = False,
 ) -> int:
     """Run one experiment end to end; the exit code of `murdoch run`."""
     from experiments.experiment import RunOptions
@@ -245,7 +252,7 @@ def run_experiment(
         pipelined=pipelined, robot_nice=robot_nice, pin_cpus=pin_cpus, key=key,
         trails=trails, lasers=lasers, record=record, record_rate_hz=record_rate_hz,
         metric_terms=metric_terms, extras=extras if extras is not None else RunExtras(),
-        transport=transport, bind=bind, placements=placements)
+        transport=transport, bind=bind, placements=placements, refine=refine)
     options = RunOptions(duration_s, seed, task_interval_s, tuple(switch_offs or ()),
                          tuple(switch_ons or ()), goal_radius_m, goal_plan,
                          group_task_rate=group_task_rate, allocator=allocator)

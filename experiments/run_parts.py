@@ -77,6 +77,8 @@ class RunSettings:
     """Where the Player server (and a Zenoh hub) listen; another address only when asked."""
     placements: tuple[tuple[str, tuple[str, ...]], ...] = ()
     """(robot, launch prefix): robot processes started elsewhere (`ProcessSpec.launch`)."""
+    refine: bool = False
+    """The robots' consensus agents run the improvement phase (`murdoch run --refine`)."""
 
     @property
     def lockstep(self) -> bool:
@@ -161,7 +163,7 @@ def run_config(settings: RunSettings, options: RunOptions,
         "cpu_affinity": split.as_dict() if split is not None else None,
         "kills": labels(settings.kills), "restarts": labels(settings.restarts),
         "team_key": "given" if settings.key or os.environ.get(KEY_ENV) else "fresh",
-        "allocator": options.allocator,
+        "allocator": options.allocator, "refine": settings.refine,
         "transport": settings.transport, "bind": settings.bind,
     }
     config.update(settings.experiment.config(options))
@@ -269,7 +271,7 @@ def assemble(settings: RunSettings, options: RunOptions, spec: WorldSpec) -> Run
         ep.name, world=str(spec.source), bus=bus, seed=options.seed,
         logs=rec.run.logs, metric_terms=settings.metric_terms, lockstep=lockstep,
         read_timeout_s=STALL_LIMIT_S * 4, allocator=options.allocator,
-        launch=launches.get(ep.name, ())) for ep in endpoints}
+        launch=launches.get(ep.name, ()), refine=settings.refine) for ep in endpoints}
     rec.config["processes"] = [p.as_dict() for p in specs.values()]
     bus_loss = _bus_loss(settings, env)
     supervisor = RobotSupervisor(specs, lambda n: rec.run.log_file(f"robot-{n}"), env,

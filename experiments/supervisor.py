@@ -87,10 +87,10 @@ class BusPlace:
 def robot_process(name: str, *, world: str, bus: BusPlace, seed: int, logs: Path,
                   metric_terms: tuple[str, ...], lockstep: bool,
                   read_timeout_s: float, allocator: str = "murdoch",
-                  launch: tuple[str, ...] = ()) -> ProcessSpec:
+                  launch: tuple[str, ...] = (), refine: bool = False) -> ProcessSpec:
     """The `murdoch-robot` process that drives the endpoint `name` (placed by `launch`; with
-    `allocator` other than MURDOCH, its command line names it; MURDOCH's stays as it always
-    was)."""
+    `allocator` other than MURDOCH, its command line names it, and `refine` adds
+    `--refine`; MURDOCH's stays as it always was)."""
     args = ["-p", "{port}", "--name", name, "--world", world, *bus.args(),
             "--seed", str(seed), "--instance", "{instance}",
             "--events", str(logs / f"{name}.events.jsonl"),
@@ -99,6 +99,8 @@ def robot_process(name: str, *, world: str, bus: BusPlace, seed: int, logs: Path
         args += ["--metric", ",".join(metric_terms)]
     if allocator != "murdoch":
         args += ["--allocator", allocator]
+    if refine:
+        args += ["--refine"]
     if lockstep:
         # in lockstep a robot waits for the slowest of the team (one starting up on a
         # loaded machine, say): the runner's own stall limit ends a run that truly hangs

@@ -21,14 +21,25 @@ ALLOCATORS: dict[str, Allocator] = {
 DEFAULT = "murdoch"
 
 
-def allocator(name: str) -> Allocator:
-    """The allocator called `name`; ValueError naming the known ones otherwise."""
+REFINABLE: tuple[str, ...] = tuple(n for n, a in ALLOCATORS.items() if a.refined is not None)
+"""The allocators that take `--refine` (the consensus ones)."""
+
+
+def allocator(name: str, refine: bool = False) -> Allocator:
+    """The allocator called `name` (with `refine`, its refined form); ValueError naming the
+    known ones, or those that take `--refine`, otherwise."""
     try:
-        return ALLOCATORS[name]
+        found = ALLOCATORS[name]
     except KeyError:
         raise ValueError(f"unknown allocator {name!r} (expected one of "
                          f"{', '.join(ALLOCATORS)})") from None
+    if not refine:
+        return found
+    if found.refined is None:
+        raise ValueError(f"--refine is for the consensus allocators ({', '.join(REFINABLE)}), "
+                         f"not {name}")
+    return found.refined()
 
 
-__all__ = ["ALLOCATORS", "DEFAULT", "Allocator", "Assignment", "RobotHooks", "UserHooks",
-           "allocator"]
+__all__ = ["ALLOCATORS", "DEFAULT", "REFINABLE", "Allocator", "Assignment", "RobotHooks",
+           "UserHooks", "allocator"]

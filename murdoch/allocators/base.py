@@ -79,6 +79,11 @@ class Allocator:
     user: UserFactory
     sub_tasks: bool
     """Whether a robot's member can introduce sub-tasks of its running task (boxpush)."""
+    refined: Callable[[], Allocator] | None = None
+    """The same allocator with the improvement phase on the robots (`--refine`); None when
+    it has none (MURDOCH)."""
+    refine: bool = False
+    """Whether this is the refined form."""
 
     @property
     def codec(self) -> Codec:

@@ -2,8 +2,9 @@
 
 Both run `consensus_robot.ConsensusRobot` on the robots and `consensus_user.ConsensusUser` on
 the runner, over the team messages of `team_messages`; the robot's member takes the kind
-("cbba" or "cbga") and builds that algorithm's agent. The parts load on first use, so a
-MURDOCH team never imports the consensus package.
+("cbba" or "cbga") and builds that algorithm's agent; the refined form
+(`Allocator.refined`, `--refine`) adds the improvement phase on the robots. The parts load
+on first use, so a MURDOCH team never imports the consensus package.
 """
 
 from __future__ import annotations
@@ -26,12 +27,17 @@ def _user_member(transport: Transport, clock: Clock, hooks: UserHooks) -> TeamMe
     return ConsensusUser(transport, clock, hooks)
 
 
-def consensus_allocator(kind: str, summary: str) -> Allocator:
-    """The allocator whose robots run the consensus algorithm `kind`."""
+def consensus_allocator(kind: str, summary: str, refine: bool = False) -> Allocator:
+    """The allocator whose robots run the consensus algorithm `kind` (with `refine`, and
+    the improvement phase of `consensus_refine`)."""
 
     def robot_member(transport: Transport, clock: Clock, hooks: RobotHooks) -> TeamMember:
         from murdoch.allocators.consensus_robot import ConsensusRobot
 
-        return ConsensusRobot(transport, clock, hooks, kind)
+        return ConsensusRobot(transport, clock, hooks, kind, refine=refine)
 
-    return Allocator(kind, summary, _codec, robot_member, _user_member, sub_tasks=False)
+    def refined() -> Allocator:
+        return consensus_allocator(kind, summary, refine=True)
+
+    return Allocator(kind, summary, _codec, robot_member, _user_member, sub_tasks=False,
+                     refined=None if refine else refined, refine=refine)

@@ -20,6 +20,10 @@ Each step (once per tick of the robot's loop, on simulation time) the member:
    task (`on_start`); the executor reports progress every renewal period and the end, and
    hears the user repeat its grant every renewal period.
 
+With `refine` (`murdoch-robot --refine`), step 6 waits for the improvement phase of
+`consensus_refine` over the settled snapshot, and the robot claims the head of its path in
+the refined plan instead (as without `refine` when the phase is given up).
+
 A task the user withdraws while this robot executes it (revoked after a silence, cancelled)
 is stopped (`on_stop`), and so is one whose grant has not been repeated for the abandon
 time (the user may have revoked it in a message this robot missed). Robots under consensus
@@ -33,8 +37,9 @@ import threading
 from collections.abc import Iterable
 
 from murdoch.allocators.base import Assignment, RobotHooks
+from murdoch.allocators.consensus_refine import MAX_OFFERS, RefinePhase, Stance, check_refine
 from murdoch.allocators.consensus_state import local_message, state_chunks
-from murdoch.allocators.planning import plan_problem
+from murdoch.allocators.planning import Profile, plan_profile, team_problem
 from murdoch.allocators.team_messages import (
     SESSION,
     STATE_SUBJECT,
@@ -44,6 +49,7 @@ from murdoch.allocators.team_messages import (
     TaskOffer,
     TaskReport,
     TaskWithdraw,
+    TeamRefine,
 )
 from murdoch.auction.messages import AuctionEvent, TaskSpec
 from murdoch.auction.timing import USER_TASK
@@ -68,10 +74,11 @@ Agent = CbbaAgent | CbgaAgent
 
 
 class ConsensusRobot:
-    """A robot's `TeamMember` for CBBA (`algorithm="cbba"`) or CBGA (`"cbga"`)."""
+    """A robot's `TeamMember` for CBBA (`algorithm="cbba"`) or CBGA (`"cbga"`); `refine`
+    adds the improvement phase (`consensus_refine`)."""
 
     def __init__(self, transport: Transport, clock: Clock, hooks: RobotHooks,
-                 algorithm: str) -> None:
+                 algorithm: str, refine: bool = False) -> None:
         if algorithm not in ("cbba", "cbga"):
             raise ValueError(f"unknown consensus algorithm {algorithm!r}")
         if hooks.agent_id not in hooks.team:
@@ -80,6 +87,11 @@ class ConsensusRobot:
         self.clock = clock
         self.hooks = hooks
         self.algorithm = algorithm
+        self.refine = refine
+        self.phase: RefinePhase | None = None
+        self._phase_epoch = -1.0
+        self._refine_inbox: list[TeamRefine] = []
+        self._profile: Profile | None = None
         self.index = hooks.team.index(hooks.agent_id)
         self._subjects: SubjectSet = subject_set(hooks.subjects)
         self._lock = threading.RLock()
@@ -104,6 +116,8 @@ class ConsensusRobot:
         self._state: object = None
         self._stable_since = 0.0
         self.counters = {"claims": 0, "grants": 0, "replans": 0, "silent": 0}
+        if refine:
+            self.counters.update(phases=0, refined=0, phases_given_up=0, refine_refused=0)
         self._sub = transport.subscribe({TEAM_SUBJECT, STATE_SUBJECT})
         self.closed = False
 
@@ -178,6 +192,8 @@ class ConsensusRobot:
             if self._replan:
                 self._rebuild(now)
             self._consensus(now)
+            if self.refine:
+                self._refine(now)
             self._maybe_claim(now)
             self._report_progress(now)
             return len(envelopes)
@@ -198,6 +214,18 @@ class ConsensusRobot:
                     self.silent.discard(msg.sender)
                     self._replan = True
                 self._inbox.append(msg)
+        elif isinstance(msg, TeamRefine):
+            if self.refine and msg.sender != self.index:
+                why = check_refine(msg, len(self.hooks.team))
+                if why is None:
+                    self.heard[msg.sender] = now
+                    self._refine_inbox.append(msg)
+                else:
+                    self.counters["refine_refused"] += 1
+                    n = self.counters["refine_refused"]
+                    if n == 1 or n % 100 == 0:
+                        log.warning("%s: refused %d refine message(s), last from agent %s: %s",
+                                    self.hooks.agent_id, n, msg.sender, why)
         elif isinstance(msg, TaskOffer):
             if msg.offer not in self.offers and msg.offer not in self.withdrawn:
                 self.offers[msg.offer] = msg
@@ -276,10 +304,12 @@ class ConsensusRobot:
         else:
             position, available = self.hooks.position(), now
         names = {o.name for o in offers}
-        problem = plan_problem(
-            self.hooks.team, self.index, offers, subjects=frozenset(self._subjects),
+        profile = plan_profile(
+            offers, subjects=frozenset(self._subjects),
             can_do={n: self.hooks.knows(n) for n in names}, position=position,
             speed_mps=self.hooks.speed_mps, available_at=available)
+        self._profile = profile
+        problem = team_problem(self.hooks.team, {self.index: profile}, offers)
         agent: Agent = (CbbaAgent(problem, self.index) if self.algorithm == "cbba"
                         else CbgaAgent(problem, self.index))
         for k in self.silent:
@@ -319,19 +349,89 @@ class ConsensusRobot:
             for chunk in state_chunks(a.message(now), self.order):
                 self._publish(STATE_SUBJECT, chunk)
 
+    def _members(self, now: float) -> tuple[int, ...]:
+        """The agents a phase opened now takes part with: this one and those heard within
+        the silence limit and not found silent."""
+        heard = {k for k, t in self.heard.items()
+                 if k not in self.silent and now - t <= SILENT_S}
+        return tuple(sorted(heard | {self.index}))
+
+    def _refine(self, now: float) -> None:
+        """Open, restart, step or drop the improvement phase; send its state."""
+        inbox, self._refine_inbox = self._refine_inbox, []
+        a, profile = self.agent, self._profile
+        settled = (a is not None and profile is not None and bool(self.offers)
+                   and len(self.order) <= MAX_OFFERS and now - self._stable_since >= STABLE_S
+                   and any(a.winners_view()))  # (nothing won: nothing to exchange)
+        members = self._members(now)
+        phase = self.phase
+        if phase is not None and (not settled or self._phase_epoch != self._stable_since
+                                  or phase.snapshot != (tuple(self.order), members)):
+            phase = self.phase = None  # the plan it refined has changed
+        if phase is None and settled:
+            assert a is not None and profile is not None
+            phase = self._open_phase(now, members, now)
+        if phase is None:
+            return
+        for msg in inbox:
+            phase.receive(msg)
+        if phase.restart:
+            phase = self._open_phase(now, members, phase.opened_at)
+            for msg in inbox:
+                phase.receive(msg)
+        was_pending = phase.pending
+        phase.advance(now)
+        if was_pending and phase.done:
+            self.counters["refined"] += 1
+            self._emit(now, "refined", "", moves=phase.agent.moves if phase.agent else 0,
+                       path=list(phase.path()))
+        elif was_pending and phase.failed is not None:
+            self.counters["phases_given_up"] += 1
+            self._emit(now, "refine_given_up", "", reason=phase.failed)
+        if phase.pending or (phase.done and phase.lagging):
+            for msg in phase.messages():
+                self._publish(STATE_SUBJECT, msg)
+        phase.lagging = False
+        self.counters["refine_refused"] += phase.refused
+        phase.refused = 0
+
+    def _open_phase(self, now: float, members: tuple[int, ...],
+                    opened_at: float) -> RefinePhase:
+        a, profile = self.agent, self._profile
+        assert a is not None and profile is not None
+        path = tuple(self.order[j] for j in a.path)
+        offers = [self.offers[o] for o in self.order]
+        self.phase = RefinePhase(self.index, offers, members, Stance(profile, path), opened_at)
+        self._phase_epoch = self._stable_since
+        self.counters["phases"] += 1
+        return self.phase
+
     def _maybe_claim(self, now: float) -> None:
         a = self.agent
-        if a is None or self._executing is not None or not self._subjects or not a.path:
+        if a is None or self._executing is not None or not self._subjects:
             return
         if self._claim is not None and now - self._claim[1] < CLAIM_RETRY_S:
             return
         if now - self._stable_since < STABLE_S:
+            return
+        phase = self.phase if self.refine else None
+        if phase is not None and phase.pending:
+            return  # the phase decides who claims what
+        if phase is not None and phase.done:
+            path = phase.path()
+            if path and path[0] in self.offers:
+                self._send_claim(now, self.offers[path[0]], phase.path_value())
+            return
+        if not a.path:
             return
         j = a.path[0]
         if self.index not in a.winners_view()[j]:
             return
         offer = self.offers[self.order[j]]
         bid = a.y[j] if isinstance(a, CbbaAgent) else a.x[j][self.index]
+        self._send_claim(now, offer, bid)
+
+    def _send_claim(self, now: float, offer: TaskOffer, bid: float) -> None:
         self._claim = (offer.offer, now)
         self._claimed = offer
         self.counters["claims"] += 1

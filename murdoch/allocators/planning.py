@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 from murdoch.allocators.team_messages import TaskOffer
 from murdoch.consensus.scenario import Agent, CommGraph, Scenario, Task
@@ -26,22 +27,38 @@ STILL_SPEED_MPS = 1e6
 """The travel speed that stands for "does not move"."""
 
 
-def plan_problem(
-    team: Sequence[str], index: int, offers: Sequence[TaskOffer], *,
-    subjects: frozenset[str], can_do: Mapping[str, bool], position: tuple[float, float],
-    speed_mps: float, available_at: float,
-) -> Problem:
-    """The problem agent `index` of `team` plans over: the offers in the given order (their
-    local indices), its own position, speed and availability; the other agents appear only
-    by index (their rows are never used by this agent's bundle building)."""
-    capable = frozenset(
-        str(o.offer) for o in offers
-        if set(o.subjects) <= subjects and can_do.get(o.name, False))
+@dataclass(frozen=True)
+class Profile:
+    """What an agent plans from: where it is (or will be), its speed, when it is free, the
+    offers it may bid on and its subjects (its equipment)."""
+
+    position: tuple[float, float]
+    speed_mps: float
+    available_at: float
+    capable: frozenset[int]
+    subjects: frozenset[str]
+
+
+def capable_offers(offers: Sequence[TaskOffer], subjects: frozenset[str],
+                   can_do: Mapping[str, bool]) -> frozenset[int]:
+    """The offers a robot with these subjects and this library may bid on."""
+    return frozenset(o.offer for o in offers
+                     if set(o.subjects) <= subjects and can_do.get(o.name, False))
+
+
+def team_problem(team: Sequence[str], profiles: Mapping[int, Profile],
+                 offers: Sequence[TaskOffer]) -> Problem:
+    """The problem over the offers in the given order (their local indices) for the agents
+    of `team`: those in `profiles` as they describe themselves, the others only by index
+    (nothing they may do)."""
     agents = []
     for n, name in enumerate(team):
-        if n == index:
-            speed = speed_mps if speed_mps > 0 else STILL_SPEED_MPS
-            agents.append(Agent(name, position, speed, capable, subjects, available_at))
+        pr = profiles.get(n)
+        if pr is not None:
+            speed = pr.speed_mps if pr.speed_mps > 0 else STILL_SPEED_MPS
+            agents.append(Agent(name, pr.position, speed,
+                                frozenset(str(o) for o in pr.capable), pr.subjects,
+                                pr.available_at))
         else:
             agents.append(Agent(name, (0.0, 0.0), 1.0, frozenset(), frozenset(), 0.0))
     tasks = [Task(str(o.offer), (o.x, o.y), str(o.offer), REWARD, DISCOUNT,
@@ -50,3 +67,23 @@ def plan_problem(
              for o in offers]
     return build_problem(Scenario("team", tuple(agents), tuple(tasks), time_windows=True,
                                   max_depth=BUNDLE_LIMIT, comm_graph=CommGraph()))
+
+
+def plan_profile(offers: Sequence[TaskOffer], *, subjects: frozenset[str],
+                 can_do: Mapping[str, bool], position: tuple[float, float], speed_mps: float,
+                 available_at: float) -> Profile:
+    return Profile(position, speed_mps, available_at,
+                   capable_offers(offers, subjects, can_do), subjects)
+
+
+def plan_problem(
+    team: Sequence[str], index: int, offers: Sequence[TaskOffer], *,
+    subjects: frozenset[str], can_do: Mapping[str, bool], position: tuple[float, float],
+    speed_mps: float, available_at: float,
+) -> Problem:
+    """The problem agent `index` of `team` plans over: the offers in the given order (their
+    local indices), its own position, speed and availability; the other agents appear only
+    by index (their rows are never used by this agent's bundle building)."""
+    profile = plan_profile(offers, subjects=subjects, can_do=can_do, position=position,
+                           speed_mps=speed_mps, available_at=available_at)
+    return team_problem(team, {index: profile}, offers)

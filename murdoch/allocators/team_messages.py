@@ -7,7 +7,8 @@ offers. The agent at the head of whose path an offer stands, and who wins it in 
 consensus view, claims it (`TaskClaim`); the user grants each offer to the first claim it
 acts on (`TaskGrant`), so no task is ever executed by two robots at once, and withdraws
 offers that ended (`TaskWithdraw`: granted elsewhere, no winner, revoked, ended). The
-executor reports progress and the end (`TaskReport`). Agents' consensus state travels as
+executor reports progress and the end (`TaskReport`). Robots running with `--refine` also
+exchange `TeamRefine` while they improve a settled plan. Agents' consensus state travels as
 `murdoch.consensus.async_runner.ConsensusChunk`, entries naming offers, agents by their
 index in the team (the world's robot order).
 """
@@ -81,7 +82,34 @@ class TaskReport:
     reason: str = ""
 
 
-TEAM_KINDS = (TaskOffer, TaskClaim, TaskGrant, TaskWithdraw, TaskReport, ConsensusChunk)
+@dataclass(frozen=True)
+class TeamRefine:
+    """Part of one robot's state in a `--refine` phase (`consensus_refine`): the snapshot it
+    refines (the offers, ascending, and the agents taking part, by team index, ascending),
+    how it plans (its `planning.Profile`: position, speed, when it is free, the offers it may
+    do, its subjects) and its consensus path (offers), then the phase's entries as
+    `murdoch.consensus.async_refine.RefineChunk` carries them, agents and tasks by their
+    place in `members` and `offers`."""
+
+    KIND: ClassVar[str] = "team-refine"
+    sender: int
+    offers: tuple[int, ...]
+    members: tuple[int, ...]
+    x: float
+    y: float
+    speed_mps: float
+    available_at: float
+    capable: tuple[int, ...]
+    subjects: tuple[str, ...]
+    path: tuple[int, ...]
+    step: int
+    entries: tuple[tuple[int, int, float, tuple[int, ...]], ...]
+    previous_step: int
+    previous: tuple[tuple[int, int, float, tuple[int, ...]], ...]
+
+
+TEAM_KINDS = (TaskOffer, TaskClaim, TaskGrant, TaskWithdraw, TaskReport, ConsensusChunk,
+              TeamRefine)
 TEAM_CODEC = AUCTION_CODEC.extended(TEAM_KINDS)
 """Every message a CBBA or CBGA team sends (the auction kinds too, so tools that listen to
 a bus understand both)."""

@@ -35,6 +35,8 @@ class Clock:
 class Team:
     """A user and robots that execute each task for its duration, then report it done."""
 
+    refine = False  # the robots' improvement phase (test_allocators_consensus_refine.py)
+
     def __init__(self, algorithm: str, *, loss: float = 0.0, seed: int = 0,
                  robots: dict[str, tuple[float, float]] | None = None) -> None:
         self.algorithm = algorithm
@@ -73,7 +75,7 @@ class Team:
                            on_start=on_start, on_stop=on_stop,
                            position=lambda: self.places[name], speed_mps=0.5, team=self.names)
         self.members[name] = ConsensusRobot(self.bus.endpoint(name, TEAM_CODEC), self.clock,
-                                            hooks, self.algorithm)
+                                            hooks, self.algorithm, refine=self.refine)
 
     def kill(self, name: str) -> None:
         self.members.pop(name).close()
