@@ -263,7 +263,9 @@ class RunRecorder:
                 self._stop_viewer()
             if self.recording is not None:
                 self.recording.close()
-        return build_report(self.run, replay=replay and self._record)
+        distance = (self.recording.distance()
+                    if self.recording is not None and self.recording.complete else None)
+        return build_report(self.run, replay=replay and self._record, distance=distance)
 
     def hold_viewer(self, wait: Callable[[], None]) -> None:
         """Keep the live view up after the run (its last frame stays on screen) until `wait`

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from experiments import events as ev
+from experiments.driven import PathLengths
 from experiments.observe import snapshot_poses
 from player_server.record import channels as ch
 from player_server.record.writer import McapSink
@@ -218,7 +219,8 @@ class RunRecording:
         self._interval = float(world.sim.interval_sim_s)
         self._every = max(1, round(self.period_s / self._interval))
         self._last_tick = -1
-        self._sink = McapSink(self.path, clock=clock)
+        self._driven = PathLengths(r.name for r in world.robots if r.mobile)
+        self._sink = McapSink(self.path, clock=clock, on_written=self._written)
         self.samples = 0
         self._sink.put(ch.WORLD_INFO, 0.0, world_info(world, self.rate_hz))
         self._sink.put(ch.WORLD_SCENE, 0.0, static_scene(self.layout))
@@ -295,6 +297,22 @@ class RunRecording:
                 "code": _STATE_CODES.get(state, -1)})
         snapshot = dict(every)
         self._sink.put(ch.ROBOTS_SCENE, t, lambda: robots_scene(t, self.layout, snapshot))
+
+    def _written(self, topic: str, t: float, body: Any) -> None:
+        """(writer thread) Sum the metres driven from each /tf as it is recorded: the same
+        poses `murdoch report` would read back."""
+        if topic == ch.TF:
+            self._driven.add(ch.poses_of(body))
+
+    @property
+    def complete(self) -> bool:
+        """Everything handed over is in the file (the disk never failed it)."""
+        return self._sink.error is None
+
+    def distance(self) -> dict[str, Any]:
+        """summary.json's `distance_m` from the poses recorded; once `close()` has returned,
+        every recorded pose is in it."""
+        return self._driven.summary()
 
     def close(self) -> None:
         self._sink.close()

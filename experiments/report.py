@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import hashlib
 import logging
-import math
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,6 +15,7 @@ from typing import Any
 
 from experiments import events as ev
 from experiments import rundir as rd
+from experiments.driven import PathLengths
 from experiments.plots import write_plots
 from experiments.summary import summarize
 
@@ -56,29 +56,13 @@ def recorded_poses(path: Path) -> Iterator[dict[str, Any]]:
         yield {"t": rec.t_s, "kind": ev.POSES, "bodies": bodies}
 
 
-TELEPORT_M = 2.0
-"""A body that moved further than this between two recorded poses was placed, not driven."""
-
-
 def path_lengths(frames: Iterable[Mapping[str, Any]], robots: Iterable[str]
                  ) -> dict[str, float]:
-    """Metres each robot drove: the sum of the steps between its successive recorded
-    positions (``poses`` events), leaving out jumps of more than `TELEPORT_M` (a robot
-    placed somewhere by the runner)."""
-    names = set(robots)
-    last: dict[str, tuple[float, float]] = {}
-    total = dict.fromkeys(sorted(names), 0.0)
+    """Metres each robot drove over ``poses`` events (`driven.PathLengths`)."""
+    lengths = PathLengths(robots)
     for frame in frames:
-        for name, pose in frame["bodies"].items():
-            if name not in names:
-                continue
-            x, y = float(pose[0]), float(pose[1])
-            if name in last:
-                step = math.hypot(x - last[name][0], y - last[name][1])
-                if step <= TELEPORT_M:
-                    total[name] += step
-            last[name] = (x, y)
-    return {name: round(v, 3) for name, v in total.items()}
+        lengths.add(frame["bodies"])
+    return lengths.by_robot()
 
 
 def distance_driven(run: rd.RunDir, spec: Any) -> dict[str, Any] | None:
@@ -86,12 +70,17 @@ def distance_driven(run: rd.RunDir, spec: Any) -> dict[str, Any] | None:
     ground-truth poses (None without a recording)."""
     if spec is None or not run.recording.is_file():
         return None
-    by_robot = path_lengths(recorded_poses(run.recording),
-                            (r.name for r in spec.robots if r.mobile))
-    return {"by_robot": by_robot, "total": round(sum(by_robot.values()), 3)}
+    lengths = PathLengths(r.name for r in spec.robots if r.mobile)
+    for frame in recorded_poses(run.recording):
+        lengths.add(frame["bodies"])
+    return lengths.summary()
 
 
-def build_report(run: rd.RunDir, *, replay: bool = True) -> Report:
+def build_report(run: rd.RunDir, *, replay: bool = True,
+                 distance: Mapping[str, Any] | None = None) -> Report:
+    """summary.json, plots and (with `replay`) replay.html of a finished run. `distance`:
+    the metres driven, summed by the runner while it recorded (`RunRecording.distance`);
+    without it they are summed from run.mcap read back."""
     stats = ev.ReadStats()
     events = ev.read_events(run.events, stats=stats)
     processes = (ev.read_events(run.processes, stats=ev.ReadStats())
@@ -106,7 +95,8 @@ def build_report(run: rd.RunDir, *, replay: bool = True) -> Report:
     spec = world_of(run)
     robots = tuple(r.name for r in spec.robots) if spec is not None else ()
     try:
-        summary["distance_m"] = distance_driven(run, spec)
+        summary["distance_m"] = (dict(distance) if distance is not None
+                                 else distance_driven(run, spec))
     except Exception as exc:  # a recording cut short or unreadable: the rest still stands
         log.warning("%s: distance driven not computed: %s", run.root, exc)
         summary["distance_m"] = None

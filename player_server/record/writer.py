@@ -8,7 +8,9 @@ file: zstd-compressed chunks of `chunk_size` bytes, each written as soon as it i
 file flushed at least every `flush_period_s` of wall time. A crash therefore leaves a file that
 `player_server.record.reader` reads up to its last whole chunk. `close()` writes what is left
 and the summary (indexes and message counts). Up to `max_pending` messages wait; beyond that
-`put` blocks, so memory stays bounded if the disk falls behind.
+`put` blocks, so memory stays bounded if the disk falls behind. `on_written(topic, t_s, body)`
+is called on the writer thread after each message is in the file, with the body written: the
+recorder derives from it what it would otherwise have to read back.
 """
 
 from __future__ import annotations
@@ -33,7 +35,8 @@ _STOP = object()
 class McapSink:
     def __init__(self, path: Path, *, clock: Callable[[], float], chunk_size: int = 1 << 20,
                  flush_period_s: float = 1.0, max_pending: int = 200_000,
-                 metadata: Mapping[str, str] | None = None) -> None:
+                 metadata: Mapping[str, str] | None = None,
+                 on_written: Callable[[str, float, Any], None] | None = None) -> None:
         self.path = Path(path)
         self._clock = clock
         self._file: BinaryIO = self.path.open("wb")
@@ -43,6 +46,7 @@ class McapSink:
         if metadata:
             self._writer.add_metadata("murdoch", dict(metadata))
         self._flush_period = flush_period_s
+        self._on_written = on_written
         self._queue: queue.Queue[Any] = queue.Queue(max_pending)
         self._channels: dict[str, int] = {}
         self._schemas: dict[str, int] = {}
@@ -110,6 +114,9 @@ class McapSink:
                 self.error = exc
                 log.error("%s: recording stopped: %s", self.path, exc)
                 return
+            else:
+                if self._on_written is not None:
+                    self._on_written(topic, t_s, body)
 
     def close(self) -> None:
         """Write what waits, the last chunk and the summary; close the file."""

@@ -314,3 +314,18 @@ def test_specialist_and_distance_terms_give_tracking_to_the_camera_only_robots(
         # a camera-only robot that bid beats every generalist (one spare resource fewer)
         assert award["robot"] in ("p5", "p6"), award
         assert award["bid"] < 0.0  # the specialist term (-6 per spare resource) is in it
+
+
+def test_the_distance_summed_while_recording_is_the_one_read_back(
+    killed_winner_run: tuple[subprocess.CompletedProcess[str], Path]
+) -> None:
+    """summary.json's distance_m, summed by the runner from each /tf as it was written, is
+    exactly what `murdoch report` sums from run.mcap read back."""
+    from experiments import rundir as rd
+    from experiments.report import distance_driven, world_of
+
+    _, run = killed_winner_run
+    summary = json.loads((run / "summary.json").read_text())
+    rundir = rd.RunDir(run)
+    assert summary["distance_m"]["total"] > 1.0
+    assert distance_driven(rundir, world_of(rundir)) == summary["distance_m"]
