@@ -6,7 +6,8 @@ first minute and a half) and an overhead camera; tasks come every 20 s on averag
 kills r2 while it executes a task, restarts it 40 s later, and lasts four simulated
 minutes. Each allocator must complete tasks, reallocate the killed robot's task, never let
 two robots execute one task at once, and end every task in exactly one terminal state; a
-CBBA run made twice must write the same events.jsonl.
+CBBA run made twice must write the same events.jsonl. The same runs show that charging trips
+are counted as completed cycles.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from typing import Any
 
 import pytest
 
+from experiments import events as ev
 from experiments.events import read_events
 from experiments.soak.invariants import EventInvariants, Limits
 
@@ -80,6 +82,27 @@ def test_each_allocator_completes_tasks_through_a_kill_a_restart_and_charging(
     verdicts = checks.finish(float(s["sim_time_s"]))
     for name in ("terminal_states", "exclusive_execution", "reallocation_bound"):
         assert verdicts[name].held, (name, verdicts[name].first_counter_example)
+
+
+@pytest.mark.parametrize("allocator", ALLOCATORS)
+def test_charging_trips_are_completed_cycles(runs: dict[str, dict[str, Any]],
+                                             allocator: str) -> None:
+    """A robot is sent to charge and comes back; summary.json counts the charge starts, and
+    as charging trips each robot's charge ends that close an open start."""
+    s, events = runs[allocator]["summary"], runs[allocator]["events"]
+    starts = [e for e in events if e["kind"] == ev.CHARGE_START]
+    ends = [e for e in events if e["kind"] == ev.CHARGE_END]
+    assert ends and ends[0]["robot"] == starts[0]["robot"] and ends[0]["t"] > starts[0]["t"]
+    open_: set[str] = set()
+    cycles = 0
+    for e in events:
+        if e["kind"] == ev.CHARGE_START:
+            open_.add(e["robot"])
+        elif e["kind"] == ev.CHARGE_END and e["robot"] in open_:
+            open_.discard(e["robot"])
+            cycles += 1
+    assert s["charging_trips"] == cycles >= 1
+    assert s["charging_starts"] == len(starts)
 
 
 def test_the_same_seed_gives_every_allocator_the_same_tasks_and_faults(

@@ -1,11 +1,13 @@
 """A lockstep run is a pure function of its world, seed and options.
 
-Each run below is made twice: once as it comes, once with the runner and every robot
-process restricted to one CPU that a busy process shares with them, and without its
-recording (`--no-record`: what run.mcap samples must not change the run). Both must write
-exactly the events.jsonl recorded here (its sha256). A change that alters what the robots or the
-allocation do legitimately changes these digests: rerun with `MURDOCH_PRINT_DIGESTS=1` to
-see the new ones, check the runs' summaries, and update the table.
+Each run below is made twice: once as it comes (the session's shared run, which other
+tests read too; in the boxpush one every robot profiles its loop), once with the runner and
+every robot process restricted to one CPU that a busy process shares with them, without
+its recording (`--no-record`: what run.mcap samples must not change the run) and without
+profiles. Both must write exactly the events.jsonl recorded here (its sha256). A change
+that alters what the robots or the allocation do legitimately changes these digests: rerun
+with `MURDOCH_PRINT_DIGESTS=1` to see the new ones, check the runs' summaries, and update
+the table.
 
 numba compiles the sensing kernels for the CPU it runs on, so the digests hold on machines
 with the same CPU features (see docs/experiments.md).
@@ -21,15 +23,11 @@ import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import pytest
 
 pytestmark = pytest.mark.timeout(600)
-
-BOXPUSH = ["run", "boxpush", "--until", "90s", "--seed", "2", "--switch-off", "pusher1@30s",
-           "--switch-on", "pusher1@60s", "--no-replay"]
-LONGTERM = ["run", "longterm", "--until", "150s", "--task-interval", "25", "--seed", "4",
-            "--kill", "busy@45s", "--restart", "busy@90s", "--no-replay"]
 
 GOLDEN = {
     "boxpush": "ff5377a5e0e93f769488de0742849a79958483579f7f82533b464ac5768f1d21",
@@ -66,30 +64,36 @@ def _one_busy_cpu() -> Iterator[int | None]:
         busy.wait(10)
 
 
-def _run(args: list[str], out: Path, cpu: int | None = None) -> dict[str, object]:
-    extra = ["--no-pin-cpus", "--no-record"] if cpu is not None else []
+def _outcome(run: Path, recorded: bool, name: str) -> dict[str, object]:
+    assert (run / "run.mcap").is_file() == recorded
+    digest = hashlib.sha256((run / "events.jsonl").read_bytes()).hexdigest()
+    summary = json.loads((run / "summary.json").read_text())
+    assert summary["events_sha256"] == digest
+    if os.environ.get("MURDOCH_PRINT_DIGESTS"):
+        print(f"\n{name}: {digest} {summary['tasks']}", file=sys.stderr)
+    return {"digest": digest, "summary": summary}
+
+
+def _run_on(cpu: int | None, args: tuple[str, ...], out: Path) -> Path:
+    extra = ["--no-pin-cpus", "--no-record"]
+    if "--no-replay" not in args:
+        extra.append("--no-replay")  # nothing to replay without a recording
     preexec = (lambda: os.sched_setaffinity(0, {cpu})) if cpu is not None else None
     proc = subprocess.run([*_murdoch(), *args, *extra, "--out", str(out)], capture_output=True,
                           text=True, timeout=560, check=False, preexec_fn=preexec)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     (run,) = out.iterdir()
-    assert (run / "run.mcap").is_file() == (cpu is None)
-    digest = hashlib.sha256((run / "events.jsonl").read_bytes()).hexdigest()
-    summary = json.loads((run / "summary.json").read_text())
-    assert summary["events_sha256"] == digest
-    if os.environ.get("MURDOCH_PRINT_DIGESTS"):
-        print(f"\n{args[1]}: {digest} {summary['tasks']}", file=sys.stderr)
-    return {"digest": digest, "summary": summary}
+    return run
 
 
 @pytest.mark.parametrize("name", ["boxpush", "longterm"])
 def test_a_seeded_lockstep_run_repeats_byte_for_byte_idle_and_on_one_loaded_cpu(
-    name: str, tmp_path: Path
+    name: str, tmp_path: Path, boxpush_switched_run: Any, longterm_killed_winner_run: Any
 ) -> None:
-    args = BOXPUSH if name == "boxpush" else LONGTERM
-    idle = _run(args, tmp_path / "idle")
+    shared = boxpush_switched_run if name == "boxpush" else longterm_killed_winner_run
+    idle = _outcome(shared.run, True, name)
     with _one_busy_cpu() as cpu:
-        loaded = _run(args, tmp_path / "loaded", cpu)
+        loaded = _outcome(_run_on(cpu, shared.args, tmp_path / "loaded"), False, name)
     assert loaded["digest"] == idle["digest"]
     tasks = idle["summary"]["tasks"]  # type: ignore[index]
     assert {k: tasks[k] for k in OUTCOMES[name]} == OUTCOMES[name]

@@ -31,18 +31,11 @@ def _murdoch() -> list[str]:
 
 
 @pytest.fixture(scope="module")
-def killed_winner_run(tmp_path_factory: pytest.TempPathFactory
+def killed_winner_run(longterm_killed_winner_run: Any
                       ) -> tuple[subprocess.CompletedProcess[str], Path]:
-    """A 2-minute longterm run whose busy robot is killed at 45 s and restarted at 90 s."""
-    out = tmp_path_factory.mktemp("killed-winner") / "runs"
-    proc = subprocess.run(
-        [*_murdoch(), "run", "longterm", "--until", "120s", "--task-interval", "25",
-         "--seed", "4", "--kill", "busy@45s", "--restart", "busy@90s", "--out", str(out)],
-        capture_output=True, text=True, timeout=220, check=False,
-    )
-    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
-    (run,) = out.iterdir()
-    return proc, run
+    """A 150-second longterm run whose busy robot is killed at 45 s and restarted at 90 s
+    (shared with the twin-run test in test_experiments_repeat.py)."""
+    return longterm_killed_winner_run.proc, longterm_killed_winner_run.run
 
 
 def test_short_longterm_run_with_a_killed_winner(
@@ -62,7 +55,7 @@ def test_short_longterm_run_with_a_killed_winner(
     # every task ends in exactly one terminal state
     assert not any(terminal_state_problems(events).values())
     summary = json.loads((run / "summary.json").read_text())
-    assert summary["sim_time_s"] >= 119.0
+    assert summary["sim_time_s"] >= 149.0
     assert summary["tasks"]["introduced"] >= 4
     assert {"announce", "bid", "award"} <= set(summary["messages"]["by_kind"])
     # the robot holding a task was killed; its task went back to auction and to another robot
@@ -75,7 +68,7 @@ def test_short_longterm_run_with_a_killed_winner(
     assert awards[0] == victim and any(r != victim for r in awards[1:])
     assert [e["robot"] for e in events if e["kind"] == ev.ROBOT_RESTART] == [victim]
     assert summary["processes"]["runner"]["peak_rss_bytes"] > 0
-    assert "sim 0:02:00" in proc.stdout  # the final progress line
+    assert "sim 0:02:30" in proc.stdout  # the final progress line
     assert (run / "plots" / "robots.png").is_file()
     # a normal stop is not a connection failure in any robot's log
     for log in (run / "logs").glob("robot-*.log"):
@@ -114,9 +107,9 @@ def test_the_run_is_recorded_in_run_mcap(
     assert schema_of["/p1/laser"] == schema_of["/p2/laser"] == "foxglove.LaserScan"
     assert "/p3/laser" not in schema_of  # p3 has no laser
     assert sum(counts.values()) > 1000
-    # sensors: two samples per simulated second over 120 s, every robot at the same times
+    # sensors: two samples per simulated second over 150 s, every robot at the same times
     samples = [t for t, _, _ in messages["/tf"]]
-    assert 235 <= len(samples) <= 242
+    assert 295 <= len(samples) <= 302
     assert all(b - a == pytest.approx(0.5e9, abs=1e6) for a, b in itertools.pairwise(samples))
     for r in robots:
         for what in ("sonar", "sonar_ranges", "odometry", "battery"):
@@ -224,22 +217,15 @@ def test_replay_of_what_is_not_a_recording(tmp_path: Path) -> None:
         assert "Traceback" not in proc.stderr
 
 
-def test_short_boxpush_run_auctions_pushing_subtasks(tmp_path: Path) -> None:
-    out = tmp_path / "runs"
-    profiles = tmp_path / "profiles"
-    profiles.mkdir()
-    proc = subprocess.run(
-        [*_murdoch(), "run", "boxpush", "--until", "40s", "--seed", "2", "--no-replay",
-         "--out", str(out)],
-        capture_output=True, text=True, timeout=200, check=False,
-        env={**os.environ, "MURDOCH_ROBOT_PROFILE_DIR": str(profiles)},
-    )
-    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+def test_short_boxpush_run_auctions_pushing_subtasks(boxpush_switched_run: Any) -> None:
+    """90 s of boxpush, pusher1 off from 30 s to 60 s (the run is shared with the twin-run
+    test in test_experiments_repeat.py, which also shows that profiling changes nothing)."""
+    profiles = boxpush_switched_run.profiles
     # each robot wrote a profile of its loop when it stopped
     written = sorted(p.stem for p in profiles.glob("*.prof"))
     assert written == ["pusher1", "pusher2", "watcher"]
     assert pstats.Stats(str(profiles / "watcher.prof")).total_calls > 1000  # type: ignore[attr-defined]
-    (run,) = out.iterdir()
+    run = boxpush_switched_run.run
     events = ev.read_events(run / "events.jsonl")
     assert not any(terminal_state_problems(events).values())
     introduced = {e["task"]: e for e in events if e["kind"] == ev.TASK_INTRODUCED}
@@ -250,36 +236,6 @@ def test_short_boxpush_run_auctions_pushing_subtasks(tmp_path: Path) -> None:
     assert pushes and all(introduced[t]["source"] == "watcher" for t in pushes)
     assert {awards[t] for t in pushes if t in awards} <= {"pusher1", "pusher2"}
     assert any(t in awards for t in pushes)
-
-
-def test_short_run_completes_tasks_and_sends_robots_to_charge(tmp_path: Path) -> None:
-    out = tmp_path / "runs"
-    proc = subprocess.run(
-        [*_murdoch(), "run", "longterm", "--world", "test_lowbattery", "--until", "110s",
-         "--task-interval", "30", "--seed", "1", "--no-replay", "--out", str(out)],
-        capture_output=True, text=True, timeout=200, check=False,
-    )
-    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
-    (run,) = out.iterdir()
-    summary = json.loads((run / "summary.json").read_text())
-    assert summary["tasks"]["executed"] >= 1
-    assert summary["charging_trips"] >= 1
-    assert summary["invariant_terminal_states"]["holds"]
-    events = ev.read_events(run / "events.jsonl")
-    starts = [e for e in events if e["kind"] == ev.CHARGE_START]
-    ends = [e for e in events if e["kind"] == ev.CHARGE_END]
-    assert ends and ends[0]["robot"] == starts[0]["robot"] and ends[0]["t"] > starts[0]["t"]
-    # charging trips are completed cycles: each robot's ends that close an open start
-    open_: set[str] = set()
-    cycles = 0
-    for e in events:
-        if e["kind"] == ev.CHARGE_START:
-            open_.add(e["robot"])
-        elif e["kind"] == ev.CHARGE_END and e["robot"] in open_:
-            open_.discard(e["robot"])
-            cycles += 1
-    assert summary["charging_trips"] == cycles
-    assert summary["charging_starts"] == len(starts)
 
 
 def test_specialist_and_distance_terms_give_tracking_to_the_camera_only_robots(
