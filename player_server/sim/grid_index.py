@@ -124,14 +124,23 @@ def _span(lo: float, hi: float, origin: float, cell: float, n: int) -> tuple[int
     return cell_of(lo - PAD, origin, cell, n), cell_of(hi + PAD, origin, cell, n)
 
 
-@njit(cache=True, inline="always")
-def _scatter(cx: np.ndarray, cy: np.ndarray, radius: np.ndarray, x0: float, y0: float,
-             cell: float, nx: int, ny: int, slot: np.ndarray, items: np.ndarray,
-             counting: bool) -> None:
-    """One pass of the counting sort over every finite footprint and each cell it may
-    touch: counting, add one to ``slot[cell + 1]``; else list the footprint at
-    ``items[slot[cell]]`` and advance ``slot[cell]``."""
-    for f in range(cx.shape[0]):
+@njit(cache=True)
+def _fill(cx: np.ndarray, cy: np.ndarray, radius: np.ndarray, x0: float, y0: float,
+          cell: float, nx: int, ny: int) -> tuple[np.ndarray, np.ndarray]:
+    k = cx.shape[0]
+    count = np.zeros(nx * ny + 1, np.int64)
+    for f in range(k):
+        if not (math.isfinite(cx[f]) and math.isfinite(cy[f]) and math.isfinite(radius[f])):
+            continue
+        ax, bx = _span(cx[f] - radius[f], cx[f] + radius[f], x0, cell, nx)
+        ay, by = _span(cy[f] - radius[f], cy[f] + radius[f], y0, cell, ny)
+        for iy in range(ay, by + 1):
+            for ix in range(ax, bx + 1):
+                count[iy * nx + ix + 1] += 1
+    start = np.cumsum(count)
+    fill = start[:-1].copy()
+    items = np.empty(start[-1], np.int64)
+    for f in range(k):
         if not (math.isfinite(cx[f]) and math.isfinite(cy[f]) and math.isfinite(radius[f])):
             continue
         ax, bx = _span(cx[f] - radius[f], cx[f] + radius[f], x0, cell, nx)
@@ -139,22 +148,8 @@ def _scatter(cx: np.ndarray, cy: np.ndarray, radius: np.ndarray, x0: float, y0: 
         for iy in range(ay, by + 1):
             for ix in range(ax, bx + 1):
                 c = iy * nx + ix
-                if counting:
-                    slot[c + 1] += 1
-                else:
-                    items[slot[c]] = f
-                    slot[c] += 1
-
-
-@njit(cache=True)
-def _fill(cx: np.ndarray, cy: np.ndarray, radius: np.ndarray, x0: float, y0: float,
-          cell: float, nx: int, ny: int) -> tuple[np.ndarray, np.ndarray]:
-    count = np.zeros(nx * ny + 1, np.int64)
-    _scatter(cx, cy, radius, x0, y0, cell, nx, ny, count, count, True)
-    start = np.cumsum(count)
-    fill = start[:-1].copy()
-    items = np.empty(start[-1], np.int64)
-    _scatter(cx, cy, radius, x0, y0, cell, nx, ny, fill, items, False)
+                items[fill[c]] = f
+                fill[c] += 1
     return start, items
 
 
