@@ -20,7 +20,7 @@ from numba import njit
 
 from murdoch.consensus.kernel_parts import DUR, EPS, NONE, WE, earliest_start, gain, prepare
 
-PARTS_SHA256 = "2cbdcd95a4cb083c7bfd2535a3e8624d43b7450d4cd1e724f9816ce43a483405"
+PARTS_SHA256 = "8a9142c8045e32bcfce86fc52548a5afdd2302ea3c8404c4c7993d41bed57ffe"
 """The `kernel_parts.py` this module was written against (see its notes on numba's cache)."""
 
 

@@ -49,9 +49,9 @@ from murdoch.consensus.cbga_build_kernel import (
 )
 from murdoch.consensus.kernel_parts import EPS, NONE, WE, conflict_action, merge_stamps
 
-PARTS_SHA256 = "2cbdcd95a4cb083c7bfd2535a3e8624d43b7450d4cd1e724f9816ce43a483405"
+PARTS_SHA256 = "8a9142c8045e32bcfce86fc52548a5afdd2302ea3c8404c4c7993d41bed57ffe"
 """The `kernel_parts.py` this module was written against (see its notes on numba's cache)."""
-BUILD_SHA256 = "200040017f784d78adf967f606b1e9d0f2365aa9ae2947787768f1e35c72e221"
+BUILD_SHA256 = "e6f76754852317eb76a148882bc80de108673819875a9325559d6b1782f2c23c"
 """The `cbga_build_kernel.py` this module was written against."""
 
 

@@ -151,19 +151,6 @@ def gain(c: int, not_before: float, at_row: np.ndarray, tt: np.ndarray, tasks: n
     return best, at
 
 
-@njit(cache=True, inline="always")
-def _belief_code(z: int, first: int, second: int, nobody: int) -> int:
-    """The code of a believed winner z (`conflict.SENDER_CODES`, `RECEIVER_CODES`): 0 the
-    believer's first-listed agent, 1 the second, `nobody` for no winner, else 2 ("m")."""
-    if z == first:
-        return 0
-    if z == second:
-        return 1
-    if z == NONE:
-        return nobody
-    return 2
-
-
 @njit(cache=True)
 def conflict_action(i: int, k: int, yi: float, zi: int, yk: float, zk: int, s: np.ndarray,
                     s_k: np.ndarray, table: np.ndarray, lut: np.ndarray) -> int:
@@ -171,10 +158,24 @@ def conflict_action(i: int, k: int, yi: float, zi: int, yk: float, zk: int, s: n
     1 update, 2 reset (`conflict.Action`). s and s_k are the timestamp rows, whose last entry
     (-inf) stands for "no winner"."""
     n = s.shape[0] - 1
-    sc = _belief_code(zk, k, i, 3)
-    rc = _belief_code(zi, i, k, 4)
-    if rc == 2 and sc == 2 and zi != zk:
+    if zk == k:
+        sc = 0
+    elif zk == i:
+        sc = 1
+    elif zk == NONE:
+        sc = 3
+    else:
+        sc = 2
+    if zi == i:
+        rc = 0
+    elif zi == k:
+        rc = 1
+    elif zi == NONE:
+        rc = 4
+    elif sc == 2 and zi != zk:
         rc = 3
+    else:
+        rc = 2
     zk_at = zk if zk >= 0 else n
     zi_at = zi if zi >= 0 else n
     sk_zk = s_k[zk_at]
