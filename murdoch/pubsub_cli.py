@@ -7,8 +7,12 @@ import json
 import math
 import os
 import random
+import signal
 import sys
+import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import click
@@ -134,6 +138,23 @@ def _network_options(func: Any) -> Any:
     return func
 
 
+@contextmanager
+def _ctrl_c_stops() -> Iterator[threading.Event]:
+    """Ctrl-C (SIGINT) sets the event the command's loop watches, instead of raising
+    KeyboardInterrupt wherever the main thread happens to be: an exception inside a lock's
+    wait could leave the lock held, and a transport's own threads (Zenoh's callbacks) would
+    then wait on it for ever and keep `close()` from returning."""
+    stop = threading.Event()
+    if threading.current_thread() is not threading.main_thread():
+        yield stop
+        return
+    previous = signal.signal(signal.SIGINT, lambda _signo, _frame: stop.set())
+    try:
+        yield stop
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 @click.command()
 @click.option(
     "--subjects", default=None, help="Show only messages these subjects would receive (a,b,c)."
@@ -187,12 +208,11 @@ def listen(
     transport.core.frame_tap = show
     click.echo(f"listening on {_where(transport, net)}", err=True)
     try:
-        while (duration is None or clock() - start < duration) and (
-            count is None or shown < count
-        ):
-            transport.poll(timeout_s=0.1)
-    except KeyboardInterrupt:
-        pass
+        with _ctrl_c_stops() as stop:
+            while not stop.is_set() and (duration is None or clock() - start < duration) and (
+                count is None or shown < count
+            ):
+                transport.poll(timeout_s=0.1)
     finally:
         transport.close()
     dropped = transport.counters.dropped
@@ -289,11 +309,10 @@ def announce(
     )
     deadline = clock() + wait
     try:
-        node.announce(spec, patience_s=patience)
-        while not outcomes and clock() < deadline:
-            node.step(timeout_s=0.01)
-    except KeyboardInterrupt:
-        pass
+        with _ctrl_c_stops() as stop:
+            node.announce(spec, patience_s=patience)
+            while not stop.is_set() and not outcomes and clock() < deadline:
+                node.step(timeout_s=0.01)
     finally:
         node.close()
         transport.close()
