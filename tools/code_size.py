@@ -20,17 +20,6 @@ MAX_FUNCTION_LINES = 120
 LONG_FUNCTION_LINES = 100
 MAX_LONG_FUNCTIONS = 3
 
-EXEMPT: dict[str, int] = {
-    "murdoch/consensus/cbga_build_kernel.py::_build": 208,
-    "murdoch/consensus/cbga_kernel.py::run_cbga": 180,
-}
-"""What stands over the limits, with the size it may not exceed. The compiled CBGA run is kept
-whole, its functions unsplit: split into helper functions it ran measurably slower
-(bench/cbba_speed.py); its modules (phase 1 and the rest) keep the module limit. Every
-other module, class and function keeps the limits. The ceilings include the paper's linear
-cost, team mode "total" and the pairwise-step tally."""
-
-
 @dataclass(frozen=True)
 class Span:
     kind: str  # "module", "class" or "function"
@@ -70,8 +59,8 @@ def violations(found: list[Span]) -> list[str]:
     limits = {"module": MAX_MODULE_LINES, "class": MAX_CLASS_LINES,
               "function": MAX_FUNCTION_LINES}
     out = [f"{s.kind} {s.name} has {s.lines} lines (at most "
-           f"{EXEMPT.get(s.name, limits[s.kind])})"
-           for s in found if s.lines > max(limits[s.kind], EXEMPT.get(s.name, 0))]
+           f"{limits[s.kind]})"
+           for s in found if s.lines > limits[s.kind]]
     long = [s for s in found if s.kind == "function" and s.lines >= LONG_FUNCTION_LINES]
     if len(long) > MAX_LONG_FUNCTIONS:
         names = ", ".join(f"{s.name} ({s.lines})" for s in long)
@@ -90,8 +79,6 @@ def main(argv: list[str] | None = None) -> int:
     broken = violations(found)
     for line in broken:
         print("LIMIT:", line)
-    for name, ceiling in EXEMPT.items():
-        print(f"exempt: {name} (at most {ceiling} lines)")
     print("all size limits hold" if not broken else f"{len(broken)} limit(s) broken")
     return 1 if broken else 0
 

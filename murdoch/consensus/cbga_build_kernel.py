@@ -236,6 +236,163 @@ def _group_bid(i: int, j: int, xi: np.ndarray, gain: float, cap: float, team: bo
     return True, bid
 
 
+@njit(cache=True, inline="always")
+def _candidates(i: int, xi: np.ndarray, ti: np.ndarray, held: np.ndarray, eligible: np.ndarray,
+                bound: np.ndarray, single: np.ndarray, latest: np.ndarray, banned: np.ndarray,
+                quits: np.ndarray, quit_limit: int, required: np.ndarray,
+                team_reward: np.ndarray, team: bool, team_total: bool, cand_j: np.ndarray,
+                cand_ub: np.ndarray, cand_nb: np.ndarray, cand_bonus: np.ndarray) -> int:
+    """`CbgaAgent._build_candidates` (may lift bans): the tasks agent i may add, each with
+    its bound, its partners' time and its team bonus; returns how many."""
+    m, n = xi.shape
+    n_cand = 0
+    for j in range(m):
+        if not eligible[j] or held[j]:
+            continue
+        ub = bound[j]
+        bonus = 0.0
+        nb = 0.0
+        if single[j]:
+            top = 0.0
+            for q in range(n):
+                if xi[j, q] > top:
+                    top = xi[j, q]
+            if ub < top:
+                continue
+        else:
+            ban = banned[j]
+            others = 0
+            if ban >= 0 or team:
+                for q in range(n):
+                    if xi[j, q] != 0.0:
+                        others += 1
+                if xi[j, i] > 0.0:
+                    others -= 1
+                if others <= ban:
+                    continue
+                if ban >= 0 and quits[j] < quit_limit:
+                    banned[j] = -1
+            nb = _partners_time(i, j, xi, ti, latest)
+            size = required[j]
+            if team and size > 1 and team_total:
+                if team_reward[j] > 0.0:
+                    bonus = _team_bound(ub, min(others, size - 1))
+            elif team and size > 1:
+                bonus = team_reward[j] * min(others, size - 1) / (size - 1)
+        cand_j[n_cand] = j
+        cand_ub[n_cand] = ub
+        cand_nb[n_cand] = nb
+        cand_bonus[n_cand] = bonus
+        n_cand += 1
+    return n_cand
+
+
+@njit(cache=True, inline="always")
+def _order(n_cand: int, cand_j: np.ndarray, cand_ub: np.ndarray, cand_nb: np.ndarray,
+           cand_bonus: np.ndarray, blocked: np.ndarray, held: np.ndarray,
+           yielded: np.ndarray, single: np.ndarray, cap: float, ord_j: np.ndarray,
+           ord_ub: np.ndarray, ord_nb: np.ndarray) -> tuple[int, int]:
+    """The order of evaluation: yielded group tasks first (always evaluated, in task
+    order), then the others by bound; returns (forced, all)."""
+    n_forced = 0
+    for c in range(n_cand):
+        j = cand_j[c]
+        if blocked[j] or held[j]:
+            continue
+        if yielded[j] and not single[j]:
+            ord_j[n_forced] = j
+            ord_nb[n_forced] = cand_nb[c]
+            ord_ub[n_forced] = 0.0
+            n_forced += 1
+    n_ord = n_forced
+    for c in range(n_cand):
+        j = cand_j[c]
+        if blocked[j] or held[j] or (yielded[j] and not single[j]):
+            continue
+        ub = cand_ub[c]
+        if cand_bonus[c] != 0.0:
+            ub += cand_bonus[c]
+        if cap < ub:
+            ub = cap
+        if ub > 0.0:
+            p = n_ord  # after every higher or equal bound (equal: lower index first)
+            while p > n_forced and ord_ub[p - 1] < ub:
+                ord_ub[p] = ord_ub[p - 1]
+                ord_j[p] = ord_j[p - 1]
+                ord_nb[p] = ord_nb[p - 1]
+                p -= 1
+            ord_ub[p] = ub
+            ord_j[p] = j
+            ord_nb[p] = cand_nb[c]
+            n_ord += 1
+    return n_forced, n_ord
+
+
+@njit(cache=True, inline="always")
+def _outbid_group(j: int, ub: float, xi: np.ndarray, required: np.ndarray) -> bool:
+    """An equipment-free group task whose every seat is held by a bid above `ub`."""
+    n = xi.shape[1]
+    above = ub + 1e-9 * (1.0 + ub)
+    top = 0.0
+    cnt = 0
+    for q in range(n):
+        v = xi[j, q]
+        if v > top:
+            top = v
+        if v > above:
+            cnt += 1
+    return top > above and cnt >= required[j]
+
+
+@njit(cache=True, inline="always")
+def _single_bid(i: int, j: int, g: float, xi: np.ndarray, drop: np.ndarray) -> tuple[bool, float]:
+    """Agent i's bid g on single-agent task j: valid if it beats the winner it knows (a tie
+    goes to the lower index)."""
+    n = xi.shape[1]
+    yj = 0.0
+    zj = NONE
+    for q in range(n):
+        if xi[j, q] > yj:
+            yj = xi[j, q]
+            zj = q
+    if not (g > yj or (g == yj and zj >= i)):
+        return False, 0.0
+    for q in range(n):
+        drop[q] = False
+    return True, g
+
+
+@njit(cache=True, inline="always")
+def _commit(i: int, j: int, bid: float, now: float, best_pos: int, n_path: int,
+            xi: np.ndarray, ti: np.ndarray, bundle: np.ndarray, blen: np.ndarray,
+            path: np.ndarray, times: np.ndarray, plen: np.ndarray, assigned_at: np.ndarray,
+            gain_ok: np.ndarray, held: np.ndarray, single: np.ndarray, groups: bool,
+            new_path: np.ndarray, new_times: np.ndarray, new_ready: np.ndarray,
+            best_drop: np.ndarray) -> None:
+    """Take task j at `best_pos` with `bid`: the timed path becomes agent i's, the bundle
+    grows, the partners it drops lose their bids."""
+    m, n = xi.shape
+    for q in range(n_path + 1):
+        path[q] = new_path[q]
+        times[q] = new_times[q]
+    plen[i] = n_path + 1
+    for q in range(m):
+        gain_ok[q] = False
+    bundle[blen[i]] = j
+    blen[i] += 1
+    held[j] = True
+    if groups:
+        _publish(i, ti, single, path, n_path + 1, new_ready)
+    for q in range(n):
+        if best_drop[q]:
+            xi[j, q] = 0.0
+    if single[j]:
+        for q in range(n):
+            xi[j, q] = 0.0
+    xi[j, i] = bid
+    assigned_at[j] = now
+
+
 @njit(cache=True)
 def _build(i: int, now: float, xi: np.ndarray, ti: np.ndarray, bundle: np.ndarray,
            blen: np.ndarray, path: np.ndarray, times: np.ndarray, plen: np.ndarray,
@@ -273,82 +430,14 @@ def _build(i: int, now: float, xi: np.ndarray, ti: np.ndarray, bundle: np.ndarra
     best_drop = np.zeros(n, dtype=np.bool_)
     while blen[i] < max_depth:
         if n_cand < 0:
-            # `CbgaAgent._build_candidates` (may lift bans)
-            n_cand = 0
-            for j in range(m):
-                if not eligible[j] or held[j]:
-                    continue
-                ub = bound[j]
-                bonus = 0.0
-                nb = 0.0
-                if single[j]:
-                    top = 0.0
-                    for q in range(n):
-                        if xi[j, q] > top:
-                            top = xi[j, q]
-                    if ub < top:
-                        continue
-                else:
-                    ban = banned[j]
-                    others = 0
-                    if ban >= 0 or team:
-                        for q in range(n):
-                            if xi[j, q] != 0.0:
-                                others += 1
-                        if xi[j, i] > 0.0:
-                            others -= 1
-                        if others <= ban:
-                            continue
-                        if ban >= 0 and quits[j] < quit_limit:
-                            banned[j] = -1
-                    nb = _partners_time(i, j, xi, ti, latest)
-                    size = required[j]
-                    if team and size > 1 and team_total:
-                        if team_reward[j] > 0.0:
-                            bonus = _team_bound(ub, min(others, size - 1))
-                    elif team and size > 1:
-                        bonus = team_reward[j] * min(others, size - 1) / (size - 1)
-                cand_j[n_cand] = j
-                cand_ub[n_cand] = ub
-                cand_nb[n_cand] = nb
-                cand_bonus[n_cand] = bonus
-                n_cand += 1
+            n_cand = _candidates(i, xi, ti, held, eligible, bound, single, latest, banned,
+                                 quits, quit_limit, required, team_reward, team, team_total,
+                                 cand_j, cand_ub, cand_nb, cand_bonus)
         n_path = plen[i]
         late = prepare(at_row, tt, tasks, speed, avail, path, times, n_path, work, pos_of)
         cap = xi[bundle[blen[i] - 1], i] if blen[i] > 0 else math.inf
-        # the order: yielded group tasks first (always evaluated), then by bound
-        n_forced = 0
-        n_ord = 0
-        for c in range(n_cand):
-            j = cand_j[c]
-            if blocked[j] or held[j]:
-                continue
-            if yielded[j] and not single[j]:
-                ord_j[n_forced] = j  # (forced ones fill the front, in task order)
-                ord_nb[n_forced] = cand_nb[c]
-                ord_ub[n_forced] = 0.0
-                n_forced += 1
-        n_ord = n_forced
-        for c in range(n_cand):
-            j = cand_j[c]
-            if blocked[j] or held[j] or (yielded[j] and not single[j]):
-                continue
-            ub = cand_ub[c]
-            if cand_bonus[c] != 0.0:
-                ub += cand_bonus[c]
-            if cap < ub:
-                ub = cap
-            if ub > 0.0:
-                p = n_ord  # after every higher or equal bound (equal: lower index first)
-                while p > n_forced and ord_ub[p - 1] < ub:
-                    ord_ub[p] = ord_ub[p - 1]
-                    ord_j[p] = ord_j[p - 1]
-                    ord_nb[p] = ord_nb[p - 1]
-                    p -= 1
-                ord_ub[p] = ub
-                ord_j[p] = j
-                ord_nb[p] = cand_nb[c]
-                n_ord += 1
+        n_forced, n_ord = _order(n_cand, cand_j, cand_ub, cand_nb, cand_bonus, blocked, held,
+                                 yielded, single, cap, ord_j, ord_ub, ord_nb)
         best = -math.inf
         best_j = -1
         best_pos = 0
@@ -361,18 +450,8 @@ def _build(i: int, now: float, xi: np.ndarray, ti: np.ndarray, bundle: np.ndarra
                     break
                 if ub == best and j > best_j:
                     continue
-                if task_eq[j] == 0 and not single[j]:
-                    above = ub + 1e-9 * (1.0 + ub)
-                    top = 0.0
-                    cnt = 0
-                    for q in range(n):
-                        v = xi[j, q]
-                        if v > top:
-                            top = v
-                        if v > above:
-                            cnt += 1
-                    if top > above and cnt >= required[j]:
-                        continue
+                if task_eq[j] == 0 and not single[j] and _outbid_group(j, ub, xi, required):
+                    continue
             if gain_ok[j] and gain_nb[j] == nb:
                 g = gain_val[j]
                 pos = gain_pos[j]
@@ -388,23 +467,13 @@ def _build(i: int, now: float, xi: np.ndarray, ti: np.ndarray, bundle: np.ndarra
             if g > cap:
                 g = cap
             if single[j]:
-                yj = 0.0
-                zj = NONE
-                for q in range(n):
-                    if xi[j, q] > yj:
-                        yj = xi[j, q]
-                        zj = q
-                if not (g > yj or (g == yj and zj >= i)):
-                    continue
-                bid = g
-                for q in range(n):
-                    drop[q] = False
+                valid, bid = _single_bid(i, j, g, xi, drop)
             else:
                 valid, bid = _group_bid(i, j, xi, g, cap, team, banned, yielded, yset,
                                         required, team_reward, task_eq, agent_eq, vals,
                                         order, chosen, drop, team_total)
-                if not valid:
-                    continue
+            if not valid:
+                continue
             if bid > best or (bid == best and j < best_j):
                 best = bid
                 best_j = j
@@ -426,22 +495,6 @@ def _build(i: int, now: float, xi: np.ndarray, ti: np.ndarray, bundle: np.ndarra
         if not ok:
             blocked[j] = True
             continue
-        for q in range(n_path + 1):
-            path[q] = new_path[q]
-            times[q] = new_times[q]
-        plen[i] = n_path + 1
-        for q in range(m):
-            gain_ok[q] = False
-        bundle[blen[i]] = j
-        blen[i] += 1
-        held[j] = True
-        if groups:
-            _publish(i, ti, single, path, n_path + 1, new_ready)
-        for q in range(n):
-            if best_drop[q]:
-                xi[j, q] = 0.0
-        if single[j]:
-            for q in range(n):
-                xi[j, q] = 0.0
-        xi[j, i] = best
-        assigned_at[j] = now
+        _commit(i, j, best, now, best_pos, n_path, xi, ti, bundle, blen, path, times, plen,
+                assigned_at, gain_ok, held, single, groups, new_path, new_times, new_ready,
+                best_drop)

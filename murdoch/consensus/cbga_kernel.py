@@ -23,10 +23,12 @@ and t[i] (M, N: when each member can be at a group task on its own, 0 = unknown)
 timestamps s[i] (N + 1, the last one -inf), its bundle (insertion order) and path (execution
 order) with start times. Compiled on first use and cached on disk next to this module.
 
-Phase 1 (bundle building) is in `cbga_build_kernel.py`; the parts shared with CBBA's run
-(path preparation, insertion gain, conflict rules) are in `kernel_parts.py`. numba's on-disk
-cache of a function is invalidated by changes to its own file only, so this module names the
-fingerprints of both files it compiles in (`PARTS_SHA256`, `BUILD_SHA256`), and
+Phase 1 (bundle building) is in `cbga_build_kernel.py`, the round's bookkeeping (state
+arrays, message costs, change detection) in `cbga_round_kernel.py`; the parts shared with
+CBBA's run (path preparation, insertion gain, conflict rules) are in `kernel_parts.py`.
+numba's on-disk cache of a function is invalidated by changes to its own file only, so this
+module names the fingerprints of the files it compiles in (`PARTS_SHA256`, `BUILD_SHA256`,
+`ROUND_SHA256`), and
 `test_consensus_kernel_parts.py` keeps them current.
 """
 
@@ -47,31 +49,25 @@ from murdoch.consensus.cbga_build_kernel import (
     _rank,
     _select_group,
 )
+from murdoch.consensus.cbga_round_kernel import (
+    _any_pending_quit,
+    _gain_cache,
+    _group_state,
+    _lists,
+    _merge_scratch,
+    _remember,
+    _round_changed,
+    _round_cost,
+    _stamp_sent,
+)
 from murdoch.consensus.kernel_parts import EPS, NONE, WE, conflict_action, merge_stamps
 
 PARTS_SHA256 = "8a9142c8045e32bcfce86fc52548a5afdd2302ea3c8404c4c7993d41bed57ffe"
 """The `kernel_parts.py` this module was written against (see its notes on numba's cache)."""
-BUILD_SHA256 = "e6f76754852317eb76a148882bc80de108673819875a9325559d6b1782f2c23c"
+BUILD_SHA256 = "17159d0017637e3117d5ed9dd05da6a7e74c1664d7495f745499b15a60124c97"
 """The `cbga_build_kernel.py` this module was written against."""
-
-
-@njit(cache=True)
-def _sent_changed(k: int, x: np.ndarray, t: np.ndarray, x_prev: np.ndarray,
-                  t_prev: np.ndarray, single: np.ndarray) -> bool:
-    """Whether agent k's message (its non-zero bids, and its members' times on group rows)
-    differs from the one it sent last round (`x_prev`, `t_prev`: zeros before round 1)."""
-    m, n = x.shape[1], x.shape[2]
-    for j in range(m):
-        for q in range(n):
-            v = x[k, j, q]
-            if v != x_prev[k, j, q]:
-                return True
-            if v != 0.0 and not single[j]:
-                a = t[k, j, q]
-                b = t_prev[k, j, q]
-                if (a > 0.0) != (b > 0.0) or (a > 0.0 and a != b):
-                    return True
-    return False
+ROUND_SHA256 = "75cee9d03ff2338a64f3fb532f4abc54033459a5c0fa39a896b88c8056ddb0cc"
+"""The `cbga_round_kernel.py` this module was written against."""
 
 
 @njit(cache=True)
@@ -377,20 +373,6 @@ def _refresh(i: int, xi: np.ndarray, ti: np.ndarray, bundle: np.ndarray, blen: n
 
 
 @njit(cache=True)
-def _pending_quit(xi: np.ndarray, bundle: np.ndarray, nb: int, assigned_at: np.ndarray,
-                  quit_after: np.ndarray, single: np.ndarray, required: np.ndarray,
-                  task_eq: np.ndarray, agent_eq: np.ndarray) -> bool:
-    """`CbgaAgent.next_quit_time() < inf` (the caller checks that quitting is on)."""
-    for b in range(nb):
-        j = bundle[b]
-        if (not single[j] and math.isfinite(quit_after[j])
-                and not _complete(j, xi, required, task_eq, agent_eq)
-                and assigned_at[j] + quit_after[j] < math.inf):
-            return True
-    return False
-
-
-@njit(cache=True)
 def run_cbga(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np.ndarray,
              pre_idx: np.ndarray, speed: np.ndarray, avail: np.ndarray, eligible: np.ndarray,
              gain_bound: np.ndarray, max_depth: int, required: np.ndarray,
@@ -412,33 +394,13 @@ def run_cbga(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
             n_groups += 1
     groups = n_groups > 0  # (a computed flag: a literal one would compile callees twice)
     latest = tasks[WE] + EPS
-    x = np.zeros((n, m, n))
-    t = np.zeros((n, m, n))
-    s = np.full((n, n + 1), -math.inf)
-    bundle = np.zeros((n, m), dtype=np.int64)
-    blen = np.zeros(n, dtype=np.int64)
-    path = np.zeros((n, m + 1), dtype=np.int64)
-    times = np.zeros((n, m + 1))
-    plen = np.zeros(n, dtype=np.int64)
-    needs = np.ones(n, dtype=np.bool_)
-    assigned_at = np.full((n, m), np.nan)
-    banned = np.full((n, m), -1, dtype=np.int64)
-    quits = np.zeros((n, m), dtype=np.int64)
-    yielding = np.full(n, -1, dtype=np.int64)
-    yielded = np.zeros((n, m), dtype=np.bool_)
-    yset = np.zeros((n, m, n), dtype=np.bool_)
-    gain_val = np.zeros((n, m))
-    gain_pos = np.zeros((n, m), dtype=np.int64)
-    gain_nb = np.zeros((n, m))
-    gain_ok = np.zeros((n, m), dtype=np.bool_)
+    x, t, s, bundle, blen, path, times, plen, needs = _lists(n, m)
+    assigned_at, banned, quits, yielding, yielded, yset = _group_state(n, m)
+    gain_val, gain_pos, gain_nb, gain_ok = _gain_cache(n, m)
     work = np.zeros((5, m + 2))
     ready = np.zeros(m + 1)
     new_times = np.zeros(m + 1)
-    known = np.zeros(n, dtype=np.bool_)
-    row = np.zeros(n)
-    starts = np.zeros(n)
-    order = np.zeros(n, dtype=np.int64)
-    chosen = np.zeros(n, dtype=np.bool_)
+    known, row, starts, order, chosen = _merge_scratch(n)
     x_sent = x.copy()
     t_sent = t.copy()
     s_sent = s.copy()
@@ -456,23 +418,13 @@ def run_cbga(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
     last_change = 0
     quiet = 0
     while True:
-        pending = False
-        if quitting:
-            for i in range(n):
-                if _pending_quit(x[i], bundle[i], blen[i], assigned_at[i], quit_after,
-                                 single, required, task_eq, agent_eq):
-                    pending = True
-                    break
+        pending = quitting and _any_pending_quit(x, bundle, blen, assigned_at, quit_after,
+                                                 single, required, task_eq, agent_eq)
         if (quiet >= diameter + 1 and not pending) or rnd >= max_rounds:
             break
         rnd += 1
         now = float(rnd)
-        _copy(x_before, x)
-        _copy(t_before, t)
-        for i in range(n):
-            blen_before[i] = blen[i]
-            for b in range(blen[i]):
-                b_before[i, b] = bundle[i, b]
+        _remember(x, t, bundle, blen, x_before, t_before, b_before, blen_before)
         # -- task quitting
         if quitting:
             for i in range(n):
@@ -491,30 +443,15 @@ def run_cbga(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
                        tasks, pre_ptr, pre_idx, speed[i], avail[i], eligible[i],
                        gain_bound[i], single, latest, groups, required, team_reward,
                        task_eq, agent_eq, team, quit_limit, max_depth, work, team_total)
-        # -- what the round's messages cost (`CbgaAgent.sent_counts`)
-        for k in range(n):
-            d = out_degree[k]
-            if d == 0:
-                continue
-            entries = 0
-            n_starts = 0
-            for j in range(m):
-                for q in range(n):
-                    if x[k, j, q] != 0.0:
-                        entries += 1
-                        if not single[j] and t[k, j, q] > 0.0 and x[k, j, q] > 0.0:
-                            n_starts += 1
-            sent_msgs += d
-            sent_bytes += d * (msg_base + (entries + n_starts) * msg_entry)
-            if _sent_changed(k, x, t, x_sent, t_sent, single):
-                sent_pairs += d
+        msgs, nb, pairs = _round_cost(x, t, x_sent, t_sent, out_degree, single, msg_base,
+                                      msg_entry)
+        sent_msgs += msgs
+        sent_bytes += nb
+        sent_pairs += pairs
         # -- phase 2: everyone sends, then each merges its neighbours' messages in order
         _copy(x_sent, x)
         _copy(t_sent, t)
-        for i in range(n):
-            for q in range(n + 1):
-                s_sent[i, q] = s[i, q]
-            s_sent[i, i] = now
+        _stamp_sent(s, s_sent, now)
         for i in range(n):
             for e in range(nbr_ptr[i], nbr_ptr[i + 1]):
                 k = nbr_idx[e]
@@ -533,28 +470,8 @@ def run_cbga(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
                                    tasks, pre_ptr, pre_idx, speed[i], avail[i], single,
                                    latest, groups, new_times, ready):
                 needs[i] = True
-        # -- did anything that comm_steps watches (X, T, bundles) change over the round?
-        changed = False
-        for i in range(n):
-            if blen[i] != blen_before[i]:
-                changed = True
-                break
-            for b in range(blen[i]):
-                if bundle[i, b] != b_before[i, b]:
-                    changed = True
-            if changed:
-                break
-        if not changed:
-            for i in range(n):
-                for j in range(m):
-                    for q in range(n):
-                        if x[i, j, q] != x_before[i, j, q] or t[i, j, q] != t_before[i, j, q]:
-                            changed = True
-                            break
-                    if changed:
-                        break
-                if changed:
-                    break
+        changed = _round_changed(x, t, bundle, blen, x_before, t_before, b_before,
+                                 blen_before)
         if changed:
             last_change = rnd
             messages = sent_msgs
@@ -563,11 +480,7 @@ def run_cbga(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
             quiet = 0
         else:
             quiet += 1
-    pending = False
-    if quitting:
-        for i in range(n):
-            if _pending_quit(x[i], bundle[i], blen[i], assigned_at[i], quit_after, single,
-                             required, task_eq, agent_eq):
-                pending = True
+    pending = quitting and _any_pending_quit(x, bundle, blen, assigned_at, quit_after, single,
+                                             required, task_eq, agent_eq)
     converged = quiet >= diameter + 1 and not pending
     return path, plen, x, rnd, last_change, messages, nbytes, converged, pairwise

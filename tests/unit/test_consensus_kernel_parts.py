@@ -13,7 +13,13 @@ from pathlib import Path
 
 import numpy as np
 
-from murdoch.consensus import cbba_kernel, cbga_build_kernel, cbga_kernel, kernel_parts
+from murdoch.consensus import (
+    cbba_kernel,
+    cbga_build_kernel,
+    cbga_kernel,
+    cbga_round_kernel,
+    kernel_parts,
+)
 from murdoch.consensus.conflict import NONE, Action, resolve, rule_arrays
 
 
@@ -27,6 +33,11 @@ def test_each_kernel_names_the_parts_it_was_built_against() -> None:
 def test_the_cbga_run_names_the_bundle_building_it_was_built_against() -> None:
     digest = hashlib.sha256(Path(cbga_build_kernel.__file__).read_bytes()).hexdigest()
     assert digest == cbga_kernel.BUILD_SHA256, "update BUILD_SHA256 in cbga_kernel.py"
+
+
+def test_the_cbga_run_names_the_round_bookkeeping_it_was_built_against() -> None:
+    digest = hashlib.sha256(Path(cbga_round_kernel.__file__).read_bytes()).hexdigest()
+    assert digest == cbga_kernel.ROUND_SHA256, "update ROUND_SHA256 in cbga_kernel.py"
 
 
 def test_the_compiled_conflict_rule_agrees_with_the_reference_everywhere() -> None:
