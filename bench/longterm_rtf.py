@@ -9,12 +9,13 @@ resident memory of every process at the start and at the end of the run, and as 
 recording costs).
 Target on a 2-core machine: 3 simulated hours in at most 5 minutes (rtf >= 36).
 
-Before it, the CPU time of the whole run (the runner with its serving thread and every robot
-process) per simulated second, and the real-time factor that CPU time would allow if the
-machine's cores were kept busy all the time (``cpu_bound_rtf``): the gap between the two is
-time lost waiting along the lockstep chain. ``cpu_steal`` is the share of the machine's CPU
-time the hypervisor gave to others during the run (from /proc/stat): on a shared host it
-slows the whole run, and runs with different steal are not comparable.
+Before it, the CPU time of the whole run (the runner with its serving thread, the
+recording's writer process and every robot process) per simulated second, and the real-time
+factor that CPU time would allow if the machine's cores were kept busy all the time
+(``cpu_bound_rtf``): the gap between the two is time lost waiting along the lockstep chain.
+``cpu_steal`` is the share of the machine's CPU time the hypervisor gave to others during
+the run (from /proc/stat): on a shared host it slows the whole run, and runs with different
+steal are not comparable.
 """
 
 from __future__ import annotations

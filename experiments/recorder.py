@@ -127,9 +127,9 @@ class RunRecorder:
                                "record": self._record,
                                "record_rate_hz": self._record_rate_hz if self._record else None})
         if self._record:
-            # its writer thread starts here, after the runner has chosen its CPUs
+            # its writer process starts here, after the runner has chosen its CPUs
             self.recording = RunRecording(self.run.recording, self.world,
-                                          rate_hz=self._record_rate_hz, clock=self._clock)
+                                          rate_hz=self._record_rate_hz)
         self.event(0.0, ev.RUN_START, experiment=self.experiment,
                    seed=self.config.get("seed"), world=str(self.config.get("world", "")))
         if self._meshcat:

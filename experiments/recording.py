@@ -6,9 +6,10 @@ Three inputs, one file:
 - `on_step(sim, t)` runs on the serving thread after every step (a sampler of `ObservedSim`)
   and calls `sample(sim, t)` at every tick on a multiple of 1 / `rate_hz` simulated seconds:
   it copies what the simulation holds now - every body's pose, each robot's laser and sonar
-  ranges, odometry, battery and blobs - and hands it to the writer thread, which builds and
-  encodes the messages. The sensing kernels have already computed this tick's readings for
-  the robots' own Player rounds, so sampling reads caches.
+  ranges, odometry, battery and blobs - and hands it to the writer process
+  (`player_server.record.writer`), which builds and encodes the messages. The sensing
+  kernels have already computed this tick's readings for the robots' own Player rounds, so
+  sampling reads caches.
 - `event(e)` records a run event (as the Log line it is in events.jsonl).
 - `robot_states(t, states)` records the robots' states when one changes.
 
@@ -19,7 +20,7 @@ lockstep run's events are the same.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
@@ -198,6 +199,27 @@ def _battery(t: float, p: Any) -> dict[str, Any]:
             "watts": round(float(p.watts), 3), "joules": round(float(p.joules), 1)}
 
 
+def _event_log(t: float, name: str, e: Mapping[str, Any], level: int) -> dict[str, Any]:
+    return ch.log_message(t, name, ev.encode_event(e), level)
+
+
+def _robot_state(t: float, state: str, label: str) -> dict[str, Any]:
+    return {"timestamp": ch.stamp(t), "state": state, "label": label,
+            "code": _STATE_CODES.get(state, -1)}
+
+
+class DrivenFromTf:
+    """(in the writer process) The metres driven, summed from each /tf as it is recorded:
+    the same poses `murdoch report` would read back."""
+
+    def __init__(self, robots: Iterable[str]) -> None:
+        self.lengths = PathLengths(robots)
+
+    def written(self, topic: str, t_s: float, body: Mapping[str, Any]) -> None:
+        if topic == ch.TF:
+            self.lengths.add(ch.poses_of(body))
+
+
 def _blobs(t: float, width: int, height: int, blobs: Any) -> dict[str, Any]:
     seen = [[int(b.id), int(b.colour), int(b.area), int(b.x), int(b.y), int(b.l), int(b.r),
              int(b.t), int(b.b), round(float(b.range_m), 3)] for b in blobs]
@@ -207,8 +229,7 @@ def _blobs(t: float, width: int, height: int, blobs: Any) -> dict[str, Any]:
 class RunRecording:
     """Owns ``run.mcap`` of one run (see the module's doc)."""
 
-    def __init__(self, path: Path, world: Any, *, rate_hz: float = DEFAULT_RATE_HZ,
-                 clock: Callable[[], float]) -> None:
+    def __init__(self, path: Path, world: Any, *, rate_hz: float = DEFAULT_RATE_HZ) -> None:
         if not (rate_hz > 0 and math.isfinite(rate_hz)):
             raise ValueError(f"the record rate must be a positive number of Hz, got {rate_hz}")
         self.path = Path(path)
@@ -219,8 +240,8 @@ class RunRecording:
         self._interval = float(world.sim.interval_sim_s)
         self._every = max(1, round(self.period_s / self._interval))
         self._last_tick = -1
-        self._driven = PathLengths(r.name for r in world.robots if r.mobile)
-        self._sink = McapSink(self.path, clock=clock, on_written=self._written)
+        self._sink = McapSink(self.path, observer=DrivenFromTf(
+            r.name for r in world.robots if r.mobile))
         self.samples = 0
         self._sink.put(ch.WORLD_INFO, 0.0, world_info(world, self.rate_hz))
         self._sink.put(ch.WORLD_SCENE, 0.0, static_scene(self.layout))
@@ -243,8 +264,8 @@ class RunRecording:
             self.sample(sim, t)
 
     def sample(self, sim: Any, t: float) -> None:
-        """Take the readings of this tick; the messages are built from them, and encoded, on
-        the writer's thread (the serving thread only copies what the next step would
+        """Take the readings of this tick; the messages are built from them, and encoded, in
+        the writer process (the serving thread only copies what the next step would
         change)."""
         batch: list[tuple[str, float, Any]] = []
         poses = snapshot_poses(sim.snapshot())
@@ -286,23 +307,16 @@ class RunRecording:
                  else ch.LOG_INFO)
         name = str(e.get("msg_kind", kind)) if kind == ev.MESSAGE else kind
         self._sink.put(ch.MURDOCH if kind == ev.MESSAGE else ch.EVENTS, t,
-                       lambda: ch.log_message(t, name, ev.encode_event(e), level))
+                       partial(_event_log, t, name, e, level))
 
     def robot_states(self, t: float, changed: Mapping[str, tuple[str, str]],
                      every: Mapping[str, tuple[str, str]]) -> None:
         """`changed` robots' states (state, label), then the scene of `every` robot."""
-        for robot, (state, label) in changed.items():
-            self._sink.put(ch.robot_topic(robot, ch.STATE), t, {
-                "timestamp": ch.stamp(t), "state": state, "label": label,
-                "code": _STATE_CODES.get(state, -1)})
-        snapshot = dict(every)
-        self._sink.put(ch.ROBOTS_SCENE, t, lambda: robots_scene(t, self.layout, snapshot))
-
-    def _written(self, topic: str, t: float, body: Any) -> None:
-        """(writer thread) Sum the metres driven from each /tf as it is recorded: the same
-        poses `murdoch report` would read back."""
-        if topic == ch.TF:
-            self._driven.add(ch.poses_of(body))
+        batch: list[tuple[str, float, Any]] = [
+            (ch.robot_topic(robot, ch.STATE), t, partial(_robot_state, t, state, label))
+            for robot, (state, label) in changed.items()]
+        batch.append((ch.ROBOTS_SCENE, t, partial(robots_scene, t, self.layout, dict(every))))
+        self._sink.put_many(batch)
 
     @property
     def complete(self) -> bool:
@@ -310,9 +324,11 @@ class RunRecording:
         return self._sink.error is None
 
     def distance(self) -> dict[str, Any]:
-        """summary.json's `distance_m` from the poses recorded; once `close()` has returned,
-        every recorded pose is in it."""
-        return self._driven.summary()
+        """summary.json's `distance_m` from the poses recorded (known once `close()` has
+        returned: the writer process's count comes back with it)."""
+        driven = self._sink.observer
+        assert isinstance(driven, DrivenFromTf)
+        return driven.lengths.summary()
 
     def close(self) -> None:
         self._sink.close()

@@ -28,7 +28,7 @@ def _record_run(root: Path) -> rd.RunDir:
     run = rd.create_run_dir(root, "longterm", datetime(2026, 3, 4, 5, 6, 7))
     run.write_config({"experiment": "longterm", "seed": 11, "world": "longterm"})
     clock = iter(range(10**6)).__next__
-    sink = McapSink(run.recording, clock=lambda: 0.0)
+    sink = McapSink(run.recording)
     with ev.EventWriter(run.events, clock=lambda: float(clock())) as w:
         w.write(0, ev.RUN_START, experiment="longterm", seed=11)
         for k in range(30):

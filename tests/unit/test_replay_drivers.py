@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import pytest
@@ -24,7 +23,7 @@ ROBOTS = {
 
 
 def _recording(path: Path) -> Path:
-    sink = McapSink(path, clock=time.monotonic)
+    sink = McapSink(path)
     sink.put(ch.WORLD_INFO, 0.0, {"world": "w", "interval_s": 0.1, "record_rate_hz": 2.0,
                                   "robots": ROBOTS})
     for k in range(1, 5):
@@ -75,7 +74,7 @@ def test_each_device_serves_the_newest_recorded_message(tmp_path: Path) -> None:
 
 
 def test_a_recording_without_world_info_is_refused(tmp_path: Path) -> None:
-    sink = McapSink(tmp_path / "run.mcap", clock=time.monotonic)
+    sink = McapSink(tmp_path / "run.mcap")
     sink.put(ch.TF, 0.0, ch.frame_transforms(0.0, {"a": (0.0, 0.0, 0.0)}))
     sink.close()
     with pytest.raises(RecordingError, match="not a run recording"):
@@ -86,7 +85,7 @@ def test_a_recorded_world_that_does_not_fit_is_named(tmp_path: Path) -> None:
     from player_server.replay.serve import build_server
 
     path = tmp_path / "run.mcap"
-    sink = McapSink(path, clock=time.monotonic)
+    sink = McapSink(path)
     sink.put(ch.WORLD_INFO, 0.0, {"world": "w", "interval_s": 0.1, "robots": {
         "r1": {"mobile": True, "devices": {}}}})  # no body, no laser layout
     sink.put("/r1/laser", 0.5, {"ranges": [1.0]})
