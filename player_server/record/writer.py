@@ -74,6 +74,7 @@ class _Recording:
         self._writer.start(profile=ch.PROFILE, library="murdoch")
         if metadata:
             self._writer.add_metadata("murdoch", dict(metadata))
+        self._file.flush()  # a recording from its first moment: the header is on disk
         self.observer = observer
         self._channels: dict[str, int] = {}
         self._schemas: dict[str, int] = {}

@@ -128,6 +128,7 @@ def test_the_writer_finishes_the_file_when_the_recording_process_dies(
 def test_a_writer_that_dies_stops_the_recording_not_the_recorder(tmp_path: Path) -> None:
     import os
     import signal
+    import time
 
     path = tmp_path / "run.mcap"
     sink = McapSink(path, chunk_size=4096)
@@ -135,6 +136,12 @@ def test_a_writer_that_dies_stops_the_recording_not_the_recorder(tmp_path: Path)
         sink.put(ch.TF, k * 0.5, ch.frame_transforms(k * 0.5, {"p1": (0.01 * k, 0.0, 0.0)}))
     pid = sink.writer_pid
     assert pid is not None
+    # kill it once some chunks are on disk (it flushes every second; bounded wait)
+    for _ in range(1200):
+        tf = read_info(path).channels.get(ch.TF)
+        if tf is not None and tf.messages > 0:
+            break
+        time.sleep(0.05)
     os.kill(pid, signal.SIGKILL)
     for k in range(400, 100_000):  # puts go on without raising until the loss is noticed
         sink.put(ch.TF, k * 0.5, ch.frame_transforms(k * 0.5, {"p1": (0.0, 0.0, 0.0)}))
@@ -144,6 +151,22 @@ def test_a_writer_that_dies_stops_the_recording_not_the_recorder(tmp_path: Path)
     assert sink.error is not None and "writer process" in sink.error
     info = read_info(path)  # what was flushed reads back, cut short
     assert info.truncated and not info.complete
+    assert info.channels[ch.TF].messages > 0
+
+
+def test_a_writer_killed_at_once_leaves_a_file_that_reads_as_cut_short(tmp_path: Path) -> None:
+    import os
+    import signal
+
+    path = tmp_path / "run.mcap"
+    sink = McapSink(path)
+    pid = sink.writer_pid
+    assert pid is not None
+    os.kill(pid, signal.SIGKILL)  # before anything but the header was written
+    sink.close()
+    assert sink.error is not None
+    info = read_info(path)
+    assert info.truncated and not info.complete and not info.channels
 
 
 def test_threads_that_record_at_once_lose_nothing(tmp_path: Path) -> None:
