@@ -50,9 +50,11 @@ def _run(allocator: str, out: Path) -> dict[str, Any]:
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, Any]]:
     names = ["cbba", "cbga", "cbba-again"]
+    # the directories first, on this thread: pytest's temporary-path factory is not made to be
+    # called from several threads at once
+    dirs = {n: tmp_path_factory.mktemp(n) for n in names}
     with ThreadPoolExecutor(max_workers=len(names)) as pool:
-        done = pool.map(lambda n: _run(n.removesuffix("-again"), tmp_path_factory.mktemp(n)),
-                        names)
+        done = pool.map(lambda n: _run(n.removesuffix("-again"), dirs[n]), names)
         return dict(zip(names, done, strict=True))
 
 
