@@ -88,11 +88,13 @@ def _user_task(e: Mapping[str, Any]) -> bool:
 def start_waits(events: Iterable[Mapping[str, Any]]) -> list[float]:
     """Simulated seconds from each user task's introduction to the start of its execution:
     the first `robot_task` start of the task; for a group task, the moment the last of its
-    members started (its members carry it as `parent`). Tasks never started are left out."""
+    robots started (its members carry it as `parent`; a member taken whole by a group of
+    robots, `required` of them in its params, starts when the last of them does). Tasks
+    never started are left out."""
     introduced: dict[str, float] = {}
     groups: dict[str, set[str]] = {}
-    member_of: dict[str, str] = {}
-    started: dict[str, float] = {}
+    needs: dict[str, int] = {}
+    starts: dict[str, dict[str, float]] = {}
     for e in events:
         kind = e["kind"]
         if kind == ev.TASK_INTRODUCED:
@@ -102,10 +104,18 @@ def start_waits(events: Iterable[Mapping[str, Any]]) -> list[float]:
                 if e.get("group"):
                     groups.setdefault(task, set())
             elif e.get("parent") is not None:
-                member_of[task] = str(e["parent"])
                 groups.setdefault(str(e["parent"]), set()).add(task)
+                params = e.get("params")
+                if isinstance(params, Mapping) and "members" in params:
+                    needs[task] = len(params["members"])
         elif kind == "robot_task" and e.get("phase") == "start" and "task" in e:
-            started.setdefault(str(e["task"]), float(e["t"]))
+            starts.setdefault(str(e["task"]), {}).setdefault(str(e.get("robot")),
+                                                            float(e["t"]))
+    started: dict[str, float] = {}
+    for task, by_robot in starts.items():
+        times = sorted(by_robot.values())
+        if len(times) >= needs.get(task, 1):
+            started[task] = times[needs.get(task, 1) - 1]
     waits = []
     for task, t0 in introduced.items():
         members = groups.get(task)

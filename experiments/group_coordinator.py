@@ -4,8 +4,13 @@
 A group task is introduced by the user like any other task (`task_introduced`, its needs in
 `params`, `group` true). With an allocator that gives tasks to single robots the coordinator
 hands its members to the team as separate tasks (`task_introduced`, `source` "group",
-`parent` the group), reintroduced with backoff like the user's own. At every tick boundary
-it judges each open group from the simulation's ground truth (`PairJudge`): the group ends
+`parent` the group), reintroduced with backoff like the user's own. With an allocator that
+takes group tasks whole (`whole`: CBGA) it hands the team one task instead, the group's own
+kind and parameters (`source` "group", `parent` the group), whose robots form the group among
+themselves (`murdoch.allocators.group_offers`). At every tick boundary
+it judges each open group from the simulation's ground truth (`PairJudge`, over the robots
+whose controllers run: a killed or frozen robot left standing on a spot holds nothing): the
+group ends
 `completed` once each spot has held its own robot for the hold time (the robots in
 `robots`), `unachievable` when a member turned out unachievable, `failed` when a member
 ended first or the deadline passed; the members still open are then withdrawn. Members that
@@ -14,7 +19,7 @@ go on after their group was achieved end as their robots report.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -33,6 +38,16 @@ class OpenGroup:
     """member task id -> its outcome (None: still open)."""
 
 
+def whole_task_spec(group: GroupTask, parent: str) -> Any:
+    """The announcement of a group task taken whole: the group's kind, the union of its
+    members' equipment as subjects, the group's parameters."""
+    from murdoch.auction.timing import USER_TASK
+
+    subjects = frozenset().union(*(m.equipment for m in group.members))
+    return USER_TASK.task(group.kind, subjects, group.as_params(), duration_s=group.duration_s,
+                          timeout_s=group.duration_s + 600.0, parent=parent)
+
+
 def member_task_spec(kind: str, params: Mapping[str, Any], parent: str) -> Any:
     """The announcement of one member of a group task (a task of the robots' library)."""
     from behaviors.library import TASKS
@@ -48,8 +63,8 @@ class GroupCoordinator:
 
     def __init__(self, *, rec: Any, node: Any, sim: Any, mobile: frozenset[str],
                  introduced: set[str], finished: set[str], patience_s: float,
-                 member_spec: Callable[[str, Mapping[str, Any], str], Any] = member_task_spec
-                 ) -> None:
+                 member_spec: Callable[[str, Mapping[str, Any], str], Any] = member_task_spec,
+                 whole: bool = False) -> None:
         self.rec = rec
         self.node = node
         self.sim = sim
@@ -58,6 +73,7 @@ class GroupCoordinator:
         self.finished = finished
         self.patience_s = patience_s
         self.member_spec = member_spec
+        self.whole = whole
         self.open: dict[str, OpenGroup] = {}
         self.member_of: dict[str, str] = {}
         self.count = 0
@@ -75,11 +91,15 @@ class GroupCoordinator:
         self.introduced.add(task_id)
         entry = OpenGroup(task_id, group, now, PairJudge(group))
         self.open[task_id] = entry
-        for member in group.members:
-            spec = self.member_spec(member.kind, member.params, task_id)
+        if self.whole:
+            handed = [(whole_task_spec(group, task_id), group.kind, group.as_params())]
+        else:
+            handed = [(self.member_spec(m.kind, m.params, task_id), m.kind, dict(m.params))
+                      for m in group.members]
+        for spec, kind, params in handed:
             member_id = str(self.node.announce(spec, patience_s=self.patience_s))
-            self.rec.event(now, ev.TASK_INTRODUCED, task=member_id, task_kind=member.kind,
-                           params=dict(member.params), source="group", parent=task_id)
+            self.rec.event(now, ev.TASK_INTRODUCED, task=member_id, task_kind=kind,
+                           params=params, source="group", parent=task_id)
             self.introduced.add(member_id)
             entry.members[member_id] = None
             self.member_of[member_id] = task_id
@@ -91,10 +111,12 @@ class GroupCoordinator:
         if group_id is not None and group_id in self.open:
             self.open[group_id].members[task_id] = outcome
 
-    def step(self, now: float) -> None:
+    def step(self, now: float, down: Collection[str] = ()) -> None:
+        """Judge the open groups at a tick boundary; robots `down` (killed, exited,
+        frozen, retired: no controller watches through them) hold no spot."""
         if not self.open:
             return
-        positions = {r: tuple(self.sim.get_pose(r)[:2]) for r in self.mobile}
+        positions = {r: tuple(self.sim.get_pose(r)[:2]) for r in self.mobile if r not in down}
         for task_id in sorted(self.open):
             entry = self.open[task_id]
             placed = entry.judge.update(now, positions)

@@ -106,6 +106,7 @@ class RunLoop:
         mobile: frozenset[str] = frozenset(),
         hold_clock: Callable[[str, bool], None] | None = None,
         burst: Iterator[PlannedTask | None] | None = None,
+        whole_groups: bool = False,
     ) -> None:
         self.rec = rec
         self.sim = sim
@@ -144,7 +145,8 @@ class RunLoop:
         self.referee.bind(self)
         self.groups = GroupCoordinator(rec=rec, node=node, sim=sim, mobile=mobile,
                                        introduced=self.state.introduced,
-                                       finished=self.state.finished, patience_s=PATIENCE_S)
+                                       finished=self.state.finished, patience_s=PATIENCE_S,
+                                       whole=whole_groups)
 
     # -- the hook -------------------------------------------------------------------------------
     def on_round(self) -> None:
@@ -175,7 +177,7 @@ class RunLoop:
         self._faults(now)
         self.referee.before_tasks(now)
         self._introduce(now)
-        self.groups.step(now)
+        self.groups.step(now, self.scheduled_down | self.frozen)
         self.referee.after_tasks(now)
         self.node.step(0.0)
         self.rec.advance(now)
@@ -213,7 +215,8 @@ class RunLoop:
         elif kind == "award":
             latency = t - self.announced_at.get(task_id, t)
             self.rec.event(t, ev.AWARD, task=task_id, robot=d.get("winner"),
-                           bid=d.get("score"), latency_s=round(latency, 4))
+                           bid=d.get("score"), latency_s=round(latency, 4),
+                           **({"seat": d["seat"]} if "seat" in d else {}))
             self.referee.on_award(task_id, str(d.get("winner")))
         elif kind == "reallocation":
             self.referee.on_task_over(task_id)

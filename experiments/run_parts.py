@@ -356,7 +356,7 @@ def _user(settings: RunSettings, options: RunOptions, spec: WorldSpec, sim: Simu
                 else None),
         team_clock=team_clock, wait_clock=time.monotonic, request_stop=server.request_stop,
         referee=referee, mobile=frozenset(r.name for r in spec.robots if r.mobile),
-        hold_clock=hold_clock,
+        hold_clock=hold_clock, whole_groups=team.group_tasks,
         burst=(longterm_tasks(spec, random.Random(extras.burst_seed),
                               mean_interval_s=options.task_interval_s)
                if extras.burst_seed is not None else None),

@@ -7,7 +7,9 @@ counter-example:
 - `terminal_states`: every task introduced ends in exactly one terminal state (no second
   outcome, no outcome of a task never introduced, none left open at the end);
 - `exclusive_execution`: no task is executed by two robots at once for longer than
-  `OVERLAP_GRACE_S` of simulated time (a robot executes from its `robot_task` start until
+  `OVERLAP_GRACE_S` of simulated time, and a group task taken whole (introduced with
+  `required` robots in its params) by no more than its group (a robot executes from its
+  `robot_task` start until
   its own end of that task, its death, or its switch-off; a frozen robot's execution is
   suspended and resumes at its thaw);
 - `reallocation_bound`: every task held by a robot when it was killed, frozen, switched off or
@@ -120,7 +122,8 @@ class EventInvariants:
     executing: dict[str, set[str]] = field(default_factory=dict)  # task -> robots
     suspended: dict[str, set[str]] = field(default_factory=dict)  # robot -> tasks (frozen)
     conflicts: dict[str, tuple[float, tuple[str, ...]]] = field(default_factory=dict)
-    holder: dict[str, str] = field(default_factory=dict)  # task -> robot (by the awards)
+    holder: dict[str, set[str]] = field(default_factory=dict)  # task -> robots (awards)
+    allowed: dict[str, int] = field(default_factory=dict)  # task -> robots at once (> 1)
     pending: dict[str, _Pending] = field(default_factory=dict)  # task -> fault awaiting
     realloc_latencies: list[dict[str, Any]] = field(default_factory=list)
     down: set[str] = field(default_factory=set)  # controller dead or stopped
@@ -156,7 +159,7 @@ class EventInvariants:
         for task, (since, robots) in list(self.conflicts.items()):
             if t <= since + OVERLAP_GRACE_S:
                 continue
-            if len(self.executing.get(task, ())) > 1:
+            if len(self.executing.get(task, ())) > self.allowed.get(task, 1):
                 self._breach("exclusive_execution", {"t": since, "task": task,
                                                      "robots": list(robots)})
             del self.conflicts[task]
@@ -189,6 +192,9 @@ class EventInvariants:
     # -- tasks -----------------------------------------------------------------------------
     def _on_task_introduced(self, t: float, e: Mapping[str, Any]) -> None:
         self.introduced.add(str(e["task"]))
+        params = e.get("params")
+        if e.get("source") == "group" and isinstance(params, Mapping) and "members" in params:
+            self.allowed[str(e["task"])] = len(params["members"])
 
     def _on_task_outcome(self, t: float, e: Mapping[str, Any]) -> None:
         task = str(e["task"])
@@ -205,18 +211,19 @@ class EventInvariants:
         self._resolve(task, t, "ended")
 
     def _on_award(self, t: float, e: Mapping[str, Any]) -> None:
-        self.holder[str(e["task"])] = str(e["robot"])
+        task = str(e["task"])
+        if "seat" not in e:
+            self.holder[task] = set()
+        self.holder.setdefault(task, set()).add(str(e["robot"]))
 
     def _on_reallocation(self, t: float, e: Mapping[str, Any]) -> None:
         task = str(e["task"])
-        if self.holder.get(task) == str(e["from_robot"]):
-            del self.holder[task]
+        if str(e["from_robot"]) in self.holder.get(task, ()):
+            del self.holder[task]  # (a group goes back whole)
         self._resolve(task, t, "reallocated")
 
     def _on_bid_declined(self, t: float, e: Mapping[str, Any]) -> None:
-        task = str(e["task"])
-        if self.holder.get(task) == str(e["robot"]):
-            del self.holder[task]
+        self.holder.get(str(e["task"]), set()).discard(str(e["robot"]))
 
     def _resolve(self, task: str, t: float, how: str) -> None:
         p = self.pending.pop(task, None)
@@ -238,7 +245,7 @@ class EventInvariants:
 
     def _check_overlap(self, task: str, t: float) -> None:
         running = self.executing.get(task, set())
-        if len(running) > 1 and task not in self.conflicts:
+        if len(running) > self.allowed.get(task, 1) and task not in self.conflicts:
             self.conflicts[task] = (t, tuple(sorted(running)))
 
     # -- robots ----------------------------------------------------------------------------
@@ -252,8 +259,8 @@ class EventInvariants:
             self.suspended[robot] = set(tasks)
         else:
             self.suspended.pop(robot, None)  # killed while frozen: it never resumes those
-        for task, holder in sorted(self.holder.items()):
-            if holder == robot and task not in self.ended and task not in self.pending:
+        for task, holders in sorted(self.holder.items()):
+            if robot in holders and task not in self.ended and task not in self.pending:
                 self.pending[task] = _Pending(t, robot, cause)
 
     def _on_robot_failure(self, t: float, e: Mapping[str, Any]) -> None:
@@ -274,7 +281,7 @@ class EventInvariants:
                 self.executing.setdefault(task, set()).add(robot)
                 self._check_overlap(task, t)
         for task, p in list(self.pending.items()):
-            if p.robot == robot and self.holder.get(task) == robot:
+            if p.robot == robot and robot in self.holder.get(task, ()):
                 # back before the auctioneer gave up on it, still the holder
                 self._resolve(task, t, "holder continued")
 

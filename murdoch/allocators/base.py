@@ -84,6 +84,10 @@ class Allocator:
     it has none (MURDOCH)."""
     refine: bool = False
     """Whether this is the refined form."""
+    group_tasks: bool = False
+    """Whether the team takes a task that needs several robots at once whole (its robots
+    form the group, `murdoch.allocators.group_offers`); otherwise the runner's coordinator
+    hands out its members as single-robot tasks."""
 
     @property
     def codec(self) -> Codec:

@@ -40,4 +40,5 @@ def consensus_allocator(kind: str, summary: str, refine: bool = False) -> Alloca
         return consensus_allocator(kind, summary, refine=True)
 
     return Allocator(kind, summary, _codec, robot_member, _user_member, sub_tasks=False,
-                     refined=None if refine else refined, refine=refine)
+                     refined=None if refine else refined, refine=refine,
+                     group_tasks=kind == "cbga")

@@ -24,6 +24,13 @@ With `refine` (`murdoch-robot --refine`), step 6 waits for the improvement phase
 `consensus_refine` over the settled snapshot, and the robot claims the head of its path in
 the refined plan instead (as without `refine` when the phase is given up).
 
+Under CBGA an offer may need several robots at once (a group offer, `group_offers`): the
+robot bids on it when it can fill one of its seats, claims it (`SeatClaim`: the seats it can
+fill, where it stands) when its view holds the full group with itself in it, and on its
+`SeatGrant` runs that seat's task with that seat's parameters. Offers are checked when heard
+(`group_offers.offer_problem`): a malformed one, or a group offer under CBBA, is refused,
+counted (`counters["refused"]`) and logged, never planned over.
+
 A task the user withdraws while this robot executes it (revoked after a silence, cancelled)
 is stopped (`on_stop`), and so is one whose grant has not been repeated for the abandon
 time (the user may have revoked it in a message this robot missed). Robots under consensus
@@ -39,11 +46,21 @@ from collections.abc import Iterable
 from murdoch.allocators.base import Assignment, RobotHooks
 from murdoch.allocators.consensus_refine import MAX_OFFERS, RefinePhase, Stance, check_refine
 from murdoch.allocators.consensus_state import local_message, state_chunks
+from murdoch.allocators.group_offers import (
+    fillable,
+    is_group,
+    offer_problem,
+    required,
+    seat_place,
+    seats,
+)
 from murdoch.allocators.planning import Profile, plan_profile, team_problem
 from murdoch.allocators.team_messages import (
     SESSION,
     STATE_SUBJECT,
     TEAM_SUBJECT,
+    SeatClaim,
+    SeatGrant,
     TaskClaim,
     TaskGrant,
     TaskOffer,
@@ -104,6 +121,7 @@ class ConsensusRobot:
         self._inbox: list[ConsensusChunk] = []
         self._replan = True
         self._executing: TaskOffer | None = None
+        self._seat = 0
         self._started_at = 0.0
         self._fraction = 0.0
         self._next_progress = 0.0
@@ -115,7 +133,7 @@ class ConsensusRobot:
         self._last_sent: tuple[object, float] | None = None
         self._state: object = None
         self._stable_since = 0.0
-        self.counters = {"claims": 0, "grants": 0, "replans": 0, "silent": 0}
+        self.counters = {"claims": 0, "grants": 0, "replans": 0, "silent": 0, "refused": 0}
         if refine:
             self.counters.update(phases=0, refined=0, phases_given_up=0, refine_refused=0)
         self._sub = transport.subscribe({TEAM_SUBJECT, STATE_SUBJECT})
@@ -228,8 +246,17 @@ class ConsensusRobot:
                                     self.hooks.agent_id, n, msg.sender, why)
         elif isinstance(msg, TaskOffer):
             if msg.offer not in self.offers and msg.offer not in self.withdrawn:
-                self.offers[msg.offer] = msg
-                self._replan = True
+                why = offer_problem(msg, team_size=len(self.hooks.team),
+                                    groups=self.algorithm == "cbga")
+                if why is None:
+                    self.offers[msg.offer] = msg
+                    self._replan = True
+                else:
+                    self.counters["refused"] += 1
+                    n = self.counters["refused"]
+                    if n == 1 or n % 100 == 0:
+                        log.warning("%s: refused %d offer(s), last %s (offer %d): %s",
+                                    self.hooks.agent_id, n, msg.task_id, msg.offer, why)
         elif isinstance(msg, TaskGrant):
             self._withdraw(msg.offer)
             ex = self._executing
@@ -239,8 +266,9 @@ class ConsensusRobot:
                 self._publish(STATE_SUBJECT, self._ended[msg.offer])  # the report was lost
             elif msg.robot == self.hooks.agent_id:
                 self._granted(msg, now)
-            elif self._claim is not None and self._claim[0] == msg.offer:
-                self._claim = None
+            elif self._claim is not None and self._claim[0] == msg.offer and \
+                    not isinstance(msg, SeatGrant):
+                self._claim = None  # (a group's other seats: this robot's may follow)
         elif isinstance(msg, TaskWithdraw):
             self._withdraw(msg.offer)
             ex = self._executing
@@ -263,20 +291,30 @@ class ConsensusRobot:
         offer = None
         if claim is not None and claim[0] == grant.offer:
             offer = self._claimed
-        if offer is None or self._executing is not None or not self._subjects:
-            why = ("left the team (charging)" if not self._subjects and offer is not None
-                   else "granted a task it no longer claims")
+        seat = grant.seat if isinstance(grant, SeatGrant) else 0
+        why = ""
+        if offer is None or self._executing is not None:
+            why = "granted a task it no longer claims"
+        elif not self._subjects:
+            why = "left the team (charging)"
+        elif isinstance(grant, SeatGrant) != is_group(offer) or seat not in fillable(
+                offer, frozenset(self._subjects), self.hooks.knows):
+            why = f"granted seat {seat}, which it cannot fill"
+        if offer is None or why:
             self._publish(STATE_SUBJECT, TaskReport(grant.task_id, grant.offer,
                                                     self.hooks.agent_id, "abandoned", 0.0, why))
             return
         self._executing = offer
+        self._seat = seat
         self._started_at = now
         self._fraction = 0.0
         self._next_progress = now + PROGRESS_S
         self._renewed_at = now
         self.counters["grants"] += 1
-        self._emit(now, "start", offer.task_id, offer=offer.offer)
-        self.hooks.on_start(Assignment(offer.task_id, offer.name, offer.params))
+        place = seats(offer)[seat]
+        self._emit(now, "start", offer.task_id, offer=offer.offer,
+                   **({"seat": seat} if is_group(offer) else {}))
+        self.hooks.on_start(Assignment(offer.task_id, place.kind, place.params))
 
     def _notice_silence(self, now: float) -> None:
         holders: set[int] | None = None
@@ -299,11 +337,12 @@ class ConsensusRobot:
         ex = self._executing
         if ex is not None:
             left = max(0.0, ex.duration_s - (now - self._started_at))
-            position = (ex.x, ex.y) if self.hooks.speed_mps > 0 else self.hooks.position()
+            position = (seat_place(ex, seats(ex)[self._seat]) if self.hooks.speed_mps > 0
+                        else self.hooks.position())
             available = now + left
         else:
             position, available = self.hooks.position(), now
-        names = {o.name for o in offers}
+        names = {s.kind for o in offers for s in seats(o)}
         profile = plan_profile(
             offers, subjects=frozenset(self._subjects),
             can_do={n: self.hooks.knows(n) for n in names}, position=position,
@@ -362,7 +401,8 @@ class ConsensusRobot:
         a, profile = self.agent, self._profile
         settled = (a is not None and profile is not None and bool(self.offers)
                    and len(self.order) <= MAX_OFFERS and now - self._stable_since >= STABLE_S
-                   and any(a.winners_view()))  # (nothing won: nothing to exchange)
+                   and any(a.winners_view())  # (nothing won: nothing to exchange)
+                   and not any(is_group(o) for o in self.offers.values()))
         members = self._members(now)
         phase = self.phase
         if phase is not None and (not settled or self._phase_epoch != self._stable_since
@@ -425,9 +465,10 @@ class ConsensusRobot:
         if not a.path:
             return
         j = a.path[0]
-        if self.index not in a.winners_view()[j]:
-            return
+        winners = a.winners_view()[j]
         offer = self.offers[self.order[j]]
+        if self.index not in winners or len(winners) < required(offer):
+            return  # (a group offer: claimed once the group is full in this view)
         bid = a.y[j] if isinstance(a, CbbaAgent) else a.x[j][self.index]
         self._send_claim(now, offer, bid)
 
@@ -436,8 +477,14 @@ class ConsensusRobot:
         self._claimed = offer
         self.counters["claims"] += 1
         self._emit(now, "claim", offer.task_id, offer=offer.offer, bid=bid)
-        self._publish(STATE_SUBJECT, TaskClaim(offer.task_id, offer.offer, self.hooks.agent_id,
-                                               float(bid)))
+        if is_group(offer):
+            x, y = self.hooks.position()
+            claim: TaskClaim = SeatClaim(
+                offer.task_id, offer.offer, self.hooks.agent_id, float(bid),
+                fillable(offer, frozenset(self._subjects), self.hooks.knows), float(x), float(y))
+        else:
+            claim = TaskClaim(offer.task_id, offer.offer, self.hooks.agent_id, float(bid))
+        self._publish(STATE_SUBJECT, claim)
 
     def _report_progress(self, now: float) -> None:
         ex = self._executing

@@ -12,7 +12,15 @@ must report at least every contract timeout, or the task is revoked (`TaskWithdr
 offered again once the silent robot would have given it up. A report of completion or
 failure ends the task. The user repeats its grant every renewal period (the executor gives
 the task up when the repeats stop, so after a revocation it missed the two never overlap);
-an abandoned task is offered again at once. Every step is reported
+an abandoned task is offered again at once.
+
+A group task (its parameters in the group format, `group_offers`; only the coordinator of an
+allocator with `group_tasks` introduces one) is offered whole. It counts as won while some
+agent's view holds a full group for it; the user waits for a `SeatClaim` from each member,
+hands the seats out (`group_offers.seat_plan`) and grants each its seat (`SeatGrant`, one
+award event per seat). Each member reports on its own; the task completes when every seat
+has, fails when one fails, and is offered again whole when a member abandons it or falls
+silent (the others are stopped by the withdrawal). Every step is reported
 to the observer as the auctioneer's events are (announce, close, award, reallocation,
 outcome), so a run's events read the same under every allocator.
 """
@@ -26,11 +34,14 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 from murdoch.allocators.base import UserHooks
-from murdoch.allocators.consensus_robot import SILENT_S
+from murdoch.allocators.consensus_robot import CLAIM_RETRY_S, SILENT_S
+from murdoch.allocators.group_offers import is_group, required, seat_plan
 from murdoch.allocators.team_messages import (
     SESSION,
     STATE_SUBJECT,
     TEAM_SUBJECT,
+    SeatClaim,
+    SeatGrant,
     TaskClaim,
     TaskGrant,
     TaskOffer,
@@ -45,6 +56,9 @@ from murdoch.transport import Clock, Transport
 log = logging.getLogger(__name__)
 
 OFFER_REPEAT_S = 10.0
+CLAIM_KEPT_S = 2.0 * CLAIM_RETRY_S
+"""A member's claim of a group offer counts this long (members repeat unanswered claims
+every `CLAIM_RETRY_S`)."""
 
 
 @dataclass
@@ -65,6 +79,12 @@ class _Task:
     last_reason: str = ""
     place: tuple[float, float] = (0.0, 0.0)
     repeats: list[float] = field(default_factory=list)
+    claims: dict[str, tuple[float, SeatClaim]] = field(default_factory=dict)
+    """A group offer's claims: robot -> (when, claim)."""
+    seats: dict[str, int] = field(default_factory=dict)
+    """A granted group: robot -> its seat."""
+    heard: dict[str, float] = field(default_factory=dict)
+    done: set[str] = field(default_factory=set)
 
 
 class ConsensusUser:
@@ -81,8 +101,9 @@ class ConsensusUser:
         self._offers = 0
         self._tasks: dict[str, _Task] = {}
         self._by_offer: dict[int, _Task] = {}
-        self._views: dict[int, tuple[float, frozenset[int]]] = {}
-        """Per agent index: when last heard, and the offers its state gives a winner."""
+        self._views: dict[int, tuple[float, dict[int, frozenset[int]]]] = {}
+        """Per agent index: when last heard, and the offers its state gives winners (the
+        agents holding bids)."""
         self._lock = threading.RLock()
         self.outcomes: deque[Outcome] = deque(maxlen=1024)
         """The latest outcomes of the tasks this member introduced."""
@@ -159,18 +180,32 @@ class ConsensusUser:
     def _handle(self, msg: object, now: float) -> None:
         if isinstance(msg, ConsensusChunk):
             if msg.session == SESSION:
-                _, won = self._views.get(msg.sender, (now, frozenset()))
+                _, won = self._views.get(msg.sender, (now, {}))
                 lo, hi = msg.first_task, msg.first_task + msg.task_count
-                kept = {o for o in won if not lo <= o < hi}
-                kept |= {o for o, _, _ in msg.entries}
-                self._views[msg.sender] = (now, frozenset(kept))
+                kept = {o: ms for o, ms in won.items() if not lo <= o < hi}
+                fresh: dict[int, set[int]] = {}
+                for o, m, _ in msg.entries:
+                    fresh.setdefault(o, set()).add(m)
+                kept.update((o, frozenset(ms)) for o, ms in fresh.items())
+                self._views[msg.sender] = (now, kept)
         elif isinstance(msg, TaskClaim):
             task = self._by_offer.get(msg.offer)
-            if task is not None and task.phase == "offered" and task.task_id == msg.task_id:
+            if task is None or task.phase != "offered" or task.task_id != msg.task_id:
+                return
+            assert task.offer is not None
+            if not is_group(task.offer):
                 self._grant(task, msg, now)
+            elif isinstance(msg, SeatClaim):
+                task.claims[msg.robot] = (now, msg)
+                self._try_seats(task, now)
         elif isinstance(msg, TaskReport):
             task = self._by_offer.get(msg.offer)
-            if task is None or task.phase != "granted" or task.winner != msg.robot:
+            if task is None or task.phase != "granted":
+                return
+            if task.seats:
+                self._group_report(task, msg, now)
+                return
+            if task.winner != msg.robot:
                 return
             task.last_heard = now
             if msg.status in ("completed", "failed"):
@@ -178,8 +213,11 @@ class ConsensusUser:
             elif msg.status == "abandoned":
                 self._reallocate(task, now, f"winner {msg.robot} abandoned: {msg.reason}", 0.0)
 
-    def _winner_seen(self, offer: int, now: float) -> bool:
-        return any(offer in won and now - t <= SILENT_S for t, won in self._views.values())
+    def _winner_seen(self, offer: TaskOffer, now: float) -> bool:
+        """Whether some agent heard lately gives the offer a full set of winners."""
+        need = required(offer)
+        return any(len(won.get(offer.offer, ())) >= need and now - t <= SILENT_S
+                   for t, won in self._views.values())
 
     def _tick(self, task: _Task, now: float) -> None:
         spec = task.spec
@@ -188,13 +226,15 @@ class ConsensusUser:
                 self._offer(task, now)
         elif task.phase == "offered":
             assert task.offer is not None
-            if self._winner_seen(task.offer.offer, now):
+            if self._winner_seen(task.offer, now):
                 task.unwon_since = now
             elif now - task.unwon_since >= spec.bid_window_s:
                 self._no_bid(task, now)
             elif now - task.offer.offered_at >= OFFER_REPEAT_S * (len(task.repeats) + 1):
                 task.repeats.append(now)
                 self._publish(TEAM_SUBJECT, task.offer)
+        elif task.phase == "granted" and task.seats:
+            self._group_tick(task, now)
         elif task.phase == "granted":
             if spec.timeout_s is not None and now - task.awarded_at > spec.timeout_s:
                 self._finish(task, now, "failed", f"not finished within {spec.timeout_s:g} s")
@@ -219,6 +259,7 @@ class ConsensusUser:
         task.winner = None
         task.unwon_since = now
         task.repeats = []
+        task.claims, task.seats, task.heard, task.done = {}, {}, {}, set()
         offer = TaskOffer(task.task_id, self._offers, spec.name, tuple(sorted(spec.subjects)),
                           spec.params, spec.duration_s, task.place[0], task.place[1], now)
         self._offers += 1
@@ -241,6 +282,65 @@ class ConsensusUser:
         self._emit(now, "close", task, bids=1)
         self._emit(now, "award", task, winner=claim.robot, score=claim.bid, bids=1)
         self._publish(TEAM_SUBJECT, TaskGrant(task.task_id, claim.offer, claim.robot))
+
+    # -- group offers
+    def _try_seats(self, task: _Task, now: float) -> None:
+        """Grant the seats once the fresh claims fill them all."""
+        assert task.offer is not None
+        task.claims = {r: c for r, c in task.claims.items() if now - c[0] <= CLAIM_KEPT_S}
+        plan = seat_plan(task.offer, [c for _, c in task.claims.values()])
+        if plan is None:
+            return
+        bids = {r: c.bid for r, (_, c) in task.claims.items()}
+        task.phase = "granted"
+        task.seats = dict(sorted(plan.items(), key=lambda rs: rs[1]))
+        task.winner = next(iter(task.seats))
+        task.heard = {r: now for r in task.seats}
+        task.done = set()
+        task.awarded_at = task.last_heard = now
+        task.renew_at = now + task.spec.renew_period_s
+        self._emit(now, "close", task, bids=len(task.claims))
+        for robot, seat in task.seats.items():
+            self._emit(now, "award", task, winner=robot, score=bids[robot], bids=len(bids),
+                       seat=seat)
+        task.claims = {}
+        self._send_seats(task)
+
+    def _send_seats(self, task: _Task) -> None:
+        assert task.offer is not None
+        for robot, seat in task.seats.items():
+            if robot not in task.done:
+                self._publish(TEAM_SUBJECT, SeatGrant(task.task_id, task.offer.offer, robot,
+                                                      seat))
+
+    def _group_report(self, task: _Task, msg: TaskReport, now: float) -> None:
+        if msg.robot not in task.seats or msg.robot in task.done:
+            return
+        task.heard[msg.robot] = now
+        if msg.status == "completed":
+            task.done.add(msg.robot)
+            if len(task.done) == len(task.seats):
+                self._finish(task, now, "completed", msg.reason or "completed")
+        elif msg.status == "failed":
+            task.winner = msg.robot
+            self._finish(task, now, "failed", msg.reason or "failed")
+        elif msg.status == "abandoned":
+            task.winner = msg.robot
+            self._reallocate(task, now, f"member {msg.robot} abandoned: {msg.reason}", 0.0)
+
+    def _group_tick(self, task: _Task, now: float) -> None:
+        spec = task.spec
+        silent = sorted(r for r, t in task.heard.items()
+                        if r not in task.done and now - t > spec.contract_timeout_s)
+        if spec.timeout_s is not None and now - task.awarded_at > spec.timeout_s:
+            self._finish(task, now, "failed", f"not finished within {spec.timeout_s:g} s")
+        elif silent:
+            task.winner = silent[0]
+            self._reallocate(task, now, f"member {silent[0]} silent for "
+                             f"{spec.contract_timeout_s:g} s", spec.abandon_after_s)
+        elif now >= task.renew_at:
+            task.renew_at = now + spec.renew_period_s
+            self._send_seats(task)
 
     def _no_bid(self, task: _Task, now: float) -> None:
         self._emit(now, "close", task, bids=0)

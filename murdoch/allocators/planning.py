@@ -6,7 +6,10 @@ duration has run out). A robot that does not move works where it stands (no trav
 offer scores ``REWARD * exp(-DISCOUNT * (start - offered_at))``: the sooner a task can start
 after it was offered, the better. A robot may bid on an offer when the offer's subjects are
 among its own (and its library has the task); for CBGA the robot's subjects are its
-equipment and the offer's subjects the equipment the task needs.
+equipment and the offer's subjects the equipment the task needs. A group offer
+(`group_offers`) needs `required` agents at once, each of them able to fill one of its seats:
+a robot may bid on it when it can fill a seat, so the group's equipment is checked per seat
+here, not as the union CBGA's scenarios allow.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
+from murdoch.allocators.group_offers import fillable, required
 from murdoch.allocators.team_messages import TaskOffer
 from murdoch.consensus.scenario import Agent, CommGraph, Scenario, Task
 from murdoch.consensus.scoring import Problem, build_problem
@@ -41,9 +45,10 @@ class Profile:
 
 def capable_offers(offers: Sequence[TaskOffer], subjects: frozenset[str],
                    can_do: Mapping[str, bool]) -> frozenset[int]:
-    """The offers a robot with these subjects and this library may bid on."""
+    """The offers a robot with these subjects and this library (task kind -> known) may
+    bid on: those with a seat it can fill."""
     return frozenset(o.offer for o in offers
-                     if set(o.subjects) <= subjects and can_do.get(o.name, False))
+                     if fillable(o, subjects, lambda kind: can_do.get(kind, False)))
 
 
 def team_problem(team: Sequence[str], profiles: Mapping[int, Profile],
@@ -63,7 +68,8 @@ def team_problem(team: Sequence[str], profiles: Mapping[int, Profile],
             agents.append(Agent(name, (0.0, 0.0), 1.0, frozenset(), frozenset(), 0.0))
     tasks = [Task(str(o.offer), (o.x, o.y), str(o.offer), REWARD, DISCOUNT,
                   start_s=o.offered_at, end_s=math.inf, duration_s=max(0.0, o.duration_s),
-                  equipment=frozenset(o.subjects))
+                  agents_required=required(o),
+                  equipment=frozenset(o.subjects) if required(o) == 1 else frozenset())
              for o in offers]
     return build_problem(Scenario("team", tuple(agents), tuple(tasks), time_windows=True,
                                   max_depth=BUNDLE_LIMIT, comm_graph=CommGraph()))

@@ -10,7 +10,9 @@ offers that ended (`TaskWithdraw`: granted elsewhere, no winner, revoked, ended)
 executor reports progress and the end (`TaskReport`). Robots running with `--refine` also
 exchange `TeamRefine` while they improve a settled plan. Agents' consensus state travels as
 `murdoch.consensus.async_runner.ConsensusChunk`, entries naming offers, agents by their
-index in the team (the world's robot order).
+index in the team (the world's robot order). A group offer (CBGA: one task for several
+robots at once, `group_offers`) is claimed by each member of the full group (`SeatClaim`) and
+granted seat by seat (`SeatGrant`).
 """
 
 from __future__ import annotations
@@ -54,11 +56,30 @@ class TaskClaim:
 
 
 @dataclass(frozen=True)
+class SeatClaim(TaskClaim):
+    """A claim of a group offer (`group_offers`): the seats this robot can fill and where
+    it stands, from which the user hands out the seats."""
+
+    KIND: ClassVar[str] = "team-seat-claim"
+    seats: tuple[int, ...] = ()
+    x: float = 0.0
+    y: float = 0.0
+
+
+@dataclass(frozen=True)
 class TaskGrant:
     KIND: ClassVar[str] = "team-grant"
     task_id: str
     offer: int
     robot: str
+
+
+@dataclass(frozen=True)
+class SeatGrant(TaskGrant):
+    """A grant of one seat of a group offer: the robot runs that seat's task."""
+
+    KIND: ClassVar[str] = "team-seat-grant"
+    seat: int = 0
 
 
 @dataclass(frozen=True)
@@ -108,8 +129,8 @@ class TeamRefine:
     previous: tuple[tuple[int, int, float, tuple[int, ...]], ...]
 
 
-TEAM_KINDS = (TaskOffer, TaskClaim, TaskGrant, TaskWithdraw, TaskReport, ConsensusChunk,
-              TeamRefine)
+TEAM_KINDS = (TaskOffer, TaskClaim, SeatClaim, TaskGrant, SeatGrant, TaskWithdraw, TaskReport,
+              ConsensusChunk, TeamRefine)
 TEAM_CODEC = AUCTION_CODEC.extended(TEAM_KINDS)
 """Every message a CBBA or CBGA team sends (the auction kinds too, so tools that listen to
 a bus understand both)."""

@@ -63,6 +63,19 @@ def test_start_waits_take_the_first_start_and_a_group_waits_for_its_last_member(
     assert waits == pytest.approx([1.5, 4.0])
 
 
+def test_a_group_taken_whole_starts_when_its_last_robot_does() -> None:
+    params = {"required": 2, "members": [{"kind": "watch-object-side"}] * 2}
+    events = [_e(10.0, "task_introduced", task="group-1", task_kind="watch-object-pair",
+                 source="user", group=True),
+              _e(10.0, "task_introduced", task="u.1", task_kind="watch-object-pair",
+                 source="group", parent="group-1", params=params),
+              _e(12.0, "robot_task", robot="p1", phase="start", task="u.1"),
+              _e(12.5, "robot_task", robot="p1", phase="start", task="u.1"),
+              _e(17.0, "robot_task", robot="p2", phase="start", task="u.1")]
+    assert start_waits(events) == pytest.approx([7.0])
+    assert start_waits(events[:-1]) == []  # one robot of two: the group has not started
+
+
 def test_reallocations_after_kills_count_only_tasks_taken_from_a_robot_that_is_down() -> None:
     assert reallocations_after_kills(EVENTS) == 1  # x from p1 (up), y after p3's restart
 

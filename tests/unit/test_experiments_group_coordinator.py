@@ -117,3 +117,38 @@ def test_a_group_not_in_place_by_its_deadline_fails() -> None:
     (end,) = _outcomes(rec, "group-1")
     assert end["outcome"] == "failed" and "deadline" in end["reason"]
     assert sorted(t for t, _ in node.cancelled) == ["user.0.1", "user.0.2"]
+
+
+def test_a_robot_that_is_down_holds_no_spot() -> None:
+    c, _, rec, sim, group = _coordinator()
+    (ax, ay), (bx, by) = group.spots
+    sim.poses["p2"], sim.poses["p5"] = (ax, ay, 0.0), (bx, by, 0.0)
+    c.step(10.0, down={"p5"})
+    c.step(30.0, down={"p5"})  # p5 was killed where it stood: the hold never starts
+    assert not _outcomes(rec, "group-1")
+    c.step(31.0)
+    c.step(41.0)
+    (done,) = _outcomes(rec, "group-1")
+    assert done["outcome"] == "completed" and done["in_place_s"] == pytest.approx(36.0)
+
+
+def test_a_team_that_takes_groups_whole_is_handed_one_task() -> None:
+    spec = load_world(world_path("longterm"))
+    group = watch_pair(spec, random.Random(4), 90.0)
+    assert group is not None
+    node, rec = FakeNode(), FakeRec()
+    c = GroupCoordinator(rec=rec, node=node, sim=FakeSim(), mobile=frozenset({"p1"}),
+                         introduced=set(), finished=set(), patience_s=300.0, whole=True)
+    c.introduce(PlannedTask(5.0, group.kind, group.as_params()), 5.0)
+    ((task_id, announced),) = node.announced
+    assert announced.name == group.kind and announced.parent == "group-1"
+    assert dict(announced.params)["required"] == 2
+    assert announced.subjects >= {"camera", "mobile"}
+    intro = [e for e in rec.events if e["kind"] == "task_introduced"]
+    assert [(e["task"], e.get("source")) for e in intro] == [("group-1", "user"),
+                                                             (task_id, "group")]
+    assert intro[1]["params"] == group.as_params()
+    c.on_outcome(task_id, "failed", 20.0)  # the task ends before the group is in place
+    c.step(20.1)
+    (end,) = _outcomes(rec, "group-1")
+    assert end["outcome"] == "failed"

@@ -80,6 +80,36 @@ def test_two_robots_executing_one_task_is_a_breach() -> None:
     assert v.first_counter_example == {"t": 3.0, "task": "t1", "robots": ["p1", "p2"]}
 
 
+def group_story(third: bool) -> list[dict[str, Any]]:
+    """A group task taken whole by p1 and p2 (two seats); with `third`, p3 joins in."""
+    params = {"required": 2, "members": [{"kind": "watch-object-side"}] * 2}
+    events = [e(1.0, "task_introduced", task="group-1", task_kind="watch-object-pair",
+                source="user", group=True),
+              e(1.0, "task_introduced", task="u.1", task_kind="watch-object-pair",
+                source="group", parent="group-1", params=params),
+              e(2.0, "award", task="u.1", robot="p1", seat=0),
+              e(2.0, "award", task="u.1", robot="p2", seat=1),
+              e(2.1, "robot_task", robot="p1", phase="start", task="u.1"),
+              e(2.1, "robot_task", robot="p2", phase="start", task="u.1")]
+    if third:
+        events.append(e(3.0, "robot_task", robot="p3", phase="start", task="u.1"))
+    return [*events,
+            e(30.0, "robot_failure", robot="p2", reason="killed"),
+            e(35.0, "reallocation", task="u.1", from_robot="p2", reason="silent"),
+            e(50.0, "task_outcome", task="u.1", outcome="completed"),
+            e(50.0, "task_outcome", task="group-1", outcome="completed")]
+
+
+def test_a_group_task_is_executed_by_its_group_and_no_more() -> None:
+    inv = check_events(group_story(third=False), LIMITS)
+    assert all(v.held for v in inv.verdicts.values()), inv.verdicts
+    (lat,) = inv.realloc_latencies  # the killed member's task went back (whole)
+    assert lat["robot"] == "p2" and lat["latency_s"] == pytest.approx(5.0)
+    v = check_events(group_story(third=True), LIMITS).verdicts["exclusive_execution"]
+    assert not v.held
+    assert v.first_counter_example == {"t": 3.0, "task": "u.1", "robots": ["p1", "p2", "p3"]}
+
+
 def test_a_thawed_holder_that_lets_go_at_once_is_no_overlap() -> None:
     events = [e(1.0, "task_introduced", task="t1", task_kind="cleanup"),
               e(2.0, "award", task="t1", robot="p1"),
