@@ -276,6 +276,23 @@ def plot_comparison(rows: Sequence[Mapping[str, Any]], stats: Sequence[Mapping[s
     return path
 
 
+def _reused_row(job: Job, out: Path, until_s: float, task_interval: float, group_tasks: float,
+               kills: Sequence[str], restarts: Sequence[str],
+               world: str | None) -> dict[str, Any] | None:
+    """The row of a finished run `--resume` may reuse for this job (None: run it)."""
+    from experiments.compare_resume import expected_config, reusable_run
+
+    expected = expected_config(
+        allocator=job.allocator.removesuffix(REFINED), refine=job.allocator.endswith(REFINED),
+        seed=job.seed, until_s=until_s, task_interval_s=task_interval,
+        group_tasks=group_tasks, kills=kills, restarts=restarts, world=world)
+    run_dir, _why = reusable_run(out / job.label(), expected)
+    if run_dir is None:
+        return None
+    summary = json.loads((run_dir / "summary.json").read_text(encoding="utf-8"))
+    return run_row(job, summary, ev.read_events(run_dir / "events.jsonl"), 0, run_dir)
+
+
 def run_one(job: Job, *, out: Path, until_s: float, extra: Sequence[str],
             pin: bool) -> dict[str, Any]:
     """Run one long-term experiment as its own process; its row."""
@@ -375,11 +392,14 @@ def _run_options(world: str | None, task_interval: float, group_tasks: float,
               help="Start it again in every run: ROBOT@TIME.")
 @click.option("--metric", "metric_terms", default="",
               help="Passed to every run: terms added to the robots' task metrics.")
+@click.option("--resume", is_flag=True,
+              help="Reuse the finished runs under --out made with exactly these options "
+                   "(a lockstep run repeats exactly); run only the others.")
 def compare(experiment: str, allocators: str, refine: bool, seeds: str,
             sim_hours: float | None,
             until: str | None, jobs: int, out: Path, world: str | None, task_interval: float,
             group_tasks: float, kills: tuple[str, ...], restarts: tuple[str, ...],
-            metric_terms: str) -> None:
+            metric_terms: str, resume: bool) -> None:
     """Run EXPERIMENT with each allocator on each seed; CSV, figure and a table."""
     names = parse_allocators(allocators, refine)
     seed_list = parse_seeds(seeds)
@@ -404,6 +424,12 @@ def compare(experiment: str, allocators: str, refine: bool, seeds: str,
     pin = jobs == 1  # several runs would all pin their serving threads to the same CPU
 
     def one(job: Job) -> dict[str, Any]:
+        if resume and not metric_terms:
+            reused = _reused_row(job, out, until_s, task_interval, group_tasks, kills,
+                                 restarts, world)
+            if reused is not None:
+                click.echo(f"  {job.label()}: reused {reused['run_dir']}")
+                return reused
         row = run_one(job, out=out, until_s=until_s, extra=extra, pin=pin)
         click.echo(f"  {job.label()}: exit {row['exit_code']}, completed "
                    f"{row['tasks_completed']}, group {row['group_tasks_completed']} "

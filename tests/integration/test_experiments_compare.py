@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import json
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -86,3 +87,31 @@ def test_bad_options_are_refused_before_anything_runs(tmp_path: Path) -> None:
         assert proc.returncode == 2, (args, proc.stdout, proc.stderr)
         assert needle in proc.stderr and "Traceback" not in proc.stderr
     assert not list(tmp_path.iterdir())
+
+
+def test_resume_reuses_finished_runs_made_with_the_same_options(tmp_path: Path) -> None:
+    out = tmp_path / "cmp"
+    args = [*_murdoch(), "compare", "longterm", "--allocators", "murdoch,cbga", "--seeds", "1",
+            "--until", "60s", "--task-interval", "30", "--jobs", "2", "--out", str(out)]
+
+    def compare(*more: str) -> subprocess.CompletedProcess[str]:
+        proc = subprocess.run([*args, *more], capture_output=True, text=True, timeout=400,
+                              check=False)
+        assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+        return proc
+
+    def rows() -> list[dict[str, str]]:
+        with (out / "comparison.csv").open() as f:
+            return list(csv.DictReader(f))
+
+    compare()
+    first = rows()
+    shutil.rmtree(out / "cbga-s1")  # as if the comparison had stopped before this run
+    proc = compare("--resume")
+    assert "murdoch-s1: reused" in proc.stdout and "cbga-s1: reused" not in proc.stdout
+    again = rows()
+    assert again[0] == first[0]  # the same run dir, the same row
+    assert again[1]["events_sha256"] == first[1]["events_sha256"]  # made again, the same
+    proc = compare("--resume", "--task-interval", "45")
+    assert "reused" not in proc.stdout  # other options: every run is made again
+    assert len(list((out / "murdoch-s1").iterdir())) == 3  # (its log and two runs)
