@@ -1,12 +1,14 @@
 """Real-time factor of the long-term experiment.
 
     python bench/longterm_rtf.py [--sim-hours 3] [--keep] [--no-pin-cpus] [--no-record]
+                                 [--allocator murdoch|cbba|cbga] [--group-tasks RATE]
 
 Runs `murdoch run longterm --sim-hours H --speedup 0` into a temporary directory, prints the
 resident memory of every process at the start and at the end of the run, and as its last line
 `sim_hours=H wall_s=<x> rtf=<y> tasks_completed=<n> charge_trips=<c> mcap_mib=<m>`
 (the size of the run's run.mcap; `--no-record` runs without it, the baseline of what
-recording costs).
+recording costs; `--allocator` and `--group-tasks` are passed to the run, for the wall time
+of a 3-hour run per allocator).
 Target on a 2-core machine: 3 simulated hours in at most 5 minutes (rtf >= 36).
 
 Before it, the CPU time of the whole run (the runner with its serving thread, the
@@ -55,6 +57,8 @@ def main() -> int:
                    help="let the serving thread share its CPU (murdoch run --no-pin-cpus)")
     p.add_argument("--no-record", action="store_true",
                    help="write no run.mcap (murdoch run --no-record)")
+    p.add_argument("--allocator", default=None, help="murdoch run --allocator")
+    p.add_argument("--group-tasks", type=float, default=None, help="murdoch run --group-tasks")
     args = p.parse_args()
     out = Path(tempfile.mkdtemp(prefix="bench-longterm-"))
     murdoch = Path(sys.executable).parent / "murdoch"
@@ -66,6 +70,10 @@ def main() -> int:
         cmd.append("--no-pin-cpus")
     if args.no_record:
         cmd.append("--no-record")
+    if args.allocator:
+        cmd += ["--allocator", args.allocator]
+    if args.group_tasks is not None:
+        cmd += ["--group-tasks", str(args.group_tasks)]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     ticks0 = cpu_ticks()
     proc = subprocess.run(cmd, stdout=subprocess.DEVNULL, check=False)
@@ -88,7 +96,8 @@ def main() -> int:
               f"cores_busy={cpu_s / max(s['wall_time_s'], 1e-9):.2f} "
               f"cpu_bound_rtf={cores / max(per_sim_s, 1e-9):.1f} (on {cores} cores) "
               f"cpu_steal={100 * steal:.0f}%")
-        print(f"sim_hours={s['sim_time_s'] / 3600:g} wall_s={s['wall_time_s']:.1f} "
+        print(f"allocator={s.get('allocator', 'murdoch')} "
+              f"sim_hours={s['sim_time_s'] / 3600:g} wall_s={s['wall_time_s']:.1f} "
               f"rtf={s['real_time_factor']:.1f} tasks_completed={s['tasks']['executed']} "
               f"charge_trips={s['charging_trips']} mcap_mib={mcap_mib:.2f}")
     finally:
