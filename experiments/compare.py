@@ -1,11 +1,12 @@
 """`murdoch compare longterm`: the allocators side by side on the same task streams.
 
 Every (allocator, seed) pair is one `murdoch run longterm --allocator A --seed S` process
-(`--jobs` at a time, each with its own Player ports, multicast port and team key, as every
-`murdoch run` has), under the same options: the same seed gives every allocator the same task
-stream, batteries and fault schedule (`--kill`, `--restart` apply to each run alike). From
-each run directory's summary.json and events.jsonl it takes one row of `comparison.csv`, then
-writes `comparison.png` and prints the mean ± standard deviation over seeds per allocator:
+(`--jobs` at a time, or on the workers of a Dask cluster with `--dask`; each with its own
+Player ports, multicast port and team key, as every `murdoch run` has), under the same
+options: the same seed gives every allocator the same task stream, batteries and fault
+schedule (`--kill`, `--restart` apply to each run alike). From each run directory's
+summary.json and events.jsonl it takes one row of `comparison.csv` (on the host that ran it),
+then writes `comparison.png` and prints the mean ± standard deviation over seeds per allocator:
 tasks completed, time from introduction to start, distance driven, messages and bytes per
 task, group tasks completed, reallocations after kills and unachievable tasks.
 
@@ -13,24 +14,28 @@ A consensus allocator's refined form is compared as an allocator of its own: `cb
 runs `--allocator cbba --refine` (`REFINED`); `--refine` adds the refined form of every
 consensus allocator listed, next to the plain one.
 
-The pure part (`run_row`, `start_waits`, `reallocations_after_kills`, `mean_std`,
-`by_allocator`, `format_table`) builds and reads rows; `run_one` and the click command are the
-process and file edges.
+The pure part (`run_row`, `error_row`, `rows_in_order`, `start_waits`,
+`reallocations_after_kills`, `mean_std`, `by_allocator`, `format_table`) builds, gathers and
+reads rows; `run_one` and the click command are the process and file edges, and where the runs
+go (a thread pool here, or `murdoch.dask_jobs.connected`) is the `submit` given to
+`rows_in_order`.
 """
 
 from __future__ import annotations
 
 import csv
+import functools
 import json
 import math
 import statistics
 import subprocess
 import sys
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import click
 
@@ -39,6 +44,9 @@ from experiments.experiment import ALLOCATOR_NAMES
 from experiments.run_cli import parse_at, parse_duration_s
 from experiments.sweep_longterm import murdoch_command, parse_seeds
 from murdoch.allocators import REFINABLE
+
+if TYPE_CHECKING:
+    from murdoch.dask_jobs import Submit
 
 METRICS: tuple[tuple[str, str], ...] = (
     ("tasks_completed", "tasks completed"),
@@ -54,13 +62,15 @@ METRICS: tuple[tuple[str, str], ...] = (
 COLUMNS: tuple[str, ...] = (
     "allocator", "seed", "exit_code", "sim_time_s", "tasks_introduced",
     *(key for key, _ in METRICS), "messages", "bytes", "wall_time_s", "events_sha256",
-    "run_dir",
+    "run_dir", "error",
 )
 
 
 REFINED = "+refine"
 """The suffix that names an allocator's refined form (`cbba+refine`)."""
 COMPARABLE: tuple[str, ...] = (*ALLOCATOR_NAMES, *(a + REFINED for a in REFINABLE))
+JOBS = 2
+"""Runs at a time on this machine unless `--jobs` says otherwise."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -156,7 +166,7 @@ def user_outcomes(events: Iterable[Mapping[str, Any]]) -> dict[str, str]:
 
 
 def run_row(job: Job, summary: Mapping[str, Any] | None,
-            events: Sequence[Mapping[str, Any]], exit_code: int,
+            events: Sequence[Mapping[str, Any]], exit_code: int | None,
             run_dir: Path | None) -> dict[str, Any]:
     """One row of comparison.csv (figures None when the run left no summary)."""
     row: dict[str, Any] = dict.fromkeys(COLUMNS)
@@ -184,6 +194,39 @@ def run_row(job: Job, summary: Mapping[str, Any] | None,
         wall_time_s=summary.get("wall_time_s"), events_sha256=summary.get("events_sha256"),
     )
     return row
+
+
+def error_row(job: Job, error: BaseException) -> dict[str, Any]:
+    """The row of a run that raised instead of giving its row: no exit code, no figures,
+    the error."""
+    row = run_row(job, None, [], None, None)
+    row["error"] = f"{type(error).__name__}: {error}"
+    return row
+
+
+class Pending(Protocol):
+    """A run under way (a thread pool's or a Dask cluster's future)."""
+
+    def result(self) -> dict[str, Any]: ...
+
+
+def rows_in_order(jobs: Sequence[Job], submit: Callable[[Job], Pending],
+                  on_row: Callable[[dict[str, Any]], None] | None = None,
+                  ) -> list[dict[str, Any]]:
+    """Every job submitted at once, then the rows taken in job order, wherever the runs
+    went; a run that raised gets its `error_row`, so the others' rows are kept. `on_row`
+    sees each row as it is taken."""
+    pending = [submit(job) for job in jobs]
+    rows = []
+    for job, run in zip(jobs, pending, strict=True):
+        try:
+            row = run.result()
+        except Exception as exc:  # one run lost (e.g. its worker died) spoils no other
+            row = error_row(job, exc)
+        if on_row is not None:
+            on_row(row)
+        rows.append(row)
+    return rows
 
 
 # -- over seeds (pure) -------------------------------------------------------------------------
@@ -316,6 +359,17 @@ def run_one(job: Job, *, out: Path, until_s: float, extra: Sequence[str],
     return run_row(job, summary, events, code, run_dir)
 
 
+@contextmanager
+def in_threads(jobs: int) -> Iterator[Submit]:
+    """Runs on this machine, `jobs` at a time (each run is a process of its own)."""
+    with ThreadPoolExecutor(max_workers=jobs) as pool:
+
+        def submit(fn: Callable[[Any], Any], arg: Any, /) -> Any:
+            return pool.submit(fn, arg)
+
+        yield submit
+
+
 def _span(seconds: float) -> str:
     if seconds >= 3600.0:
         return f"{seconds / 3600.0:g} h"
@@ -376,8 +430,12 @@ def _run_options(world: str | None, task_interval: float, group_tasks: float,
 @click.option("--sim-hours", type=float, default=None, help="Simulated hours of every run.")
 @click.option("--until", "until", default=None, show_default="3h",
               help="Simulated span of every run, e.g. 3h, 90m.")
-@click.option("--jobs", type=click.IntRange(1, 64), default=2, show_default=True,
+@click.option("--jobs", type=click.IntRange(1, 64), default=JOBS, show_default=True,
               help="Runs at a time (each its own runner and robot processes).")
+@click.option("--dask", "dask_address", default=None, metavar="tcp://HOST:PORT",
+              help="Run on the workers of this Dask scheduler instead of --jobs at a time "
+                   "here (pip install 'murdoch[dask]'; each worker writes its runs under "
+                   "--out on its own filesystem; the rows come back here).")
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path),
               default=Path("runs/compare"), show_default=True)
 @click.option("--world", default=None, help="World name or .toml (default: longterm).")
@@ -399,7 +457,7 @@ def compare(experiment: str, allocators: str, refine: bool, seeds: str,
             sim_hours: float | None,
             until: str | None, jobs: int, out: Path, world: str | None, task_interval: float,
             group_tasks: float, kills: tuple[str, ...], restarts: tuple[str, ...],
-            metric_terms: str, resume: bool) -> None:
+            metric_terms: str, dask_address: str | None, resume: bool) -> None:
     """Run EXPERIMENT with each allocator on each seed; CSV, figure and a table."""
     names = parse_allocators(allocators, refine)
     seed_list = parse_seeds(seeds)
@@ -416,28 +474,35 @@ def compare(experiment: str, allocators: str, refine: bool, seeds: str,
         _metric_terms(metric_terms)  # a bad term is refused before anything runs
     extra = _run_options(world, task_interval, group_tasks, kills, restarts, metric_terms,
                          until_s)
-    out.mkdir(parents=True, exist_ok=True)
+    if dask_address is not None:
+        out = out.absolute()  # the same path on every worker (a shared filesystem's)
+    place = _where(dask_address, jobs)
     todo = [Job(a, s) for s in seed_list for a in names]
-    click.echo(f"{len(todo)} runs of {experiment} for {until_s:g} s simulated "
-               f"({', '.join(names)} x seeds {', '.join(map(str, seed_list))}), {jobs} at a "
-               f"time, into {out}")
-    pin = jobs == 1  # several runs would all pin their serving threads to the same CPU
+    # several runs on one host would all pin their serving threads to the same CPU
+    run = functools.partial(run_one, out=out, until_s=until_s, extra=extra,
+                            pin=jobs == 1 and dask_address is None)
+    from murdoch.dask_jobs import DaskUnavailable
 
-    def one(job: Job) -> dict[str, Any]:
-        if resume and not metric_terms:
-            reused = _reused_row(job, out, until_s, task_interval, group_tasks, kills,
-                                 restarts, world)
-            if reused is not None:
-                click.echo(f"  {job.label()}: reused {reused['run_dir']}")
-                return reused
-        row = run_one(job, out=out, until_s=until_s, extra=extra, pin=pin)
-        click.echo(f"  {job.label()}: exit {row['exit_code']}, completed "
-                   f"{row['tasks_completed']}, group {row['group_tasks_completed']} "
-                   f"({row['wall_time_s']} s wall)")
-        return row
-
-    with ThreadPoolExecutor(max_workers=jobs) as pool:
-        rows = list(pool.map(one, todo))
+    reused: list[dict[str, Any]] = []
+    if resume and not metric_terms:
+        for job in todo:
+            row = _reused_row(job, out, until_s, task_interval, group_tasks, kills, restarts,
+                              world)
+            if row is not None:
+                click.echo(f"  {job.label()}: reused {row['run_dir']}")
+                reused.append(row)
+        done = {(r["allocator"], r["seed"]) for r in reused}
+        todo = [job for job in todo if (job.allocator, job.seed) not in done]
+    try:
+        with place as submit:
+            out.mkdir(parents=True, exist_ok=True)
+            click.echo(f"{len(todo)} runs of {experiment} for {until_s:g} s simulated "
+                       f"({', '.join(names)} x seeds {', '.join(map(str, seed_list))}), "
+                       + (f"on the Dask cluster at {dask_address}" if dask_address
+                          else f"{jobs} at a time") + f", into {out}")
+            rows = reused + rows_in_order(todo, functools.partial(submit, run), _report)
+    except (DaskUnavailable, OSError) as exc:
+        raise click.ClickException(str(exc)) from None
     rows.sort(key=lambda r: (names.index(r["allocator"]), int(r["seed"])))
     write_csv(rows, out / "comparison.csv")
     stats = by_allocator(rows, names)
@@ -449,8 +514,40 @@ def compare(experiment: str, allocators: str, refine: bool, seeds: str,
     failed = [r for r in rows if r["exit_code"] != 0]
     if failed:
         click.echo(f"error: {len(failed)} run(s) did not end cleanly: "
-                   + ", ".join(f"{Job(r['allocator'], r['seed']).label()} "
-                               f"(exit {r['exit_code']}, see {out}/"
-                               f"{Job(r['allocator'], r['seed']).label()}/compare.log)"
-                               for r in failed), err=True)
+                   + ", ".join(_why(Job(r["allocator"], r["seed"]), r, out) for r in failed),
+                   err=True)
         sys.exit(1)
+
+
+def _where(dask_address: str | None, jobs: int) -> AbstractContextManager[Submit]:
+    """Where the runs go: the Dask cluster at `dask_address` (checked here, before anything
+    runs), else `jobs` at a time on this machine."""
+    if dask_address is None:
+        return in_threads(jobs)
+    from murdoch.dask_jobs import check_address, connected
+
+    try:
+        check_address(dask_address)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--dask") from None
+    if jobs != JOBS:
+        raise click.BadParameter(
+            f"--jobs counts runs at a time on this machine; with --dask the cluster's workers "
+            f"run them (one per worker thread): expected --jobs {JOBS} or none, got {jobs}",
+            param_hint="--jobs")
+    return connected(dask_address)
+
+
+def _report(row: Mapping[str, Any]) -> None:
+    label = Job(row["allocator"], row["seed"]).label()
+    if row["error"] is not None:
+        click.echo(f"  {label}: {row['error']}")
+        return
+    click.echo(f"  {label}: exit {row['exit_code']}, completed {row['tasks_completed']}, "
+               f"group {row['group_tasks_completed']} ({row['wall_time_s']} s wall)")
+
+
+def _why(job: Job, row: Mapping[str, Any], out: Path) -> str:
+    if row["error"] is not None:
+        return f"{job.label()} ({row['error']})"
+    return f"{job.label()} (exit {row['exit_code']}, see {out}/{job.label()}/compare.log)"

@@ -154,7 +154,7 @@ def sweep(experiment: str, agents: str | None, runs: int, seed: int, jobs: int,
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="--agents") from exc
     if dask_address is not None:
-        from murdoch.consensus.dask_jobs import check_address
+        from murdoch.dask_jobs import check_address
 
         try:
             check_address(dask_address)
@@ -173,7 +173,7 @@ def sweep(experiment: str, agents: str | None, runs: int, seed: int, jobs: int,
             last[0] = now
             click.echo(f"  {done}/{total} ({now - t0:.0f} s)", err=True)
 
-    from murdoch.consensus.dask_jobs import DaskUnavailable
+    from murdoch.dask_jobs import DaskUnavailable
 
     try:
         records = run_jobs(all_jobs, jobs, progress, dask_address=dask_address)

@@ -100,8 +100,9 @@ def run_jobs(jobs: Sequence[Job], n_procs: int,
              progress: Callable[[int, int], None] | None = None,
              dask_address: str | None = None) -> list[RunRecord]:
     """Run jobs in `n_procs` worker processes (1 = in this process), or on the workers of
-    the Dask scheduler at `dask_address` (`murdoch.consensus.dask_jobs`); the records come
-    in job order either way."""
+    the Dask scheduler at `dask_address` (`murdoch.dask_jobs`: the same chunks, and every
+    worker loads the compiled runs first); the records come in job order either way, and
+    each job carries its seed, so they are the same records but for the solve times."""
     size = max(1, min(25, len(jobs) // max(1, n_procs * 8)))
     chunks = [list(jobs[i:i + size]) for i in range(0, len(jobs), size)]
     out: list[RunRecord] = []
@@ -113,18 +114,16 @@ def run_jobs(jobs: Sequence[Job], n_procs: int,
     if cbba or cbga:
         load_kernels(cbba, cbga)
     if dask_address is not None:
-        from murdoch.consensus.dask_jobs import run_chunks_on_dask
+        from murdoch.dask_jobs import run_in_order
 
-        finished = [0]
-
-        def chunk_done(count: int) -> None:
-            finished[0] += count
+        def chunk_done(records: list[RunRecord]) -> None:
+            out.extend(records)
             if progress:
-                progress(finished[0], len(jobs))
+                progress(len(out), len(jobs))
 
-        results = run_chunks_on_dask(dask_address, chunks, _run_chunk,
-                                     functools.partial(load_kernels, cbba, cbga), chunk_done)
-        return [r for records in results for r in records]
+        run_in_order(dask_address, _run_chunk, chunks,
+                     functools.partial(load_kernels, cbba, cbga), chunk_done)
+        return out
     if n_procs <= 1:
         for chunk in chunks:
             out.extend(_run_chunk(chunk))

@@ -18,6 +18,7 @@ from experiments.compare import (
     mean_std,
     parse_allocators,
     reallocations_after_kills,
+    rows_in_order,
     run_row,
     start_waits,
     user_outcomes,
@@ -102,6 +103,43 @@ def test_a_run_without_a_summary_has_no_figures() -> None:
     row = run_row(Job("cbga", 2), None, [], 1, None)
     assert row["allocator"] == "cbga" and row["exit_code"] == 1
     assert all(row[k] is None for k, _ in METRICS)
+
+
+class _Run:
+    """A run under way that is already over: its row, or the error it raised."""
+
+    def __init__(self, job: Job, log: list[str], error: Exception | None) -> None:
+        self.job, self.log, self.error = job, log, error
+
+    def result(self) -> dict[str, Any]:
+        self.log.append(f"result {self.job.label()}")
+        if self.error is not None:
+            raise self.error
+        return run_row(self.job, {"sim_time_s": 60.0}, [], 0, Path(self.job.label()))
+
+
+def test_rows_come_in_job_order_and_a_run_that_raised_gets_an_error_row() -> None:
+    jobs = [Job("murdoch", 1), Job("cbba", 1), Job("murdoch", 2)]
+    log: list[str] = []
+    seen: list[str] = []
+
+    def submit(job: Job) -> _Run:
+        log.append(f"submit {job.label()}")
+        return _Run(job, log, ConnectionError("worker lost") if job.seed == 1
+                    and job.allocator == "cbba" else None)
+
+    rows = rows_in_order(jobs, submit, lambda row: seen.append(str(row["allocator"])))
+    # every run is under way before the first row is taken
+    assert log[:3] == [f"submit {j.label()}" for j in jobs]
+    assert log[3:] == [f"result {j.label()}" for j in jobs]
+    assert [(r["allocator"], r["seed"]) for r in rows] == [(j.allocator, j.seed) for j in jobs]
+    assert seen == ["murdoch", "cbba", "murdoch"]
+    assert rows[0]["exit_code"] == 0 and rows[0]["error"] is None
+    lost = rows[1]
+    assert set(lost) == set(COLUMNS) and lost["exit_code"] is None
+    assert lost["error"] == "ConnectionError: worker lost" and lost["run_dir"] is None
+    assert all(lost[k] is None for k, _ in METRICS) and lost["sim_time_s"] is None
+    assert rows[2]["run_dir"] == "murdoch-s2"
 
 
 def test_mean_and_sample_standard_deviation() -> None:
