@@ -62,10 +62,10 @@ def required(offer: TaskOffer) -> int:
 
 
 def seat_place(offer: TaskOffer, seat: Seat) -> tuple[float, float]:
-    """Where a seat is done: its own `x`, `y` when its parameters give them, else the
-    offer's place."""
+    """Where a seat is done: a group seat's own `x`, `y` when its parameters give them,
+    else the offer's place (always, for a plain offer: the user located it)."""
     x, y = seat.params.get("x"), seat.params.get("y")
-    if _number(x) and _number(y):
+    if is_group(offer) and _number(x) and _number(y):
         return (float(x), float(y))  # type: ignore[arg-type]
     return (offer.x, offer.y)
 

@@ -16,6 +16,7 @@ from murdoch.allocators.group_offers import (
     fillable,
     offer_problem,
     required,
+    seat_place,
     seat_plan,
     seats,
 )
@@ -246,3 +247,10 @@ def test_group_offers_a_team_cannot_take_are_refused_and_counted() -> None:
 def test_only_cbga_takes_group_tasks_whole() -> None:
     assert allocator("cbga").group_tasks and allocator("cbga", refine=True).group_tasks
     assert not allocator("cbba").group_tasks and not allocator("murdoch").group_tasks
+
+
+def test_a_seat_is_done_at_its_spot_and_a_plain_offer_where_the_user_put_it() -> None:
+    g = decoded(group_offer([(1.0, 0.0), (-1.0, 2.0)]))
+    assert [seat_place(g, s) for s in seats(g)] == [(1.0, 0.0), (-1.0, 2.0)]
+    plain = TaskOffer("t", 1, "track", (), {"x": 9.0, "y": 9.0}, 3.0, 2.0, 3.0, 0.0)
+    assert seat_place(plain, seats(plain)[0]) == (2.0, 3.0)
