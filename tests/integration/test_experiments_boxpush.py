@@ -35,6 +35,8 @@ def _run(tmp_path: Path, *args: str, wall_s: float = 300.0) -> tuple[
         capture_output=True, text=True, timeout=wall_s, check=False,
     )
     (run,) = out.iterdir()
+    assert (run / "summary.json").is_file(), (  # (the run's own words on why it stopped)
+        f"exit {proc.returncode}\n{proc.stdout[-3000:]}\n{proc.stderr[-5000:]}")
     events = ev.read_events(run / "events.jsonl")
     summary = json.loads((run / "summary.json").read_text())
     return proc, run, events, summary
