@@ -10,8 +10,11 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
+from sibling import load_sibling
 
 pytestmark = pytest.mark.timeout(90)
+
+free_ports = load_sibling(__file__, "free_ports.py")
 
 
 @contextmanager
@@ -82,18 +85,10 @@ def test_player_print_help_and_connection_error() -> None:
     assert out.returncode == 1 and "cannot connect" in out.stderr
 
 
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 def test_player_print_waits_for_a_server_still_starting() -> None:
     """`player-server simple & player-print -p 6665 laser` works as typed: the client retries
     while nothing listens yet, within its -t timeout."""
-    port = _free_port()
+    port = free_ports.free_port_block()
     printer = subprocess.Popen(
         [sys.executable, "-m", "player_server.client.print_tool", "-p", str(port), "-t", "60",
          "-c", "1", "laser"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)

@@ -4,21 +4,23 @@ Every fenced ``sh`` block of README.md runs, in order, in a scratch directory ho
 checkout's ``.venv`` (activated by the block's own ``source .venv/bin/activate`` or, for the
 blocks after it, by the environment) and ``worlds``. An HTML comment just before a block
 adjusts it for the test: ``<!-- readme-test: skip (why) -->`` leaves it out;
-``<!-- readme-test: replace OLD => NEW -->`` shortens a command. ``$FREE_PORT`` is a port
-nothing listens on.
+``<!-- readme-test: replace OLD => NEW -->`` shortens a command. ``$FREE_PORT`` is a base port
+whose run of neighbours nothing listens on either.
 """
 
 from __future__ import annotations
 
 import os
 import re
-import socket
 import subprocess
 import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from sibling import load_sibling
+
+free_ports = load_sibling(__file__, "free_ports.py")
 
 REPO = Path(__file__).resolve().parents[2]
 README = REPO / "README.md"
@@ -89,12 +91,6 @@ def test_directives_are_parsed() -> None:
     assert blocks[1].script() == "murdoch run x --until 1m\n"
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 def test_every_readme_command_block_runs(tmp_path: Path) -> None:
     venv = Path(sys.executable).parent.parent
     blocks = sh_blocks(README.read_text(encoding="utf-8"))
@@ -110,7 +106,7 @@ def test_every_readme_command_block_runs(tmp_path: Path) -> None:
     for block in blocks:
         if block.skip is not None:
             continue
-        env["FREE_PORT"] = str(_free_port())
+        env["FREE_PORT"] = str(free_ports.free_port_block())
         script = "set -e\n" + block.script()
         proc = subprocess.run(["bash", "-c", script], cwd=work, env=env, capture_output=True,
                               text=True, timeout=600, stdin=subprocess.DEVNULL)
