@@ -50,8 +50,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--watchdog", type=float, default=2.0, metavar="S",
                    help="stop a robot whose driving client has been silent for S simulated "
                         "seconds (default %(default)s; 0 = off)")
-    p.add_argument("--max-connections", type=int, default=64, metavar="N",
-                   help="connections open at once over all ports (default %(default)s)")
+    p.add_argument("--max-connections", type=int, default=None, metavar="N",
+                   help="connections open at once over all ports (default: 4 per robot or "
+                        "camera port, at least 64)")
     p.add_argument("--output-limit", type=float, default=32.0, metavar="MIB",
                    help="disconnect a client with more than this many MiB of output waiting "
                         "unread (default %(default)s; 0 = no limit)")
@@ -74,7 +75,8 @@ def _check_options(p: argparse.ArgumentParser, args: argparse.Namespace) -> None
     for name, value, ok, expected in (
         ("--speedup", args.speedup, args.speedup is None or args.speedup >= 0, "a number >= 0"),
         ("--watchdog", args.watchdog, args.watchdog >= 0, "seconds >= 0"),
-        ("--max-connections", args.max_connections, args.max_connections >= 1,
+        ("--max-connections", args.max_connections,
+         args.max_connections is None or args.max_connections >= 1,
          "an integer >= 1"),
         ("--output-limit", args.output_limit, args.output_limit >= 0, "MiB >= 0"),
         ("--frame-timeout", args.frame_timeout, args.frame_timeout >= 0, "seconds >= 0"),

@@ -32,13 +32,27 @@ class CoreConfig:
     input_budget: int = 64
     #: replace rules a connection may add (more are NACKed)
     max_rules: int = 64
-    #: connections open at once over every port (more are refused at accept)
-    max_connections: int = 64
+    #: connections open at once over every port (more are refused at accept); None = the
+    #: default cap for the server's endpoints (`connection_cap`)
+    max_connections: int | None = None
     #: a frame not completed within this many seconds closes its connection (0 = never)
     frame_timeout_s: float = 10.0
     #: simulated seconds without a message from the client that last commanded a robot's
     #: motion before the robot is stopped (0 = no watchdog)
     watchdog_s: float = 2.0
+
+
+CONNECTIONS_FLOOR = 64
+CONNECTIONS_PER_ENDPOINT = 4
+
+
+def connection_cap(config: CoreConfig, endpoints: int) -> int:
+    """Connections open at once over every port: the configured cap, or by default
+    `CONNECTIONS_PER_ENDPOINT` for each endpoint (a robot's driving client, an observer, a
+    print tool, a viewer), never fewer than `CONNECTIONS_FLOOR`."""
+    if config.max_connections is not None:
+        return config.max_connections
+    return max(CONNECTIONS_FLOOR, CONNECTIONS_PER_ENDPOINT * endpoints)
 
 
 @dataclass

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 from player_server.server.core import ServerCore, Session
 from player_server.server.endpoint import Endpoint
 from player_server.server.log_limit import LogLimiter
+from player_server.server.session import connection_cap
 
 log = logging.getLogger(__name__)
 
@@ -244,7 +245,7 @@ class TcpFrontEnd:
                                       ep.name, exc)
                 return
             self._accept_backoff = _ACCEPT_BACKOFF_MIN_S
-            if len(self._conns) >= self.core.config.max_connections:
+            if len(self._conns) >= connection_cap(self.core.config, len(self._listener_eps)):
                 self.refused_connections += 1
                 self._limiter.log("connection cap", logging.WARNING,
                                   "refused a connection from %s:%s to %s: %d connections "

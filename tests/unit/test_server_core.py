@@ -395,3 +395,11 @@ def test_a_device_whose_data_the_client_ignores_is_not_computed() -> None:
     one = req(1, 0, 10, pm.AddReplaceRuleReq(4, 0, 1, 1, skip))
     core.receive(s2, sub(4) + sub(5) + one + DATA)
     assert (1, 4, 1) not in kinds(out(core, s2)) and drv.reads == 1
+
+
+def test_connection_cap_grows_with_the_worlds_ports_unless_given() -> None:
+    from player_server.server.session import connection_cap
+
+    assert connection_cap(CoreConfig(), 2) == 64
+    assert connection_cap(CoreConfig(), 101) == 404  # a hundred robots and a camera
+    assert connection_cap(CoreConfig(max_connections=3), 101) == 3
