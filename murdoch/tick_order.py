@@ -78,6 +78,9 @@ class TickInbox:
         self.duplicates = 0
         self.before_join = 0
         self.undeclared = 0
+        self._satisfied: Mapping[str, int] | None = None
+        """The last table found with nothing missing: arrivals only ever add to what is in,
+        so the same table stays satisfied (a robot sees one table for many ticks)."""
 
     # -- arrival
     def hold(self, header: Any, data: bytes) -> bool:
@@ -103,8 +106,10 @@ class TickInbox:
 
     # -- the release point
     def missing(self, table: Mapping[str, int]) -> dict[str, int]:
-        """Sender instances with declared datagrams not yet arrived, and how many."""
-        if not self._baseline_set:
+        """Sender instances with declared datagrams not yet arrived, and how many. A table
+        passed here is not changed afterwards (each tick's table is a new mapping or the
+        very same one as before)."""
+        if not self._baseline_set or table is self._satisfied:
             return {}
         out: dict[str, int] = {}
         nxt = self._next
@@ -113,6 +118,8 @@ class TickInbox:
             if have < count:
                 ahead = self._ahead.get(key, ())
                 out[key] = count - have - sum(1 for s in ahead if s < count)
+        if not out:
+            self._satisfied = table
         return out
 
     def start(self, tick: int, table: Mapping[str, int]) -> None:

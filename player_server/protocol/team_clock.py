@@ -26,9 +26,18 @@ MAX_PAYLOAD_BYTES = 256 * 1024
 _KEY = re.compile(r"^[!#-Z^-~]{1,80}/[!#-Z^-~]{0,80}$")
 
 
+_KNOWN_KEYS: set[str] = set()
+"""Keys already checked (a team's few dozen keys recur in every table); bounded."""
+_KNOWN_KEYS_MAX = 4096
+
+
 def check_key(key: object) -> str:
+    if type(key) is str and key in _KNOWN_KEYS:
+        return key
     if not isinstance(key, str) or not _KEY.match(key):
         raise ValueError(f"a sender key is 'sender/instance' in printable ASCII, got {key!r}"[:120])
+    if len(_KNOWN_KEYS) < _KNOWN_KEYS_MAX:
+        _KNOWN_KEYS.add(key)
     return key
 
 

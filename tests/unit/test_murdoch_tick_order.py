@@ -155,3 +155,18 @@ def test_ordered_endpoints_refuse_datagrams_without_a_tick() -> None:
     with pytest.raises(ValueError, match="epoch"):
         EndpointCore("me", AUCTION_CODEC, lambda: 0.0,
                      ticks=TickConfig(lambda: 0, epoch="bad epoch"))
+
+
+def test_a_satisfied_table_stays_satisfied_and_a_new_table_is_checked_afresh() -> None:
+    now = [3]
+    core = _core(now, ordered=True, late_joiner=False)
+    table = {"p1/0": 1}
+    assert core.missing(table) == {"p1/0": 1}
+    core.receive(_datagram("p1", 0, 1))
+    assert core.missing(table) == {}
+    assert core.missing(table) == {}  # the same table again: nothing can be missing now
+    bigger = {"p1/0": 2}
+    assert core.missing(bigger) == {"p1/0": 1}
+    core.receive(_datagram("p1", 1, 2))
+    assert core.missing(bigger) == {}
+    assert core.missing({"p1/0": 2, "p2/0": 1}) == {"p2/0": 1}
