@@ -7,6 +7,7 @@ import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, ClassVar
 
+import numpy as np
 import pybullet as pb
 
 from player_server.sim.readings import GripperState
@@ -36,6 +37,7 @@ class GripperModel:
 
     def build(self) -> None:
         self._max_radius = max((o.radius_m for o in self.world.spec.objects), default=0.0)
+        self._radius = np.array([o.radius_m for o in self.world.spec.objects], dtype=np.float64)
         for st in self.world._robots:
             if st.spec.devices.gripper is not None:
                 st.gripper = Paddles()
@@ -46,27 +48,33 @@ class GripperModel:
                 self._advance_gripper(st, dt)
 
     def _grip_zone(self, st: _Robot) -> str | None:
-        """The nearest grippable object between the paddles, if any."""
+        """The nearest grippable object between the paddles, if any (the first in world-file
+        order among equally near ones). The candidates near the robot are tested together."""
         w = self.world
         g = st.spec.devices.gripper
         assert g is not None
+        reach = abs(g.pose.x) + g.depth_m / 2 + g.width_m / 2 + self._max_radius + 1e-6
+        rows = w.tick_arrays.objects_near(st.x, st.y, reach)
+        if not rows:
+            return None
+        idx = np.asarray(rows, dtype=np.int64)
+        pose = w.tick_arrays.dynamic_poses()[w._arrays.n_boxes:][idx]
         c, s = math.cos(st.yaw), math.sin(st.yaw)
+        wx, wy = pose[:, 0] - st.x, pose[:, 1] - st.y
+        lx, ly = c * wx + s * wy, -s * wx + c * wy
+        radius = self._radius[idx]
+        d = np.abs(lx - g.pose.x)
+        inside = ((np.abs(ly) <= g.width_m / 2) & (d <= g.depth_m / 2 + radius)
+                  & (radius <= g.max_object_radius_m))
         best, best_d = None, math.inf
         specs = w._obj_specs
-        reach = abs(g.pose.x) + g.depth_m / 2 + g.width_m / 2 + self._max_radius + 1e-6
-        for row in w.tick_arrays.objects_near(st.x, st.y, reach):
-            o = specs[row]
-            if o.name in w._hidden or o.name in w._held:
+        for j in np.flatnonzero(inside).tolist():
+            name = specs[rows[j]].name
+            if name in w._hidden or name in w._held:
                 continue
-            if o.radius_m > g.max_object_radius_m:
-                continue
-            x, y, _ = w.tick_arrays.dyn_pose(o.name)
-            wx, wy = x - st.x, y - st.y
-            lx, ly = c * wx + s * wy, -s * wx + c * wy
-            if abs(ly) <= g.width_m / 2 and abs(lx - g.pose.x) <= g.depth_m / 2 + o.radius_m:
-                d = abs(lx - g.pose.x)
-                if d < best_d:
-                    best, best_d = o.name, d
+            dj = float(d[j])
+            if dj < best_d:
+                best, best_d = name, dj
         return best
 
     def gripper(self, robot: str) -> GripperState:
