@@ -223,9 +223,11 @@ def run_robot(args: argparse.Namespace, stop: threading.Event, *,
     auction_log: IO[str] | None = None
     transport = link = None
     try:
+        if cut is not None:
+            cut.hold(client.abort)  # ends a handshake under way
         client.connect()
         if cut is not None:
-            cut.hold(client.abort)  # at once if the robot was cut off while connecting
+            cut.hold(client.abort)  # at once if the robot was cut off before connecting
         agent = build_agent(client, name, world=world, events=events, battery=battery,
                             seed=args.seed, subscribe_images=args.images, bid_terms=terms)
         if on_ready is not None:

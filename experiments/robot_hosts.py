@@ -88,6 +88,7 @@ class HostSupervisor:
         self._command = command or host_command()
         self._ports: dict[str, int] = {}
         self._starts: dict[str, int] = {}
+        self._lost: list[tuple[str, int, int]] = []
         self._changed = threading.Condition()
 
     def add(self, name: str, port: int) -> None:
@@ -106,6 +107,7 @@ class HostSupervisor:
         host = self._host_of[name]
         with self._changed:
             if not host.running():
+                self._lost += self._reap(host)  # told by the next `exited`
                 self._start_host(host)
             start = self._starts.get(name, 0)
             self._starts[name] = start + 1
@@ -136,22 +138,26 @@ class HostSupervisor:
             return pid
 
     def exited(self) -> list[tuple[str, int, int]]:
-        out: list[tuple[str, int, int]] = []
         with self._changed:
+            out, self._lost = self._lost, []
             for host in self.hosts:
-                if host.proc is None:
-                    continue
-                pid = host.proc.pid
-                for name, code in host.exits:
-                    if name in host.up:
-                        host.up.discard(name)
-                        out.append((name, pid, code))
-                host.exits.clear()
-                if not host.running():
-                    code = int(host.proc.returncode)
-                    out += [(name, pid, code) for name in sorted(host.up)]
-                    host.up.clear()
-                    self._end_host(host)
+                out += self._reap(host)
+        return out
+
+    def _reap(self, host: _Host) -> list[tuple[str, int, int]]:
+        """(name, pid, code) of the host's robots that ended by themselves, and of all of
+        them if the host process ended (with its code); the lock is held."""
+        if host.proc is None:
+            return []
+        pid = host.proc.pid
+        out = [(name, pid, code) for name, code in host.exits if name in host.up]
+        host.up -= {name for name, _, _ in out}
+        host.exits.clear()
+        if not host.running():
+            code = int(host.proc.returncode)
+            out += [(name, pid, code) for name in sorted(host.up)]
+            host.up.clear()
+            self._end_host(host)
         return out
 
     def pause(self, name: str, paused: bool) -> int | None:
