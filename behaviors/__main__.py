@@ -177,6 +177,12 @@ def freeze_start_up() -> None:
     gc.freeze()
 
 
+def say(line: str) -> None:
+    """A line on standard error, written whole (robots sharing a process write there too)."""
+    sys.stderr.write(line + "\n")
+    sys.stderr.flush()
+
+
 def run_robot(args: argparse.Namespace, stop: threading.Event, *,
               label: str = "murdoch-robot", cut: Cut | None = None,
               on_ready: Callable[[], None] | None = None) -> int:
@@ -190,7 +196,7 @@ def run_robot(args: argparse.Namespace, stop: threading.Event, *,
         params = parse_assignments(args.param)
         terms = parse_bid_terms(args.metric)
     except ParamError as exc:
-        print(f"{label}: {exc}", file=sys.stderr)
+        say(f"{label}: {exc}")
         return 2
     world = None
     if args.world:
@@ -200,7 +206,7 @@ def run_robot(args: argparse.Namespace, stop: threading.Event, *,
             path = Path(args.world) if args.world.endswith(".toml") else world_path(args.world)
             world = load_world(path)
         except (WorldError, OSError, KeyError, ValueError) as exc:
-            print(f"{label}: cannot load world {args.world!r}: {exc}", file=sys.stderr)
+            say(f"{label}: cannot load world {args.world!r}: {exc}")
             return 2
     name = args.name or f"robot-{args.port}"
     opened = (open(args.events, "a", encoding="utf-8")  # noqa: SIM115 (closed below)
@@ -233,7 +239,7 @@ def run_robot(args: argparse.Namespace, stop: threading.Event, *,
         if on_ready is not None:
             on_ready()
         status = {"robot": name, "port": args.port, "subjects": sorted(agent.subjects())}
-        print(json.dumps({"ready": status}), file=sys.stderr, flush=True)
+        say(json.dumps({"ready": status}))
         if args.task:
             agent.start_task(args.task, params, args.task_id)
         if args.mcast_port or args.transport == "zenoh":
@@ -249,7 +255,7 @@ def run_robot(args: argparse.Namespace, stop: threading.Event, *,
         else:
             agent.run(stop, max_ticks=args.max_ticks or None)
     except ParamError as exc:
-        print(f"{label}: {exc}", file=sys.stderr)
+        say(f"{label}: {exc}")
         code = 2
     except PlayerConnectionClosed:
         # the server stopped (a run ending closes every robot's connection): a normal stop
@@ -257,10 +263,10 @@ def run_robot(args: argparse.Namespace, stop: threading.Event, *,
             log.info("the server closed the connection; stopping")
     except PlayerConnectionError as exc:
         if not stop.is_set():
-            print(f"{label}: {exc}", file=sys.stderr)
+            say(f"{label}: {exc}")
             code = 1
     except PlayerError as exc:
-        print(f"{label}: {exc}", file=sys.stderr)
+        say(f"{label}: {exc}")
         code = 1
     finally:
         if link is not None and (cut is None or not cut.is_cut):
