@@ -30,11 +30,13 @@ import signal
 import sys
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from types import FrameType
 from typing import IO, Any
 
 from behaviors.battery import BatteryPolicy
+from behaviors.cut import AbortableClient, Cut
 from behaviors.events import TASK_DONE, TASK_FAILED, TASK_STOPPED, Event, EventLog
 from behaviors.library import TASKS, parse_bid_terms
 from behaviors.params import ParamError, parse_assignments
@@ -117,7 +119,7 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-def _stop_on_signals() -> threading.Event:
+def stop_on_signals() -> threading.Event:
     """An event set by SIGINT or SIGTERM; a second signal exits at once."""
     stop = threading.Event()
     signals_seen = [0]
@@ -151,19 +153,50 @@ def _step_until_stopped(link: Any, stop: threading.Event, max_ticks: int | None,
             profiler.dump_stats(os.path.join(profile_dir, f"{name}.prof"))
 
 
-def main(argv: list[str] | None = None) -> int:
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The robot's options, checked (argparse's usage error and exit on a wrong one)."""
     parser = _parser()
     args = parser.parse_args(argv)
     if args.refine and args.allocator not in REFINABLE:
         parser.error(f"--refine is for the consensus allocators ({', '.join(REFINABLE)}), "
                      f"not --allocator {args.allocator}")
+    return args
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
     logging.basicConfig(level=args.log_level.upper(),
                         format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    return run_robot(args, stop_on_signals(), on_ready=freeze_start_up)
+
+
+def freeze_start_up() -> None:
+    """What start-up built lives as long as the process: keep it out of the collector's
+    way, so the collections the tick's short-lived objects trigger stay small."""
+    gc.collect()
+    gc.freeze()
+
+
+def say(line: str) -> None:
+    """A line on standard error, written whole (robots sharing a process write there too)."""
+    sys.stderr.write(line + "\n")
+    sys.stderr.flush()
+
+
+def run_robot(args: argparse.Namespace, stop: threading.Event, *,
+              label: str = "murdoch-robot", cut: Cut | None = None,
+              on_ready: Callable[[], None] | None = None) -> int:
+    """One robot, from connecting to its port until `stop` is set (or its task ends with
+    --exit-when-done, or the server goes); its exit code. What a `murdoch-robot` process
+    runs, and what each robot thread of a host process runs (`behaviors.host`): there `cut`
+    stands in for killing the robot (its logs are written through it, its connection and
+    transport aborted by it) and messages start with `label`. `on_ready` runs once the
+    robot is built, before it starts stepping."""
     try:
         params = parse_assignments(args.param)
         terms = parse_bid_terms(args.metric)
     except ParamError as exc:
-        print(f"murdoch-robot: {exc}", file=sys.stderr)
+        say(f"{label}: {exc}")
         return 2
     world = None
     if args.world:
@@ -173,16 +206,13 @@ def main(argv: list[str] | None = None) -> int:
             path = Path(args.world) if args.world.endswith(".toml") else world_path(args.world)
             world = load_world(path)
         except (WorldError, OSError, KeyError, ValueError) as exc:
-            print(f"murdoch-robot: cannot load world {args.world!r}: {exc}", file=sys.stderr)
+            say(f"{label}: cannot load world {args.world!r}: {exc}")
             return 2
     name = args.name or f"robot-{args.port}"
-    stream: IO[str] | None = None
-    if args.events == "-":
-        stream = sys.stdout
-    elif args.events:
-        stream = open(args.events, "a", encoding="utf-8")  # noqa: SIM115 (closed below)
-    events = EventLog(stream)
-    stop = _stop_on_signals()
+    opened = (open(args.events, "a", encoding="utf-8")  # noqa: SIM115 (closed below)
+              if args.events not in ("", "-") else None)
+    stream = sys.stdout if args.events == "-" else opened
+    events = EventLog(cut.gate(stream) if stream is not None and cut is not None else stream)
 
     if args.exit_when_done:
         def on_event(event: Event) -> None:
@@ -192,39 +222,40 @@ def main(argv: list[str] | None = None) -> int:
         events.add_sink(on_event)
 
     battery = None if args.no_battery else BatteryPolicy(args.battery_low, args.battery_resume)
-    client = PlayerClient(args.host, args.port, lockstep=True if args.lockstep_bus else None,
-                          timeout_s=args.request_timeout, read_timeout_s=args.read_timeout)
+    client = AbortableClient(args.host, args.port,
+                             lockstep=True if args.lockstep_bus else None,
+                             timeout_s=args.request_timeout, read_timeout_s=args.read_timeout)
     code = 0
     auction_log: IO[str] | None = None
     transport = link = None
     try:
+        if cut is not None:
+            cut.hold(client.abort)  # ends a handshake under way
         client.connect()
+        if cut is not None:
+            cut.hold(client.abort)  # at once if the robot was cut off before connecting
         agent = build_agent(client, name, world=world, events=events, battery=battery,
                             seed=args.seed, subscribe_images=args.images, bid_terms=terms)
-        # What start-up built lives as long as the process: keep it out of the collector's
-        # way, so the collections the tick's short-lived objects trigger stay small.
-        gc.collect()
-        gc.freeze()
+        if on_ready is not None:
+            on_ready()
         status = {"robot": name, "port": args.port, "subjects": sorted(agent.subjects())}
-        print(json.dumps({"ready": status}), file=sys.stderr, flush=True)
+        say(json.dumps({"ready": status}))
         if args.task:
             agent.start_task(args.task, params, args.task_id)
         if args.mcast_port or args.transport == "zenoh":
-            from behaviors.murdoch_link import MurdochLink
-
             if args.auction_log:
                 auction_log = open(args.auction_log, "a", encoding="utf-8")  # noqa: SIM115
             transport, sync = _team_transport(args, name, agent, client, world)
-            team = _team(world, name)
-            speed = agent.profile.max_speed_mps if "mobile" in agent.subjects() else 0.0
-            link = MurdochLink(agent, transport, events, auction_log, tick_sync=sync,
-                               allocator_name=args.allocator, team=team, speed_mps=speed,
-                               refine=args.refine)
+            if cut is not None:
+                cut.hold(transport.close)
+            link = _link(args, agent, transport, sync, events, world,
+                         cut.gate(auction_log) if cut is not None and auction_log
+                         else auction_log)
             _step_until_stopped(link, stop, args.max_ticks, name)
         else:
             agent.run(stop, max_ticks=args.max_ticks or None)
     except ParamError as exc:
-        print(f"murdoch-robot: {exc}", file=sys.stderr)
+        say(f"{label}: {exc}")
         code = 2
     except PlayerConnectionClosed:
         # the server stopped (a run ending closes every robot's connection): a normal stop
@@ -232,22 +263,33 @@ def main(argv: list[str] | None = None) -> int:
             log.info("the server closed the connection; stopping")
     except PlayerConnectionError as exc:
         if not stop.is_set():
-            print(f"murdoch-robot: {exc}", file=sys.stderr)
+            say(f"{label}: {exc}")
             code = 1
     except PlayerError as exc:
-        print(f"murdoch-robot: {exc}", file=sys.stderr)
+        say(f"{label}: {exc}")
         code = 1
     finally:
-        if link is not None:
-            link.close()
+        if link is not None and (cut is None or not cut.is_cut):
+            link.close()  # a robot cut off says nothing more
         if transport is not None:
             transport.close()
         client.close()
         if auction_log is not None:
             auction_log.close()
-        if stream is not None and stream is not sys.stdout:
-            stream.close()
+        if opened is not None:
+            opened.close()
     return code
+
+
+def _link(args: argparse.Namespace, agent: Any, transport: Any, sync: Any, events: EventLog,
+          world: Any, auction_log: IO[str] | None) -> Any:
+    """The robot's link to its team's allocator (`behaviors.murdoch_link`)."""
+    from behaviors.murdoch_link import MurdochLink
+
+    speed = agent.profile.max_speed_mps if "mobile" in agent.subjects() else 0.0
+    return MurdochLink(agent, transport, events, auction_log, tick_sync=sync,
+                       allocator_name=args.allocator, team=_team(world, agent.name),
+                       speed_mps=speed, refine=args.refine)
 
 
 def _team(world: Any, name: str) -> tuple[str, ...]:

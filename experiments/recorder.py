@@ -221,14 +221,18 @@ class RunRecorder:
         self._processes.write(t, ev.PROCESS_NOTE, what=what, robot=robot, pid=pid,
                               wall_s=round(self.wall_s(), 3), **fields)
 
-    def sample_processes(self, t: float, pids: Mapping[str, int]) -> None:
+    def sample_processes(self, t: float, pids: Mapping[str, int],
+                         robots: Mapping[str, int] | None = None) -> None:
         """Memory and CPU time so far of each process, into processes.jsonl (wall-clock
-        facts, not events)."""
+        facts, not events); `robots`: how many robots a process runs, for those that run
+        more than one."""
         for name, pid in pids.items():
             mem = read_process_memory(pid)
             if mem is not None:
                 cpu = read_process_cpu_s(pid)
-                extra = {"cpu_s": round(cpu, 3)} if cpu is not None else {}
+                extra: dict[str, Any] = {"cpu_s": round(cpu, 3)} if cpu is not None else {}
+                if robots and name in robots:
+                    extra["robots"] = robots[name]
                 self._processes.write(t, ev.PROCESS, name=name, pid=pid,
                                       wall_s=round(self.wall_s(), 3), **mem, **extra)
 

@@ -164,6 +164,11 @@ def free_udp_port() -> int:
               help="Start ROBOT's process through a command prefix, e.g. "
                    "'r2=ip netns exec robots' or 'r2=ssh lab-host-2' (needs --transport zenoh; "
                    "repeatable; see docs/experiments.md).")
+@click.option("--robots-per-process", type=click.IntRange(min=1), default=1,
+              show_default=True,
+              help="Robots to a process: 1 runs a murdoch-robot process per robot; K above 1 "
+                   "runs ceil(N/K) host processes of K robots, each robot in a thread of its "
+                   "own (less memory per robot; no pausing one robot alone).")
 def run(experiment: str, sim_hours: float | None, until: str | None, speedup: float | None,
         seed: int,
         meshcat: bool, out: Path, world: str | None, task_interval: float,
@@ -173,7 +178,8 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
         no_replay: bool,
         pipelined: bool, robot_nice: int, key: str | None, pin_cpus: bool,
         record_rate: float, no_record: bool, trails: int, lasers: bool,
-        group_tasks: float, transport: str, bind: str, places: tuple[str, ...]) -> None:
+        group_tasks: float, transport: str, bind: str, places: tuple[str, ...],
+        robots_per_process: int) -> None:
     """Run EXPERIMENT end to end and leave a run directory behind."""
     from experiments.run_checks import RunSetupError, check_out_dir, effective_speedup
 
@@ -200,6 +206,7 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
             metric_terms=_metric_terms(metric_terms), allocator=allocator, refine=refine,
             group_task_rate=group_tasks, transport=transport, bind=bind,
             placements=tuple(parse_place(p) for p in places),
+            robots_per_process=robots_per_process,
         )
     except RunSetupError as exc:
         click.echo(f"murdoch run: {exc}", err=True)
@@ -240,6 +247,7 @@ def run_experiment(
     extras: RunExtras | None = None, allocator: str = "murdoch", group_task_rate: float = 0.0,
     transport: str = "multicast", bind: str = "127.0.0.1",
     placements: tuple[tuple[str, tuple[str, ...]], ...] = (), refine: bool = False,
+    robots_per_process: int = 1,
 ) -> int:
     """Run one experiment end to end; the exit code of `murdoch run`."""
     from experiments.experiment import RunOptions
@@ -252,7 +260,8 @@ def run_experiment(
         pipelined=pipelined, robot_nice=robot_nice, pin_cpus=pin_cpus, key=key,
         trails=trails, lasers=lasers, record=record, record_rate_hz=record_rate_hz,
         metric_terms=metric_terms, extras=extras if extras is not None else RunExtras(),
-        transport=transport, bind=bind, placements=placements, refine=refine)
+        transport=transport, bind=bind, placements=placements, refine=refine,
+        robots_per_process=robots_per_process)
     options = RunOptions(duration_s, seed, task_interval_s, tuple(switch_offs or ()),
                          tuple(switch_ons or ()), goal_radius_m, goal_plan,
                          group_task_rate=group_task_rate, allocator=allocator)

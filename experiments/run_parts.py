@@ -31,6 +31,7 @@ from experiments.supervisor import BusPlace, RobotSupervisor, robot_process
 if TYPE_CHECKING:
     from experiments.observe import JsonlTail
     from experiments.recorder import RunRecorder
+    from experiments.robot_hosts import HostSupervisor
     from experiments.run_extras import RunExtras
     from experiments.run_loop import RunLoop
     from murdoch.lossy import LossyReceiver
@@ -79,6 +80,9 @@ class RunSettings:
     """(robot, launch prefix): robot processes started elsewhere (`ProcessSpec.launch`)."""
     refine: bool = False
     """The robots' consensus agents run the improvement phase (`murdoch run --refine`)."""
+    robots_per_process: int = 1
+    """1: a `murdoch-robot` process per robot; above 1: robots run that many to a host
+    process, each in a thread (`experiments.robot_hosts`)."""
 
     @property
     def lockstep(self) -> bool:
@@ -94,7 +98,7 @@ class RunParts:
     rec: RunRecorder
     sim: Simulation
     server: PlayerServer
-    supervisor: RobotSupervisor
+    supervisor: RobotSupervisor | HostSupervisor
     transport: MulticastTransport | ZenohTransport
     node: TeamMember
     loop: RunLoop
@@ -148,6 +152,18 @@ def _check_placement(settings: RunSettings, robots: set[str]) -> None:
     if settings.transport == "zenoh" and settings.extras.bus_loss is not None:
         raise RunSetupError("--bus-loss is a layer of the multicast receiver; it cannot be "
                             "combined with --transport zenoh")
+    per_process = settings.robots_per_process
+    if not isinstance(per_process, int) or isinstance(per_process, bool) or per_process < 1:
+        raise RunSetupError(f"--robots-per-process {per_process!r}: expected a whole number, "
+                            "at least 1")
+    if per_process > 1 and settings.placements:
+        raise RunSetupError("--place starts one robot's own process elsewhere; it cannot be "
+                            "combined with --robots-per-process above 1")
+    paused = sorted({f.action for f in settings.extras.faults if f.action in ("freeze", "thaw")})
+    if per_process > 1 and paused:
+        raise RunSetupError(f"{' and '.join(paused)} pause one robot's process; a robot sharing "
+                            "its process with others (--robots-per-process above 1) cannot be "
+                            "paused alone")
 
 
 def run_config(settings: RunSettings, options: RunOptions,
@@ -274,12 +290,27 @@ def assemble(settings: RunSettings, options: RunOptions, spec: WorldSpec) -> Run
         launch=launches.get(ep.name, ()), refine=settings.refine) for ep in endpoints}
     rec.config["processes"] = [p.as_dict() for p in specs.values()]
     bus_loss = _bus_loss(settings, env)
-    supervisor = RobotSupervisor(specs, lambda n: rec.run.log_file(f"robot-{n}"), env,
-                                 settings.robot_nice)
+    supervisor = _supervisor(settings, specs, rec, env)
     transport, node, loop = _user(settings, options, spec, sim, server, supervisor, rec,
                                   referee, team_clock, bus, secret, epoch, bus_loss)
     return RunParts(settings, options, rec, sim, server, supervisor, transport, node, loop,
                     referee, split, own_cpus, bus_loss, [ep.name for ep in endpoints])
+
+
+def _supervisor(settings: RunSettings, specs: dict[str, Any], rec: RunRecorder,
+                env: dict[str, str]) -> RobotSupervisor | HostSupervisor:
+    """A process per robot, or (--robots-per-process above 1) robots grouped into hosts in
+    the world's order (their layout goes into config.json)."""
+    if settings.robots_per_process == 1:
+        return RobotSupervisor(specs, lambda n: rec.run.log_file(f"robot-{n}"), env,
+                               settings.robot_nice)
+    from experiments.robot_hosts import HostSupervisor, group_robots
+
+    hosts = HostSupervisor(specs, group_robots(list(specs), settings.robots_per_process),
+                           rec.run.log_file, env, settings.robot_nice)
+    rec.config["robots_per_process"] = settings.robots_per_process
+    rec.config["robot_hosts"] = hosts.layout()
+    return hosts
 
 
 def _bus_loss(settings: RunSettings, env: dict[str, str]) -> LossyReceiver | None:
@@ -295,7 +326,7 @@ def _bus_loss(settings: RunSettings, env: dict[str, str]) -> LossyReceiver | Non
 
 
 def _user(settings: RunSettings, options: RunOptions, spec: WorldSpec, sim: Simulation,
-          server: PlayerServer, supervisor: RobotSupervisor, rec: RunRecorder,
+          server: PlayerServer, supervisor: RobotSupervisor | HostSupervisor, rec: RunRecorder,
           referee: Referee, team_clock: Any, bus: BusPlace, secret: str, epoch: str,
           bus_loss: LossyReceiver | None,
           ) -> tuple[MulticastTransport | ZenohTransport, TeamMember, RunLoop]:
@@ -458,7 +489,8 @@ def _watch(parts: RunParts) -> None:
             parts.sim.set_paused(False)
         if wall >= next_memory_wall:
             next_memory_wall = wall + parts.settings.extras.memory_every_s
-            rec.sample_processes(sim_now(), {"runner": os.getpid(), **supervisor.pids()})
+            rec.sample_processes(sim_now(), {"runner": os.getpid(), **supervisor.pids()},
+                                 supervisor.process_robots())
         if sim_now() != last_progress[0]:
             last_progress = (sim_now(), wall)
         elif lockstep and wall - last_progress[1] > STALL_LIMIT_S:
@@ -470,7 +502,8 @@ def _watch(parts: RunParts) -> None:
                 f"{sorted(server.core.expected) or 'robot processes'} (see "
                 f"{rec.run.logs})")
             server.request_stop()
-    rec.sample_processes(sim_now(), {"runner": os.getpid(), **supervisor.pids()})
+    rec.sample_processes(sim_now(), {"runner": os.getpid(), **supervisor.pids()},
+                         supervisor.process_robots())
 
 
 def _teardown(parts: RunParts, reason: str) -> str:

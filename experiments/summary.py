@@ -119,7 +119,8 @@ def waits(events: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
 
 
 def memory_by_process(records: Iterable[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
-    """Per process: its pid, first, last and peak resident memory and how often sampled."""
+    """Per process: its pid, first, last and peak resident memory and how often sampled
+    (and, for a process running several robots, how many and its peak per robot)."""
     processes: dict[str, dict[str, Any]] = {}
     for e in records:
         if e["kind"] == ev.PROCESS:
@@ -132,6 +133,9 @@ def memory_by_process(records: Iterable[Mapping[str, Any]]) -> dict[str, dict[st
             p["rss_last_bytes"] = rss
             p["peak_rss_bytes"] = max(p["peak_rss_bytes"], peak, rss)
             p["samples"] = p.get("samples", 0) + 1
+            if "robots" in e:  # a process running several robots
+                p["robots"] = int(e["robots"])
+                p["peak_rss_per_robot_bytes"] = p["peak_rss_bytes"] // max(p["robots"], 1)
     return processes
 
 

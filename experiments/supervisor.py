@@ -49,8 +49,12 @@ class ProcessSpec:
                              f"{RESTART_POLICIES}, found {self.restart!r}")
 
     def argv(self, *, port: int, instance: int) -> list[str]:
+        return [*self.launch, *self.command, *self.arguments(port=port, instance=instance)]
+
+    def arguments(self, *, port: int, instance: int) -> list[str]:
+        """`args` filled in (what a host of several robots is given for this one)."""
         values = {"port": str(port), "instance": str(instance)}
-        return [*self.launch, *self.command, *(a.format_map(values) for a in self.args)]
+        return [a.format_map(values) for a in self.args]
 
     def as_dict(self) -> dict[str, Any]:
         return {"name": self.name, "command": list(self.command), "args": list(self.args),
@@ -209,6 +213,10 @@ class RobotSupervisor:
         with self._lock:
             return {f"robot-{n}": rp.proc.pid for n, rp in self.robots.items()
                     if rp.proc is not None and rp.proc.poll() is None}
+
+    def process_robots(self) -> dict[str, int]:
+        """Processes running more than one robot: none here."""
+        return {}
 
     def stop_all(self) -> None:
         with self._lock:
