@@ -33,7 +33,8 @@ class _Driven:
     ranges: Callable[[str], np.ndarray]
     bearings: np.ndarray
     wanderer: Wanderer
-    readers: tuple[Callable[[str], object], ...]
+    readers: tuple[Callable[[str], object], ...]  # the devices read before the ranges
+    readers_after: tuple[Callable[[str], object], ...]  # and after them
     has_power: bool
 
 
@@ -61,12 +62,15 @@ class WanderDriver:
             kind, bearings = rb
             wander_rng = np.random.default_rng(rng.integers(0, 2**63))
             d = spec.devices
-            readers = [getattr(sim, meth) for dev, meth in _READ_ALL
-                       if getattr(d, dev) is not None]
+            # every device in _READ_ALL's order; the range device the wanderer uses is read
+            # once, for both
+            devs = [dev for dev, _ in _READ_ALL if getattr(d, dev) is not None]
+            readers = [getattr(sim, meth) for dev, meth in _READ_ALL if dev in devs]
             readers.append(sim.odometry)
+            at = devs.index(kind)
             self._robots.append(_Driven(spec.name, getattr(sim, kind), bearings,
-                                        Wanderer(wander_rng), tuple(readers),
-                                        d.power is not None))
+                                        Wanderer(wander_rng), tuple(readers[:at]),
+                                        tuple(readers[at + 1:]), d.power is not None))
             self.stats.distance_m[spec.name] = 0.0
             self.stats.charging_s[spec.name] = 0.0
             self.stats.min_percent[spec.name] = 100.0
@@ -82,6 +86,9 @@ class WanderDriver:
                 for read in r.readers:
                     read(name)
             ranges = r.ranges(name)
+            if self.sense_all:
+                for read in r.readers_after:
+                    read(name)
             if r.has_power:
                 percent[name] = sim.power(name).percent
             goal = self._charger_goal(name, percent.get(name))

@@ -169,7 +169,8 @@ class Simulation:
         seeds = np.random.SeedSequence(self.seed).spawn(len(self.spec.robots) + 1)
         self._noise_seed = int(seeds[-1].generate_state(1)[0])
         self._robots: list[_Robot] = []
-        self._has_device: dict[tuple[str, str], _Robot] = {}
+        # robot name -> state, per device kind, for the robots with that device (filled on use)
+        self._has_device: dict[str, dict[str, _Robot]] = {}
         for i, r in enumerate(self.spec.robots):
             st = _Robot(index=i, spec=r, body=self._ids.robots[r.name],
                         rng=np.random.default_rng(seeds[i]))
@@ -327,12 +328,14 @@ class Simulation:
             raise KeyError(f"no robot named {name!r}") from None
 
     def _device(self, name: str, device: str) -> _Robot:
-        st = self._has_device.get((name, device))
-        if st is None:
-            st = self._robot(name)
-            if getattr(st.spec.devices, device) is None:
-                raise ValueError(f"robot {name!r} has no {device}")
-            self._has_device[(name, device)] = st
+        try:
+            return self._has_device[device][name]
+        except KeyError:
+            pass
+        st = self._robot(name)
+        if getattr(st.spec.devices, device) is None:
+            raise ValueError(f"robot {name!r} has no {device}")
+        self._has_device.setdefault(device, {})[name] = st
         return st
 
     def get_pose(self, name: str) -> tuple[float, float, float]:

@@ -4,7 +4,9 @@ the spot when blocked. Used by the headless demo and the benchmark to keep robot
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from operator import itemgetter
 
 import numpy as np
 from numpy.typing import NDArray
@@ -39,7 +41,7 @@ class Wanderer:
     _sector_key: int = -1
     _sector_cache: tuple = ()
     _sector_bearings: object = None
-    _sector_ints: tuple[list[int], ...] = ()
+    _sector_getters: tuple[Callable[[list[float]], tuple[float, ...]] | None, ...] = ()
 
     def decide(self, bearings: NDArray[np.float64], ranges: NDArray[np.floating]) -> tuple[
         float, float
@@ -80,13 +82,21 @@ class Wanderer:
         """The nearest range in the front, left and right sectors (inf for an empty one),
         in plain Python: a handful of readings cost less than numpy calls on them."""
         r = ranges.tolist()
-        return tuple(min([r[i] for i in sector], default=math.inf)  # type: ignore[return-value]
-                     for sector in self._sector_lists(bearings))
+        front, left, right = self._getters(bearings)
+        return (math.inf if front is None else min(front(r)),
+                math.inf if left is None else min(left(r)),
+                math.inf if right is None else min(right(r)))
 
-    def _sector_lists(self, bearings: NDArray[np.float64]) -> tuple[list[int], ...]:
-        if self._sector_key != id(bearings) or not self._sector_ints:
-            self._sector_ints = tuple(ix.tolist() for ix in self._sectors(bearings))
-        return self._sector_ints
+    def _getters(self, bearings: NDArray[np.float64]) -> tuple[
+        Callable[[list[float]], tuple[float, ...]] | None, ...
+    ]:
+        """Per sector, a getter of its readings as a tuple (None for an empty sector)."""
+        if self._sector_key != id(bearings) or not self._sector_getters:
+            # the first index once more makes a one-reading sector a tuple too
+            self._sector_getters = tuple(
+                itemgetter(*ix.tolist(), int(ix[0])) if ix.size else None
+                for ix in self._sectors(bearings))
+        return self._sector_getters
 
     def _sectors(self, bearings: NDArray[np.float64]) -> tuple[
         NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]
