@@ -269,7 +269,6 @@ class Simulation:
         cid = self._client
         dt = self.interval_s
         t0 = self._now()
-        robots = self._robots
         sub_dt = dt / self.substeps
         # An upward speed of g*dt cancels one step of gravity (semi-implicit Euler); a robot
         # that a contact lifted or pressed down is brought back to its height within a tick.
@@ -304,15 +303,16 @@ class Simulation:
         self.tick += 1
         t1 = self._now()
         get_pose = pb.getBasePositionAndOrientation
-        advance_odometry = self.drive_model.advance_odometry
-        for st in robots:
+        cos, sin = math.cos, math.sin
+        moves = []
+        add_move = moves.append
+        for st, _, _, off in self._drive_limits:
             pos, q = get_pose(st.body, physicsClientId=cid)
             st.z = pos[2]
             yaw = _yaw_of(q)
-            off = st.spec.body.offset_x_m
-            x = pos[0] - off * math.cos(yaw)
-            y = pos[1] - off * math.sin(yaw)
-            advance_odometry(st, x, y, yaw, dt)
+            add_move((st, pos[0] - off * cos(yaw), pos[1] - off * sin(yaw), yaw))
+        self.drive_model.advance_all(moves, dt)
+        for st, x, y, yaw in moves:
             st.x, st.y, st.yaw = x, y, yaw
         t2 = self._now()
         self.power_model.advance(dt)
