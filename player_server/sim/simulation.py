@@ -304,7 +304,7 @@ class Simulation:
         t1 = self._now()
         get_pose = pb.getBasePositionAndOrientation
         cos, sin = math.cos, math.sin
-        moves = []
+        moves: list[tuple[_Robot, float, float, float]] = []
         add_move = moves.append
         for st, _, _, off in self._drive_limits:
             pos, q = get_pose(st.body, physicsClientId=cid)
