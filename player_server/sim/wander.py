@@ -54,12 +54,13 @@ class Wanderer:
         self._spin = 0.0
         if self.rng.random() < 0.05:
             self._drift = float(self.rng.uniform(-0.4, 0.4))
-        v = self.cruise_mps * min(1.0, max(0.2, (front_min - self.stop_m) /
-                                           (self.slow_m - self.stop_m)))
+        ease = (front_min - self.stop_m) / (self.slow_m - self.stop_m)
+        v = self.cruise_mps * (1.0 if ease > 1.0 else 0.2 if ease < 0.2 else ease)
         w = self._drift
-        if min(left_min, right_min) < self.slow_m:
+        if left_min < self.slow_m or right_min < self.slow_m:
             w += 0.6 if left_min > right_min else -0.6
-        return v, max(-self.turn_radps, min(self.turn_radps, w))
+        turn = self.turn_radps
+        return v, (turn if w > turn else -turn if w < -turn else w)
 
     def toward(self, goal_bearing: float, goal_m: float, bearings: NDArray[np.float64],
                ranges: NDArray[np.floating]) -> tuple[float, float]:
