@@ -12,7 +12,9 @@ from typing import TYPE_CHECKING, ClassVar
 
 from player_server.sim.devices.base import StatelessModel
 from player_server.sim.drive import wrap_angle
-from player_server.sim.readings import Odometry
+from player_server.sim.readings import Odometry, fast_constructor
+
+_make_odometry = fast_constructor(Odometry)
 
 if TYPE_CHECKING:
     from player_server.sim.simulation import _Robot
@@ -84,7 +86,7 @@ class Position2dModel(StatelessModel):
         st = self.world._device(robot, "position2d")
         x, y, yaw = st.odom
         vx, vy, vyaw = st.odom_v
-        return Odometry(x, y, yaw, vx, vy, vyaw, st.stall)
+        return _make_odometry(x, y, yaw, vx, vy, vyaw, st.stall)
 
     def set_odometry(self, robot: str, x: float, y: float, yaw: float) -> None:
         st = self.world._device(robot, "position2d")
