@@ -289,6 +289,7 @@ class Simulation:
                 st.w = w = ramp(st.w, tw, yaw_accel * dt)
             add((st.body, v, w * sub_dt, st.yaw, w * off, vz0 + (st.z0 - st.z) / dt,
                  (0.0, 0.0, w)))
+        # (the hot PyBullet calls take the client id positionally: no keywords to parse)
         reset_vel = pb.resetBaseVelocity
         cos, sin = math.cos, math.sin
         for k in range(self.substeps):
@@ -297,8 +298,7 @@ class Simulation:
                 yaw = yaw0 + w_sub * half
                 c, s = cos(yaw), sin(yaw)
                 # Velocity of the body centre for a turn about the axle centre.
-                reset_vel(body, (v * c - w_off * s, v * s + w_off * c, vz), spin,
-                          physicsClientId=cid)
+                reset_vel(body, (v * c - w_off * s, v * s + w_off * c, vz), spin, cid)
             pb.stepSimulation(physicsClientId=cid)
         self.tick += 1
         t1 = self._now()
@@ -307,7 +307,7 @@ class Simulation:
         moves: list[tuple[_Robot, float, float, float]] = []
         add_move = moves.append
         for st, _, _, off in self._drive_limits:
-            pos, q = get_pose(st.body, physicsClientId=cid)
+            pos, q = get_pose(st.body, cid)
             st.z = pos[2]
             yaw = _yaw_of(q)
             add_move((st, pos[0] - off * cos(yaw), pos[1] - off * sin(yaw), yaw))

@@ -46,7 +46,12 @@ class Wanderer:
     def decide(self, bearings: NDArray[np.float64], ranges: NDArray[np.floating]) -> tuple[
         float, float
     ]:
-        front_min, left_min, right_min = self._minima(bearings, ranges)
+        # `_minima`, written out: this runs for every robot every tick
+        r = ranges.tolist()
+        front, left, right = self._getters(bearings)
+        front_min = math.inf if front is None else min(front(r))
+        left_min = math.inf if left is None else min(left(r))
+        right_min = math.inf if right is None else min(right(r))
         if front_min < self.stop_m:
             if self._spin == 0.0:
                 self._spin = 1.0 if left_min >= right_min else -1.0
