@@ -59,6 +59,7 @@ class RangePlan:
     reading_rays: NDArray[np.intp]
     ray_start: tuple[int, ...]
     reading_start: NDArray[np.intp]
+    reading_start_list: tuple[int, ...]
 
     @staticmethod
     def build(keys: tuple[tuple[int, str], ...], robots: tuple[RobotSpec, ...],
@@ -89,6 +90,7 @@ class RangePlan:
              for a, b, g in zip(ray_start[:-1], ray_start[1:], per_reading, strict=True)]
             + [np.zeros(0, dtype=np.intp)])
         n_readings = [c // g for c, g in zip(counts, per_reading, strict=True)]
+        reading_start = np.concatenate([[0], np.cumsum(n_readings)]).astype(np.intp)
         return RangePlan(
             keys=keys,
             robot=robot,
@@ -102,7 +104,8 @@ class RangePlan:
             own=wa.own_body(robot, local),
             reading_rays=reading_rays,
             ray_start=tuple(ray_start.tolist()),
-            reading_start=np.concatenate([[0], np.cumsum(n_readings)]).astype(np.intp),
+            reading_start=reading_start,
+            reading_start_list=tuple(reading_start.tolist()),
         )
 
     def rays(self, frame: Frame) -> tuple[C128, C128]:
@@ -131,7 +134,7 @@ class RangePlan:
         if self.keys[i][1] == "ranger":
             part = r[self.ray_start[i]:self.ray_start[i + 1]].copy()
         else:
-            part = cones[self.reading_start[i]:self.reading_start[i + 1]].copy()
+            part = cones[self.reading_start_list[i]:self.reading_start_list[i + 1]].copy()
         part.setflags(write=False)
         return part
 

@@ -76,24 +76,31 @@ class RangeModel(StatelessModel):
         bits = cones.view(np.uint32)
         last = self.last
         lb = self._last_batch
+        starts = plan.reading_start
         changed: list[bool] | None = None
-        if lb is not None and lb[0] is plan and bits.size:
-            changed = np.logical_or.reduceat(bits != lb[1], plan.reading_start[:-1]).tolist()
+        # (a sensor without readings, if any, is compared on its own)
+        if (lb is not None and lb[0] is plan and bits.size
+                and bool((starts[1:] > starts[:-1]).all())):
+            changed = np.logical_or.reduceat(bits != lb[1], starts[:-1]).tolist()
         self._last_batch = (plan, bits)
         fresh: dict[RangeKey, np.ndarray] = {}
-        reading = plan.reading
+        start = plan.reading_start_list
         for i, key in enumerate(plan.keys):
             old = last.get(key)
-            if old is not None and changed is not None and not changed[i] and key[1] != "ranger":
-                fresh[key] = old
-                continue
-            new = reading(i, r, cones)
-            if (changed is None or key[1] == "ranger") and (
-                    old is not None and old.dtype == new.dtype
-                    and old.tobytes() == new.tobytes()):
-                fresh[key] = old
-            else:
+            if key[1] == "ranger" or changed is None:
+                new = plan.reading(i, r, cones)
+                if (old is not None and old.dtype == new.dtype
+                        and old.tobytes() == new.tobytes()):
+                    fresh[key] = old
+                else:
+                    fresh[key] = last[key] = new
+            elif changed[i] or old is None:
+                # `plan.reading` of a sensor that is not a ranger, written out
+                new = cones[start[i]:start[i + 1]].copy()
+                new.setflags(write=False)
                 fresh[key] = last[key] = new
+            else:
+                fresh[key] = old
         return fresh
 
     # -- render
