@@ -352,8 +352,9 @@ class Simulation:
 
     def get_pose(self, name: str) -> tuple[float, float, float]:
         """Ground-truth pose (x, y, yaw); for robots, of the drive-axle centre."""
-        if name in self._robot_index:
-            st = self._robot(name)
+        i = self._robot_index.get(name)
+        if i is not None:
+            st = self._robots[i]
             return (st.x, st.y, st.yaw)
         if name not in self._body_kind:
             raise KeyError(f"no body named {name!r}")
