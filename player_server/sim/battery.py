@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
-from player_server.sim.readings import PowerState
+from player_server.sim.readings import PowerState, fast_constructor
 from worlds import PowerSpec
+
+_make_state = fast_constructor(PowerState)
 
 
 @dataclass
@@ -17,6 +19,9 @@ class Battery:
     watts: float = 0.0
     charging: bool = False
     flat: bool = False
+    # the last reading and the (joules, watts, charging) it was made from
+    _last: tuple[tuple[float, float, bool], PowerState] | None = field(
+        default=None, repr=False, compare=False)
 
     @classmethod
     def full_as_specified(cls, spec: PowerSpec) -> Battery:
@@ -46,12 +51,15 @@ class Battery:
             self.flat = True
 
     def reading(self) -> PowerState:
+        """The reading of the battery's state; the same object while that state is unchanged
+        (a battery is read several times a tick)."""
+        state = (self.joules, self.watts, self.charging)
+        last = self._last
+        if last is not None and last[0] == state:
+            return last[1]
         s = self.spec
         frac = self.fraction
-        return PowerState(
-            volts=s.volts_empty + (s.volts_full - s.volts_empty) * frac,
-            percent=100.0 * frac,
-            joules=self.joules,
-            watts=self.watts,
-            charging=self.charging,
-        )
+        reading = _make_state(s.volts_empty + (s.volts_full - s.volts_empty) * frac,
+                              100.0 * frac, self.joules, self.watts, self.charging)
+        self._last = (state, reading)
+        return reading

@@ -33,7 +33,8 @@ class _Driven:
     ranges: Callable[[str], np.ndarray]
     bearings: np.ndarray
     wanderer: Wanderer
-    readers: tuple[Callable[[str], object], ...]
+    readers: tuple[Callable[[str], object], ...]  # the devices read before the ranges
+    readers_after: tuple[Callable[[str], object], ...]  # and after them
     has_power: bool
 
 
@@ -61,12 +62,15 @@ class WanderDriver:
             kind, bearings = rb
             wander_rng = np.random.default_rng(rng.integers(0, 2**63))
             d = spec.devices
-            readers = [getattr(sim, meth) for dev, meth in _READ_ALL
-                       if getattr(d, dev) is not None]
+            # every device in _READ_ALL's order; the range device the wanderer uses is read
+            # once, for both
+            devs = [dev for dev, _ in _READ_ALL if getattr(d, dev) is not None]
+            readers = [getattr(sim, meth) for dev, meth in _READ_ALL if dev in devs]
             readers.append(sim.odometry)
+            at = devs.index(kind)
             self._robots.append(_Driven(spec.name, getattr(sim, kind), bearings,
-                                        Wanderer(wander_rng), tuple(readers),
-                                        d.power is not None))
+                                        Wanderer(wander_rng), tuple(readers[:at]),
+                                        tuple(readers[at + 1:]), d.power is not None))
             self.stats.distance_m[spec.name] = 0.0
             self.stats.charging_s[spec.name] = 0.0
             self.stats.min_percent[spec.name] = 100.0
@@ -75,16 +79,26 @@ class WanderDriver:
 
     def tick(self) -> None:
         sim = self.sim
-        percent: dict[str, float] = {}
+        sense_all = self.sense_all
+        seeking = self._seeking
+        low = self.low_percent
+        charger_goal = self._charger_goal
+        power = sim.power
+        set_velocity = sim.set_velocity
         for r in self._robots:
             name = r.name
-            if self.sense_all:
+            if sense_all:
                 for read in r.readers:
                     read(name)
             ranges = r.ranges(name)
+            if sense_all:
+                for read in r.readers_after:
+                    read(name)
+            goal = None
             if r.has_power:
-                percent[name] = sim.power(name).percent
-            goal = self._charger_goal(name, percent.get(name))
+                percent = power(name).percent
+                if percent < low or name in seeking:
+                    goal = charger_goal(name, percent)
             if goal is None:
                 v, w = r.wanderer.decide(r.bearings, ranges)
             else:
@@ -94,21 +108,26 @@ class WanderDriver:
                 bearing = math.atan2(math.sin(bearing), math.cos(bearing))
                 v, w = r.wanderer.toward(bearing, math.hypot(gx - x, gy - y), r.bearings,
                                          ranges)
-            sim.set_velocity(name, v, w)
+            set_velocity(name, v, w)
         sim.step()
         st = self.stats
         st.ticks += 1
+        distance, charging, min_percent = st.distance_m, st.charging_s, st.min_percent
+        last = self._last
+        get_pose = sim.get_pose
+        hypot = math.hypot
         for r in self._robots:
             name = r.name
-            x, y, _ = sim.get_pose(name)
-            lx, ly = self._last[name]
-            st.distance_m[name] += math.hypot(x - lx, y - ly)
-            self._last[name] = (x, y)
+            x, y, _ = get_pose(name)
+            lx, ly = last[name]
+            distance[name] += hypot(x - lx, y - ly)
+            last[name] = (x, y)
             if r.has_power:
-                p = sim.power(name)
+                p = power(name)
                 if p.charging:
-                    st.charging_s[name] += sim.interval_s
-                st.min_percent[name] = min(st.min_percent[name], p.percent)
+                    charging[name] += sim.interval_s
+                if p.percent < min_percent[name]:
+                    min_percent[name] = p.percent
 
     def _charger_goal(self, name: str, percent: float | None) -> tuple[float, float] | None:
         chargers = self.sim.spec.chargers

@@ -24,6 +24,11 @@ C128 = NDArray[np.complex128]
 _make_blob = fast_constructor(Blob)
 
 
+def _blob_order(b: Blob) -> tuple[int, int, int]:
+    """Blobs by channel, then area (largest first), then x."""
+    return (b.id, -b.area, b.x)
+
+
 @dataclass(frozen=True)
 class Frame:
     """Robot poses at one tick: axle-centre position, heading, yaw, body-centre position
@@ -49,6 +54,12 @@ class RangePlan:
     counts: tuple[int, ...]
     groups: tuple[int, ...]  # rays per reading (sonar cones)
     own: NDArray[np.int64]  # footprint of the robot's body when the ray starts inside, or -1
+    # The first ray of every reading (a ranger's rays each start one), the offset of each
+    # sensor's first ray and of its first reading (one more of each at the end: the totals).
+    reading_rays: NDArray[np.intp]
+    ray_start: tuple[int, ...]
+    reading_start: NDArray[np.intp]
+    reading_start_list: tuple[int, ...]
 
     @staticmethod
     def build(keys: tuple[tuple[int, str], ...], robots: tuple[RobotSpec, ...],
@@ -71,6 +82,15 @@ class RangePlan:
         counts = tuple(p[1].size for p in parts)
         robot = np.repeat([p[0] for p in parts], counts).astype(np.int64)
         local = np.concatenate([p[1] for p in parts])
+        ray_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.intp)
+        per_reading = [1 if kind == "ranger" else p[6] for (_, kind), p in zip(keys, parts,
+                                                                              strict=True)]
+        reading_rays = np.concatenate(
+            [np.arange(a, b, g, dtype=np.intp)
+             for a, b, g in zip(ray_start[:-1], ray_start[1:], per_reading, strict=True)]
+            + [np.zeros(0, dtype=np.intp)])
+        n_readings = [c // g for c, g in zip(counts, per_reading, strict=True)]
+        reading_start = np.concatenate([[0], np.cumsum(n_readings)]).astype(np.intp)
         return RangePlan(
             keys=keys,
             robot=robot,
@@ -82,6 +102,10 @@ class RangePlan:
             counts=counts,
             groups=tuple(p[6] for p in parts),
             own=wa.own_body(robot, local),
+            reading_rays=reading_rays,
+            ray_start=tuple(ray_start.tolist()),
+            reading_start=reading_start,
+            reading_start_list=tuple(reading_start.tolist()),
         )
 
     def rays(self, frame: Frame) -> tuple[C128, C128]:
@@ -91,24 +115,28 @@ class RangePlan:
 
     def split(self, ranges: F64) -> dict[tuple[int, str], np.ndarray]:
         """Per-sensor readings (cone minima, clipped to each sensor's limits), read-only."""
+        r, cones = self.minima(ranges)
+        return {key: self.reading(i, r, cones) for i, key in enumerate(self.keys)}
+
+    def minima(self, ranges: F64) -> tuple[F64, NDArray[np.float32]]:
+        """The ranges clipped to each sensor's limits, and every reading of every sensor but
+        the rangers (a sonar's, the minimum over its cone; float32) in one array."""
         r = np.minimum(np.maximum(ranges, self.min_range), self.max_range)
-        r32 = r.astype(np.float32)
-        r32.setflags(write=False)
-        out: dict[tuple[int, str], np.ndarray] = {}
-        start = 0
-        for key, n, g in zip(self.keys, self.counts, self.groups, strict=True):
-            stop = start + n
-            if key[1] == "ranger":
-                part: np.ndarray = r[start:stop].copy()
-                part.setflags(write=False)
-            elif g > 1:
-                part = r32[start:stop].reshape(-1, g).min(axis=1)
-                part.setflags(write=False)
-            else:
-                part = r32[start:stop]
-            out[key] = part
-            start = stop
-        return out
+        if self.reading_rays.size == 0:
+            return r, np.zeros(0, dtype=np.float32)
+        cones = np.minimum.reduceat(r.astype(np.float32), self.reading_rays)
+        return r, cones
+
+    def reading(self, i: int, r: F64, cones: NDArray[np.float32]) -> np.ndarray:
+        """Sensor i's reading (a read-only array of its own) from `minima`: a ranger's
+        clipped ranges (float64), the others' readings (float32)."""
+        part: np.ndarray
+        if self.keys[i][1] == "ranger":
+            part = r[self.ray_start[i]:self.ray_start[i + 1]].copy()
+        else:
+            part = cones[self.reading_start_list[i]:self.reading_start_list[i + 1]].copy()
+        part.setflags(write=False)
+        return part
 
 
 @dataclass(frozen=True)
@@ -234,4 +262,4 @@ class BlobPlan:
                 self.t_colour[targets].tolist(), p.near[sel].tolist(), strict=True):
             if area:
                 out[sl].append(make(ch, col, area, x, y, left, right, top, bottom, near))
-        return [tuple(sorted(bl, key=lambda b: (b.id, -b.area, b.x))) for bl in out]
+        return [tuple(sorted(bl, key=_blob_order)) if len(bl) > 1 else tuple(bl) for bl in out]

@@ -28,6 +28,8 @@ class SensingPass:
         self.camera = camera
         self.caster = CompiledCaster()
         self._zeros = np.zeros(256)
+        self._rkeys: tuple[tuple[int, str], ...] = ()
+        self._cams: tuple[int, ...] = ()
         # the world's cache key of this tick's readings (the fidelity is fixed)
         self.key = ("sensed", world.fidelity)
 
@@ -36,14 +38,32 @@ class SensingPass:
         on first use."""
         cache = self.world._cached(self.key, lambda: {"ranges": {}, "blobs": {}})
         assert isinstance(cache, dict)
-        rkeys = tuple(sorted(k for k in self.ranging.active if k not in cache["ranges"]))
-        cams = sorted(i for i in self.camera.active if i not in cache["blobs"])
+        if cache["ranges"]:
+            rkeys = tuple(sorted(k for k in self.ranging.active if k not in cache["ranges"]))
+        else:
+            rkeys = self._all_rkeys()
+        if cache["blobs"]:
+            cams = sorted(i for i in self.camera.active if i not in cache["blobs"])
+        else:
+            cams = list(self._all_cams())
         if rkeys or cams:
             if self.world.fidelity == "render":
                 self._render(rkeys, cams, cache)
             else:
                 self._fast(rkeys, cams, cache)
         return cache
+
+    def _all_rkeys(self) -> tuple[tuple[int, str], ...]:
+        """Every active range sensor, sorted (the active sets only grow: their size tells
+        whether the last sort still holds)."""
+        if len(self.ranging.active) != len(self._rkeys):
+            self._rkeys = tuple(sorted(self.ranging.active))
+        return self._rkeys
+
+    def _all_cams(self) -> tuple[int, ...]:
+        if len(self.camera.active) != len(self._cams):
+            self._cams = tuple(sorted(self.camera.active))
+        return self._cams
 
     def _zeros_for(self, n: int) -> np.ndarray:
         if self._zeros.size < n:

@@ -169,7 +169,8 @@ class Simulation:
         seeds = np.random.SeedSequence(self.seed).spawn(len(self.spec.robots) + 1)
         self._noise_seed = int(seeds[-1].generate_state(1)[0])
         self._robots: list[_Robot] = []
-        self._has_device: dict[tuple[str, str], _Robot] = {}
+        # robot name -> state, per device kind, for the robots with that device (filled on use)
+        self._has_device: dict[str, dict[str, _Robot]] = {}
         for i, r in enumerate(self.spec.robots):
             st = _Robot(index=i, spec=r, body=self._ids.robots[r.name],
                         rng=np.random.default_rng(seeds[i]))
@@ -177,6 +178,13 @@ class Simulation:
             st.z0 = st.z = r.body.height_m / 2 + 0.001
             st.odom = (0.0, 0.0, 0.0)
             self._robots.append(st)
+        # per robot: its state, the drive's accelerations (None without a drive), axle offset
+        self._drive_limits: list[tuple[_Robot, float | None, float, float]] = []
+        for st in self._robots:
+            p2d = st.spec.devices.position2d
+            self._drive_limits.append((
+                st, None if p2d is None else p2d.accel_mps2,
+                0.0 if p2d is None else p2d.yaw_accel_radps2, st.spec.body.offset_x_m))
         self._arrays = WorldArrays.from_spec(self.spec)
         self._robot_offset = np.array([r.body.offset_x_m for r in self.spec.robots])
         self._dyn_ids = ([self._ids.boxes[b.name] for b in self.spec.boxes]
@@ -261,45 +269,50 @@ class Simulation:
         cid = self._client
         dt = self.interval_s
         t0 = self._now()
-        robots = self._robots
-        for st in robots:
-            p2d = st.spec.devices.position2d
-            if p2d is None:
-                st.v = st.w = 0.0
-                continue
-            tv, tw = st.target_v, st.target_w
-            if not st.motors_on or (st.battery is not None and st.battery.flat):
-                tv = tw = 0.0
-            st.v = ramp(st.v, tv, p2d.accel_mps2 * dt)
-            st.w = ramp(st.w, tw, p2d.yaw_accel_radps2 * dt)
         sub_dt = dt / self.substeps
         # An upward speed of g*dt cancels one step of gravity (semi-implicit Euler); a robot
         # that a contact lifted or pressed down is brought back to its height within a tick.
         vz0 = _GRAVITY_MPS2 * sub_dt
+        # Per robot, constant over the tick's substeps: body, forward speed, turn per second
+        # of substep, yaw, turn speed times the axle offset, upward speed, spin.
+        moving: list[tuple[int, float, float, float, float, float,
+                           tuple[float, float, float]]] = []
+        add = moving.append
+        for st, accel, yaw_accel, off in self._drive_limits:
+            if accel is None:
+                st.v = st.w = v = w = 0.0
+            else:
+                tv, tw = st.target_v, st.target_w
+                if not st.motors_on or (st.battery is not None and st.battery.flat):
+                    tv = tw = 0.0
+                st.v = v = ramp(st.v, tv, accel * dt)
+                st.w = w = ramp(st.w, tw, yaw_accel * dt)
+            add((st.body, v, w * sub_dt, st.yaw, w * off, vz0 + (st.z0 - st.z) / dt,
+                 (0.0, 0.0, w)))
+        # (the hot PyBullet calls take the client id positionally: no keywords to parse)
         reset_vel = pb.resetBaseVelocity
+        cos, sin = math.cos, math.sin
         for k in range(self.substeps):
-            for st in robots:
-                vz = vz0 + (st.z0 - st.z) / dt
-                yaw = st.yaw + st.w * sub_dt * (k + 0.5)
-                c, s = math.cos(yaw), math.sin(yaw)
-                off = st.spec.body.offset_x_m
+            half = k + 0.5
+            for body, v, w_sub, yaw0, w_off, vz, spin in moving:
+                yaw = yaw0 + w_sub * half
+                c, s = cos(yaw), sin(yaw)
                 # Velocity of the body centre for a turn about the axle centre.
-                vx = st.v * c - st.w * off * s
-                vy = st.v * s + st.w * off * c
-                reset_vel(st.body, (vx, vy, vz), (0.0, 0.0, st.w), physicsClientId=cid)
+                reset_vel(body, (v * c - w_off * s, v * s + w_off * c, vz), spin, cid)
             pb.stepSimulation(physicsClientId=cid)
         self.tick += 1
         t1 = self._now()
         get_pose = pb.getBasePositionAndOrientation
-        advance_odometry = self.drive_model.advance_odometry
-        for st in robots:
-            pos, q = get_pose(st.body, physicsClientId=cid)
+        cos, sin = math.cos, math.sin
+        moves: list[tuple[_Robot, float, float, float]] = []
+        add_move = moves.append
+        for st, _, _, off in self._drive_limits:
+            pos, q = get_pose(st.body, cid)
             st.z = pos[2]
             yaw = _yaw_of(q)
-            off = st.spec.body.offset_x_m
-            x = pos[0] - off * math.cos(yaw)
-            y = pos[1] - off * math.sin(yaw)
-            advance_odometry(st, x, y, yaw, dt)
+            add_move((st, pos[0] - off * cos(yaw), pos[1] - off * sin(yaw), yaw))
+        self.drive_model.advance_all(moves, dt)
+        for st, x, y, yaw in moves:
             st.x, st.y, st.yaw = x, y, yaw
         t2 = self._now()
         self.power_model.advance(dt)
@@ -327,18 +340,21 @@ class Simulation:
             raise KeyError(f"no robot named {name!r}") from None
 
     def _device(self, name: str, device: str) -> _Robot:
-        st = self._has_device.get((name, device))
-        if st is None:
-            st = self._robot(name)
-            if getattr(st.spec.devices, device) is None:
-                raise ValueError(f"robot {name!r} has no {device}")
-            self._has_device[(name, device)] = st
+        try:
+            return self._has_device[device][name]
+        except KeyError:
+            pass
+        st = self._robot(name)
+        if getattr(st.spec.devices, device) is None:
+            raise ValueError(f"robot {name!r} has no {device}")
+        self._has_device.setdefault(device, {})[name] = st
         return st
 
     def get_pose(self, name: str) -> tuple[float, float, float]:
         """Ground-truth pose (x, y, yaw); for robots, of the drive-axle centre."""
-        if name in self._robot_index:
-            st = self._robot(name)
+        i = self._robot_index.get(name)
+        if i is not None:
+            st = self._robots[i]
             return (st.x, st.y, st.yaw)
         if name not in self._body_kind:
             raise KeyError(f"no body named {name!r}")

@@ -89,17 +89,23 @@ class TickArrays:
     def frame(self) -> Frame:
         w = self.world
         def compute() -> Frame:
-            pos, head, yaw, body = [], [], [], []
-            for st in w._robots:
-                h = complex(math.cos(st.yaw), math.sin(st.yaw))
-                p = complex(st.x, st.y)
-                pos.append(p)
-                head.append(h)
-                yaw.append(st.yaw)
-                body.append(p + h * st.spec.body.offset_x_m)
-            return Frame(np.array(pos, dtype=np.complex128),
-                         np.array(head, dtype=np.complex128), np.array(yaw),
-                         np.array(body, dtype=np.complex128))
+            robots = w._robots
+            n = len(robots)
+            x = np.array([st.x for st in robots], dtype=np.float64)
+            y = np.array([st.y for st in robots], dtype=np.float64)
+            yaw_list = [st.yaw for st in robots]
+            cos, sin = math.cos, math.sin
+            c = np.array([cos(a) for a in yaw_list], dtype=np.float64)
+            s = np.array([sin(a) for a in yaw_list], dtype=np.float64)
+            pos = np.empty(n, dtype=np.complex128)
+            pos.real, pos.imag = x, y
+            head = np.empty(n, dtype=np.complex128)
+            head.real, head.imag = c, s
+            # the body centre, the axle centre plus the heading times the offset
+            off = w._robot_offset
+            body = np.empty(n, dtype=np.complex128)
+            body.real, body.imag = x + c * off, y + s * off
+            return Frame(pos, head, np.array(yaw_list, dtype=np.float64), body)
 
         return w._cached("frame", compute)  # type: ignore[return-value]
 

@@ -4,7 +4,9 @@ the spot when blocked. Used by the headless demo and the benchmark to keep robot
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from operator import itemgetter
 
 import numpy as np
 from numpy.typing import NDArray
@@ -39,12 +41,17 @@ class Wanderer:
     _sector_key: int = -1
     _sector_cache: tuple = ()
     _sector_bearings: object = None
-    _sector_ints: tuple[list[int], ...] = ()
+    _sector_getters: tuple[Callable[[list[float]], tuple[float, ...]] | None, ...] = ()
 
     def decide(self, bearings: NDArray[np.float64], ranges: NDArray[np.floating]) -> tuple[
         float, float
     ]:
-        front_min, left_min, right_min = self._minima(bearings, ranges)
+        # `_minima`, written out: this runs for every robot every tick
+        r = ranges.tolist()
+        front, left, right = self._getters(bearings)
+        front_min = math.inf if front is None else min(front(r))
+        left_min = math.inf if left is None else min(left(r))
+        right_min = math.inf if right is None else min(right(r))
         if front_min < self.stop_m:
             if self._spin == 0.0:
                 self._spin = 1.0 if left_min >= right_min else -1.0
@@ -52,12 +59,13 @@ class Wanderer:
         self._spin = 0.0
         if self.rng.random() < 0.05:
             self._drift = float(self.rng.uniform(-0.4, 0.4))
-        v = self.cruise_mps * min(1.0, max(0.2, (front_min - self.stop_m) /
-                                           (self.slow_m - self.stop_m)))
+        ease = (front_min - self.stop_m) / (self.slow_m - self.stop_m)
+        v = self.cruise_mps * (1.0 if ease > 1.0 else 0.2 if ease < 0.2 else ease)
         w = self._drift
-        if min(left_min, right_min) < self.slow_m:
+        if left_min < self.slow_m or right_min < self.slow_m:
             w += 0.6 if left_min > right_min else -0.6
-        return v, max(-self.turn_radps, min(self.turn_radps, w))
+        turn = self.turn_radps
+        return v, (turn if w > turn else -turn if w < -turn else w)
 
     def toward(self, goal_bearing: float, goal_m: float, bearings: NDArray[np.float64],
                ranges: NDArray[np.floating]) -> tuple[float, float]:
@@ -80,13 +88,21 @@ class Wanderer:
         """The nearest range in the front, left and right sectors (inf for an empty one),
         in plain Python: a handful of readings cost less than numpy calls on them."""
         r = ranges.tolist()
-        return tuple(min([r[i] for i in sector], default=math.inf)  # type: ignore[return-value]
-                     for sector in self._sector_lists(bearings))
+        front, left, right = self._getters(bearings)
+        return (math.inf if front is None else min(front(r)),
+                math.inf if left is None else min(left(r)),
+                math.inf if right is None else min(right(r)))
 
-    def _sector_lists(self, bearings: NDArray[np.float64]) -> tuple[list[int], ...]:
-        if self._sector_key != id(bearings) or not self._sector_ints:
-            self._sector_ints = tuple(ix.tolist() for ix in self._sectors(bearings))
-        return self._sector_ints
+    def _getters(self, bearings: NDArray[np.float64]) -> tuple[
+        Callable[[list[float]], tuple[float, ...]] | None, ...
+    ]:
+        """Per sector, a getter of its readings as a tuple (None for an empty sector)."""
+        if self._sector_key != id(bearings) or not self._sector_getters:
+            # the first index once more makes a one-reading sector a tuple too
+            self._sector_getters = tuple(
+                itemgetter(*ix.tolist(), int(ix[0])) if ix.size else None
+                for ix in self._sectors(bearings))
+        return self._sector_getters
 
     def _sectors(self, bearings: NDArray[np.float64]) -> tuple[
         NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]

@@ -10,7 +10,9 @@ from typing import TYPE_CHECKING, ClassVar
 import numpy as np
 import pybullet as pb
 
-from player_server.sim.readings import GripperState
+from player_server.sim.readings import GripperState, fast_constructor
+
+_make_gripper_state = fast_constructor(GripperState)
 
 if TYPE_CHECKING:
     from player_server.sim.simulation import Simulation, _Robot
@@ -89,7 +91,7 @@ class GripperModel:
                 beams = 3
             elif self._grip_zone(st) is not None:
                 beams = 1
-            return GripperState(g.state, beams, g.holding, len(g.stored), spec.capacity)
+            return _make_gripper_state(g.state, beams, g.holding, len(g.stored), spec.capacity)
 
         return self.world._cached(("gripper", st.index), compute)  # type: ignore[return-value]
 

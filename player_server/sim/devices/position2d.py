@@ -11,8 +11,10 @@ import math
 from typing import TYPE_CHECKING, ClassVar
 
 from player_server.sim.devices.base import StatelessModel
-from player_server.sim.drive import integrate, to_robot_frame, wrap_angle
-from player_server.sim.readings import Odometry
+from player_server.sim.drive import wrap_angle
+from player_server.sim.readings import Odometry, fast_constructor
+
+_make_odometry = fast_constructor(Odometry)
 
 if TYPE_CHECKING:
     from player_server.sim.simulation import _Robot
@@ -26,17 +28,34 @@ class Position2dModel(StatelessModel):
     def advance_odometry(self, st: _Robot, x: float, y: float, yaw: float, dt: float) -> None:
         """Odometry (with its noise), its velocity and the stall flag from the robot's true
         motion over the tick that ended at (x, y, yaw)."""
-        fwd, left, turn = to_robot_frame(st.x, st.y, st.yaw, x, y, yaw)
-        p2d = st.spec.devices.position2d
-        if p2d is not None and (p2d.odom_noise_fraction > 0 or p2d.odom_yaw_noise_fraction > 0):
-            n = st.rng.standard_normal(2)
-            fwd *= 1.0 + p2d.odom_noise_fraction * float(n[0])
-            left *= 1.0 + p2d.odom_noise_fraction * float(n[0])
-            turn *= 1.0 + p2d.odom_yaw_noise_fraction * float(n[1])
-        st.odom = integrate(*st.odom, fwd, left, turn)
-        st.odom_v = (fwd / dt, left / dt, turn / dt)
-        commanded = abs(st.v) * dt
-        st.stall = commanded > 0.01 * dt and math.hypot(fwd, left) < 0.3 * commanded
+        self.advance_all([(st, x, y, yaw)], dt)
+
+    def advance_all(self, moves: list[tuple[_Robot, float, float, float]], dt: float) -> None:
+        """`advance_odometry` for each (robot, x, y, yaw), in order (`drive.to_robot_frame`
+        and `drive.integrate` written out: this runs for every robot every tick)."""
+        cos, sin, atan2, hypot = math.cos, math.sin, math.atan2, math.hypot
+        for st, x, y, yaw in moves:
+            # to_robot_frame(st.x, st.y, st.yaw, x, y, yaw)
+            dx, dy = x - st.x, y - st.y
+            c, s = cos(st.yaw), sin(st.yaw)
+            d_yaw = yaw - st.yaw
+            fwd, left, turn = c * dx + s * dy, -s * dx + c * dy, atan2(sin(d_yaw), cos(d_yaw))
+            p2d = st.spec.devices.position2d
+            if p2d is not None and (p2d.odom_noise_fraction > 0
+                                    or p2d.odom_yaw_noise_fraction > 0):
+                n = st.rng.standard_normal(2)
+                fwd *= 1.0 + p2d.odom_noise_fraction * float(n[0])
+                left *= 1.0 + p2d.odom_noise_fraction * float(n[0])
+                turn *= 1.0 + p2d.odom_yaw_noise_fraction * float(n[1])
+            # integrate(*st.odom, fwd, left, turn)
+            ox, oy, oyaw = st.odom
+            c, s = cos(oyaw), sin(oyaw)
+            o_yaw = oyaw + turn
+            st.odom = (ox + c * fwd - s * left, oy + s * fwd + c * left,
+                       atan2(sin(o_yaw), cos(o_yaw)))
+            st.odom_v = (fwd / dt, left / dt, turn / dt)
+            commanded = abs(st.v) * dt
+            st.stall = commanded > 0.01 * dt and hypot(fwd, left) < 0.3 * commanded
 
     def set_velocity(self, robot: str, vx_mps: float, vyaw_radps: float) -> None:
         """Command forward and turn speed; clamped to the drive's limits."""
@@ -67,7 +86,7 @@ class Position2dModel(StatelessModel):
         st = self.world._device(robot, "position2d")
         x, y, yaw = st.odom
         vx, vy, vyaw = st.odom_v
-        return Odometry(x, y, yaw, vx, vy, vyaw, st.stall)
+        return _make_odometry(x, y, yaw, vx, vy, vyaw, st.stall)
 
     def set_odometry(self, robot: str, x: float, y: float, yaw: float) -> None:
         st = self.world._device(robot, "position2d")

@@ -8,7 +8,7 @@ from player_server.sim.battery import Battery
 from player_server.sim.readings import PowerState
 
 if TYPE_CHECKING:
-    from player_server.sim.simulation import Simulation, _Robot
+    from player_server.sim.simulation import Simulation
 
 
 class PowerModel:
@@ -26,25 +26,25 @@ class PowerModel:
                 st.battery = Battery.full_as_specified(spec)
 
     def advance(self, dt: float) -> None:
+        # the pads switched on (the same for every robot this tick): centre, radius squared,
+        # rate
+        pads = [(c.x, c.y, c.radius_m ** 2, c.rate_w) for c in self.world.spec.chargers
+                if c.name not in self.chargers_off]
         for st in self.world._robots:
-            if st.battery is not None:
-                self._advance_battery(st, dt)
-
-    def _advance_battery(self, st: _Robot, dt: float) -> None:
-        b = st.battery
-        assert b is not None
-        p2d = st.spec.devices.position2d
-        frac = 0.0
-        if p2d is not None:
-            frac = 0.5 * (abs(st.v) / p2d.max_speed_mps + abs(st.w) / p2d.max_yaw_rate_radps)
-        charge = 0.0
-        for c in self.world.spec.chargers:
-            if c.name in self.chargers_off:
+            b = st.battery
+            if b is None:
                 continue
-            if (st.x - c.x) ** 2 + (st.y - c.y) ** 2 <= c.radius_m ** 2:
-                charge = c.rate_w
-                break
-        b.update(dt, b.draw_w(frac), charge)
+            p2d = st.spec.devices.position2d
+            frac = 0.0
+            if p2d is not None:
+                frac = 0.5 * (abs(st.v) / p2d.max_speed_mps + abs(st.w) / p2d.max_yaw_rate_radps)
+            charge = 0.0
+            x, y = st.x, st.y
+            for cx, cy, r2, rate in pads:
+                if (x - cx) ** 2 + (y - cy) ** 2 <= r2:
+                    charge = rate
+                    break
+            b.update(dt, b.draw_w(frac), charge)
 
     def power(self, robot: str) -> PowerState:
         st = self.world._device(robot, "power")

@@ -9,7 +9,9 @@ from typing import TYPE_CHECKING, ClassVar
 import numpy as np
 
 from player_server.sim.drive import ramp
-from player_server.sim.readings import PtzState
+from player_server.sim.readings import PtzState, fast_constructor
+
+_make_ptz_state = fast_constructor(PtzState)
 
 if TYPE_CHECKING:
     from player_server.sim.simulation import Simulation, _Robot
@@ -62,7 +64,7 @@ class PtzModel:
         st = self.world._device(robot, "ptz")
         p = st.ptz
         assert p is not None
-        return PtzState(p.pan, p.tilt, p.zoom, p.pan_speed, p.tilt_speed)
+        return _make_ptz_state(p.pan, p.tilt, p.zoom, p.pan_speed, p.tilt_speed)
 
     def ptz_command(self, robot: str, pan: float, tilt: float, zoom: float) -> None:
         st = self.world._device(robot, "ptz")

@@ -33,7 +33,9 @@ class RangeModel(StatelessModel):
 
     def build(self) -> None:
         self.plans: dict[tuple[RangeKey, ...], RangePlan] = {}
-        self.last: dict[RangeKey, np.ndarray] = {}
+        self.last: dict[RangeKey, np.ndarray] = {}  # cleared by a reader: every reading afresh
+        # the plan of the last fast batch and its readings' bits (see `fast_readings`)
+        self._last_batch: tuple[RangePlan, NDArray[np.uint32]] | None = None
 
     def reading(self, robot: str, kind: str) -> np.ndarray:
         w = self.world
@@ -64,16 +66,41 @@ class RangeModel(StatelessModel):
 
     # -- fast
     def fast_readings(self, plan: RangePlan, hits: np.ndarray) -> dict[RangeKey, np.ndarray]:
-        """Per-sensor readings from the batch's hits, the last array kept when equal."""
-        fresh = plan.split(hits)
+        """Per-sensor readings from the batch's hits, the last array kept when equal.
+
+        When the last batch was of the same plan, the last arrays of its sensors hold that
+        batch's readings, so one comparison of the two batches' bits tells which sensors
+        changed (a ranger's float64 reading is compared on its own).
+        """
+        r, cones = plan.minima(hits)
+        bits = cones.view(np.uint32)
         last = self.last
-        for key, reading in fresh.items():
+        lb = self._last_batch
+        starts = plan.reading_start
+        changed: list[bool] | None = None
+        # (a sensor without readings, if any, is compared on its own)
+        if (lb is not None and lb[0] is plan and bits.size
+                and bool((starts[1:] > starts[:-1]).all())):
+            changed = np.logical_or.reduceat(bits != lb[1], starts[:-1]).tolist()
+        self._last_batch = (plan, bits)
+        fresh: dict[RangeKey, np.ndarray] = {}
+        start = plan.reading_start_list
+        for i, key in enumerate(plan.keys):
             old = last.get(key)
-            if (old is not None and old.dtype == reading.dtype
-                    and old.tobytes() == reading.tobytes()):
-                fresh[key] = old
+            if key[1] == "ranger" or changed is None:
+                new = plan.reading(i, r, cones)
+                if (old is not None and old.dtype == new.dtype
+                        and old.tobytes() == new.tobytes()):
+                    fresh[key] = old
+                else:
+                    fresh[key] = last[key] = new
+            elif changed[i] or old is None:
+                # `plan.reading` of a sensor that is not a ranger, written out
+                new = cones[start[i]:start[i + 1]].copy()
+                new.setflags(write=False)
+                fresh[key] = last[key] = new
             else:
-                last[key] = reading
+                fresh[key] = old
         return fresh
 
     # -- render
