@@ -178,13 +178,7 @@ class Simulation:
             st.z0 = st.z = r.body.height_m / 2 + 0.001
             st.odom = (0.0, 0.0, 0.0)
             self._robots.append(st)
-        # per robot: its state, the drive's accelerations (None without a drive), axle offset
-        self._drive_limits: list[tuple[_Robot, float | None, float, float]] = []
-        for st in self._robots:
-            p2d = st.spec.devices.position2d
-            self._drive_limits.append((
-                st, None if p2d is None else p2d.accel_mps2,
-                0.0 if p2d is None else p2d.yaw_accel_radps2, st.spec.body.offset_x_m))
+        self._drive_limits = _drive_limits(self._robots)
         self._arrays = WorldArrays.from_spec(self.spec)
         self._robot_offset = np.array([r.body.offset_x_m for r in self.spec.robots])
         self._dyn_ids = ([self._ids.boxes[b.name] for b in self.spec.boxes]
@@ -273,22 +267,7 @@ class Simulation:
         # An upward speed of g*dt cancels one step of gravity (semi-implicit Euler); a robot
         # that a contact lifted or pressed down is brought back to its height within a tick.
         vz0 = _GRAVITY_MPS2 * sub_dt
-        # Per robot, constant over the tick's substeps: body, forward speed, turn per second
-        # of substep, yaw, turn speed times the axle offset, upward speed, spin.
-        moving: list[tuple[int, float, float, float, float, float,
-                           tuple[float, float, float]]] = []
-        add = moving.append
-        for st, accel, yaw_accel, off in self._drive_limits:
-            if accel is None:
-                st.v = st.w = v = w = 0.0
-            else:
-                tv, tw = st.target_v, st.target_w
-                if not st.motors_on or (st.battery is not None and st.battery.flat):
-                    tv = tw = 0.0
-                st.v = v = ramp(st.v, tv, accel * dt)
-                st.w = w = ramp(st.w, tw, yaw_accel * dt)
-            add((st.body, v, w * sub_dt, st.yaw, w * off, vz0 + (st.z0 - st.z) / dt,
-                 (0.0, 0.0, w)))
+        moving = _tick_speeds(self._drive_limits, dt, sub_dt, vz0)
         # (the hot PyBullet calls take the client id positionally: no keywords to parse)
         reset_vel = pb.resetBaseVelocity
         cos, sin = math.cos, math.sin
@@ -567,3 +546,39 @@ class Simulation:
             return SceneSnapshot(self.time_s, self.tick, tuple(bodies))
 
         return self._cached("snapshot", compute)  # type: ignore[return-value]
+
+
+_DriveLimits = list[tuple[_Robot, float | None, float, float]]
+
+
+def _drive_limits(robots: list[_Robot]) -> _DriveLimits:
+    """Per robot: its state, the drive's accelerations (None without a drive), axle offset."""
+    out: _DriveLimits = []
+    for st in robots:
+        p2d = st.spec.devices.position2d
+        out.append((st, None if p2d is None else p2d.accel_mps2,
+                    0.0 if p2d is None else p2d.yaw_accel_radps2, st.spec.body.offset_x_m))
+    return out
+
+
+_Moving = list[tuple[int, float, float, float, float, float, tuple[float, float, float]]]
+
+
+def _tick_speeds(limits: _DriveLimits, dt: float, sub_dt: float, vz0: float) -> _Moving:
+    """Ramp every robot's speeds towards its command for this tick and return, per robot,
+    what is constant over the tick's substeps: body, forward speed, turn per substep, yaw,
+    turn speed times the axle offset, upward speed, spin."""
+    moving: _Moving = []
+    add = moving.append
+    for st, accel, yaw_accel, off in limits:
+        if accel is None:
+            st.v = st.w = v = w = 0.0
+        else:
+            tv, tw = st.target_v, st.target_w
+            if not st.motors_on or (st.battery is not None and st.battery.flat):
+                tv = tw = 0.0
+            st.v = v = ramp(st.v, tv, accel * dt)
+            st.w = w = ramp(st.w, tw, yaw_accel * dt)
+        add((st.body, v, w * sub_dt, st.yaw, w * off, vz0 + (st.z0 - st.z) / dt,
+             (0.0, 0.0, w)))
+    return moving
