@@ -41,6 +41,25 @@ class PauseRefused(RuntimeError):
     """A robot sharing its process with others cannot be paused alone."""
 
 
+AUTO_ALONE_UP_TO = 16
+"""`--robots-per-process auto`: teams of at most this many members run a process each."""
+AUTO_PER_PROCESS = 10
+"""`--robots-per-process auto`: bigger teams run this many robots to a host process."""
+
+
+def robots_per_process(choice: int | None, members: int, *, placed: bool,
+                       pausing: bool) -> int:
+    """Robots to a process: `choice` when given; for ``auto`` (None) one each for a team of up
+    to `AUTO_ALONE_UP_TO` members, or when a robot is placed on another host (`placed`) or
+    paused alone by the fault schedule (`pausing`), else `AUTO_PER_PROCESS`. A lockstep run's
+    events do not depend on it (the robots of a host act at tick boundaries alike)."""
+    if choice is not None:
+        return choice
+    if members <= AUTO_ALONE_UP_TO or placed or pausing:
+        return 1
+    return AUTO_PER_PROCESS
+
+
 def group_robots(names: list[str], per_process: int) -> list[tuple[str, ...]]:
     """`names` in order, `per_process` to a group (the last may have fewer)."""
     if per_process < 1:

@@ -84,6 +84,24 @@ def free_udp_port() -> int:
         return int(s.getsockname()[1])
 
 
+class PerProcess(click.ParamType):
+    """`--robots-per-process`: a whole number of at least 1, or ``auto`` (None)."""
+
+    name = "K|auto"
+
+    def convert(self, value: Any, param: click.Parameter | None,
+                ctx: click.Context | None) -> int | None:
+        if value is None or isinstance(value, int):
+            return value
+        text = str(value).strip()
+        if text == "auto":
+            return None
+        if text.isdigit() and int(text) >= 1:
+            return int(text)
+        self.fail(f"expected a whole number of at least 1 or 'auto', found {text!r}", param,
+                  ctx)
+
+
 @click.command()
 @click.argument("experiment", type=click.Choice(sorted(EXPERIMENT_WORLDS)))
 @click.option("--sim-hours", type=float, default=None, help="Simulated hours to run.")
@@ -164,11 +182,11 @@ def free_udp_port() -> int:
               help="Start ROBOT's process through a command prefix, e.g. "
                    "'r2=ip netns exec robots' or 'r2=ssh lab-host-2' (needs --transport zenoh; "
                    "repeatable; see docs/experiments.md).")
-@click.option("--robots-per-process", type=click.IntRange(min=1), default=1,
-              show_default=True,
+@click.option("--robots-per-process", type=PerProcess(), default="auto", show_default=True,
               help="Robots to a process: 1 runs a murdoch-robot process per robot; K above 1 "
                    "runs ceil(N/K) host processes of K robots, each robot in a thread of its "
-                   "own (less memory per robot; no pausing one robot alone).")
+                   "own (less memory per robot; no pausing one robot alone); auto: 1 for "
+                   "teams of up to 16, else 10.")
 def run(experiment: str, sim_hours: float | None, until: str | None, speedup: float | None,
         seed: int,
         meshcat: bool, out: Path, world: str | None, task_interval: float,
@@ -179,7 +197,7 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
         pipelined: bool, robot_nice: int, key: str | None, pin_cpus: bool,
         record_rate: float, no_record: bool, trails: int, lasers: bool,
         group_tasks: float, transport: str, bind: str, places: tuple[str, ...],
-        robots_per_process: int) -> None:
+        robots_per_process: int | None) -> None:
     """Run EXPERIMENT end to end and leave a run directory behind."""
     from experiments.run_checks import RunSetupError, check_out_dir, effective_speedup
 
@@ -247,7 +265,7 @@ def run_experiment(
     extras: RunExtras | None = None, allocator: str = "murdoch", group_task_rate: float = 0.0,
     transport: str = "multicast", bind: str = "127.0.0.1",
     placements: tuple[tuple[str, tuple[str, ...]], ...] = (), refine: bool = False,
-    robots_per_process: int = 1,
+    robots_per_process: int | None = None,
 ) -> int:
     """Run one experiment end to end; the exit code of `murdoch run`."""
     from experiments.experiment import RunOptions

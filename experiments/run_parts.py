@@ -80,9 +80,10 @@ class RunSettings:
     """(robot, launch prefix): robot processes started elsewhere (`ProcessSpec.launch`)."""
     refine: bool = False
     """The robots' consensus agents run the improvement phase (`murdoch run --refine`)."""
-    robots_per_process: int = 1
+    robots_per_process: int | None = None
     """1: a `murdoch-robot` process per robot; above 1: robots run that many to a host
-    process, each in a thread (`experiments.robot_hosts`)."""
+    process, each in a thread (`experiments.robot_hosts`); None: chosen from the team's size
+    (`experiments.robot_hosts.robots_per_process`)."""
 
     @property
     def lockstep(self) -> bool:
@@ -153,9 +154,11 @@ def _check_placement(settings: RunSettings, robots: set[str]) -> None:
         raise RunSetupError("--bus-loss is a layer of the multicast receiver; it cannot be "
                             "combined with --transport zenoh")
     per_process = settings.robots_per_process
+    if per_process is None:
+        return  # auto: one each wherever one robot's own process is needed
     if not isinstance(per_process, int) or isinstance(per_process, bool) or per_process < 1:
         raise RunSetupError(f"--robots-per-process {per_process!r}: expected a whole number, "
-                            "at least 1")
+                            "at least 1 (or auto)")
     if per_process > 1 and settings.placements:
         raise RunSetupError("--place starts one robot's own process elsewhere; it cannot be "
                             "combined with --robots-per-process above 1")
@@ -301,14 +304,17 @@ def _supervisor(settings: RunSettings, specs: dict[str, Any], rec: RunRecorder,
                 env: dict[str, str]) -> RobotSupervisor | HostSupervisor:
     """A process per robot, or (--robots-per-process above 1) robots grouped into hosts in
     the world's order (their layout goes into config.json)."""
-    if settings.robots_per_process == 1:
+    from experiments.robot_hosts import HostSupervisor, group_robots, robots_per_process
+
+    pausing = any(f.action in ("freeze", "thaw") for f in settings.extras.faults)
+    per_process = robots_per_process(settings.robots_per_process, len(specs),
+                                     placed=bool(settings.placements), pausing=pausing)
+    if per_process == 1:
         return RobotSupervisor(specs, lambda n: rec.run.log_file(f"robot-{n}"), env,
                                settings.robot_nice)
-    from experiments.robot_hosts import HostSupervisor, group_robots
-
-    hosts = HostSupervisor(specs, group_robots(list(specs), settings.robots_per_process),
+    hosts = HostSupervisor(specs, group_robots(list(specs), per_process),
                            rec.run.log_file, env, settings.robot_nice)
-    rec.config["robots_per_process"] = settings.robots_per_process
+    rec.config["robots_per_process"] = per_process
     rec.config["robot_hosts"] = hosts.layout()
     return hosts
 

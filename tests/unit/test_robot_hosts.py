@@ -21,7 +21,7 @@ from behaviors.host_control import (
 )
 from experiments.experiment import Fault
 from experiments.plugins import EXPERIMENTS
-from experiments.robot_hosts import group_robots
+from experiments.robot_hosts import group_robots, robots_per_process
 from experiments.run_checks import RunSetupError
 from experiments.run_cli import run
 from experiments.run_extras import RunExtras
@@ -119,10 +119,31 @@ def test_one_robot_per_process_and_pausing_as_before() -> None:
                      set(ROBOTS))
 
 
-def test_murdoch_run_refuses_a_count_below_one() -> None:
-    result = CliRunner().invoke(run, ["longterm", "--robots-per-process", "0"])
+@pytest.mark.parametrize("text", ["0", "-1", "2.5", "many", ""])
+def test_murdoch_run_refuses_a_count_below_one_or_not_a_count(text: str) -> None:
+    result = CliRunner().invoke(run, ["longterm", "--robots-per-process", text])
     assert result.exit_code == 2
-    assert "--robots-per-process" in result.output
+    assert "--robots-per-process" in result.output and "auto" in result.output
+
+
+def test_auto_runs_small_teams_a_process_each_and_big_ones_ten_to_a_process() -> None:
+    assert robots_per_process(None, 7, placed=False, pausing=False) == 1  # longterm
+    assert robots_per_process(None, 16, placed=False, pausing=False) == 1
+    assert robots_per_process(None, 17, placed=False, pausing=False) == 10
+    assert robots_per_process(None, 101, placed=False, pausing=False) == 10  # swarm100
+    # a robot placed elsewhere or paused alone needs its own process
+    assert robots_per_process(None, 101, placed=True, pausing=False) == 1
+    assert robots_per_process(None, 101, placed=False, pausing=True) == 1
+    # a number given is taken as it is
+    assert robots_per_process(1, 101, placed=False, pausing=False) == 1
+    assert robots_per_process(3, 7, placed=False, pausing=False) == 3
+
+
+def test_auto_is_allowed_with_places_and_pauses() -> None:
+    _check_placement(_settings(robots_per_process=None, transport="zenoh",
+                               placements=(("p1", ("ssh", "h")),)), set(ROBOTS))
+    _check_placement(_settings(robots_per_process=None, extras=RunExtras(
+        faults=(Fault(60.0, "freeze", "p1"),))), set(ROBOTS))
 
 
 def test_a_host_is_given_the_arguments_of_the_robots_process() -> None:
