@@ -1,9 +1,11 @@
 """A big team's run: real-time factor, start-up, memory and CPU per robot.
 
     python bench/team_scale.py [--world swarm100] [--until 10m] [--runs 3]
-                               [--robots-per-process 1,10] [--seed 1]
+                               [--robots-per-process 10,1] [--seed 1]
+    python bench/team_scale.py --existing RUN_DIR ...
 
-Runs `murdoch run longterm --world W --until T --speedup 0 --no-replay` (lockstep) into a
+Runs `murdoch run longterm --world W --until T --speedup 0 --no-replay
+--robots-per-process K` (lockstep; K 10 by default, what `auto` picks for swarm100) into a
 temporary directory and reads what the run left: `summary.json` (its real-time factor, start-up
 included) and `processes.jsonl` (the runner samples every process's resident memory and CPU
 time about every two wall seconds). Per run it prints:
@@ -37,6 +39,7 @@ import sys
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 BIN = Path(sys.executable).parent
 
@@ -52,8 +55,8 @@ class TeamRun:
     runner_cpu_ms_per_tick: float
 
 
-def _samples(run_dir: Path) -> list[dict[str, object]]:
-    out: list[dict[str, object]] = []
+def _samples(run_dir: Path) -> list[dict[str, Any]]:
+    out: list[dict[str, Any]] = []
     with (run_dir / "processes.jsonl").open(encoding="utf-8") as f:
         for line in f:
             rec = json.loads(line)
@@ -67,28 +70,28 @@ def measure(run_dir: Path, interval_s: float) -> TeamRun:
     # every team member (robot or the overhead camera's desk) writes its own events file,
     # however many of them share a process
     robots = len(list((run_dir / "logs").glob("*.events.jsonl")))
-    per_name: dict[str, list[dict[str, object]]] = {}
+    per_name: dict[str, list[dict[str, Any]]] = {}
     for rec in _samples(run_dir):
         per_name.setdefault(str(rec["name"]), []).append(rec)
-    moving = sorted((float(r["t"]), float(r["wall_s"]))  # type: ignore[arg-type]
-                    for recs in per_name.values() for r in recs if float(r["t"]) > 0.0)  # type: ignore[arg-type]
+    moving = sorted((float(r["t"]), float(r["wall_s"]))
+                    for recs in per_name.values() for r in recs if float(r["t"]) > 0.0)
     if len(moving) < 2 or moving[-1][0] <= moving[0][0]:
         raise SystemExit(f"{run_dir}: too few samples after the start to measure (run longer)")
     (t0, w0), (t1, w1) = moving[0], moving[-1]
     steady = (t1 - t0) / max(w1 - w0, 1e-9)
 
-    def cpu_per_sim_s(recs: list[dict[str, object]]) -> float:
+    def cpu_per_sim_s(recs: list[dict[str, Any]]) -> float:
         """CPU seconds per simulated second of one process, over its samples after the
         start (0 with fewer than two)."""
-        after = [r for r in recs if float(r["t"]) > 0.0]  # type: ignore[arg-type]
-        if len(after) < 2 or float(after[-1]["t"]) <= float(after[0]["t"]):  # type: ignore[arg-type]
+        after = [r for r in recs if float(r["t"]) > 0.0]
+        if len(after) < 2 or float(after[-1]["t"]) <= float(after[0]["t"]):
             return 0.0
-        d_cpu = float(after[-1].get("cpu_s") or 0.0) - float(after[0].get("cpu_s") or 0.0)  # type: ignore[arg-type]
-        return d_cpu / (float(after[-1]["t"]) - float(after[0]["t"]))  # type: ignore[arg-type]
+        d_cpu = float(after[-1].get("cpu_s") or 0.0) - float(after[0].get("cpu_s") or 0.0)
+        return d_cpu / (float(after[-1]["t"]) - float(after[0]["t"]))
 
     robot_rate = sum(cpu_per_sim_s(recs) for name, recs in per_name.items() if name != "runner")
     runner_rate = cpu_per_sim_s(per_name.get("runner", []))
-    peak = sum(max(float(r.get("peak_rss_bytes") or 0) for r in recs)  # type: ignore[arg-type]
+    peak = sum(max(float(r.get("peak_rss_bytes") or 0) for r in recs)
                for name, recs in per_name.items() if name != "runner")
     return TeamRun(
         members=robots,
@@ -101,13 +104,11 @@ def measure(run_dir: Path, interval_s: float) -> TeamRun:
     )
 
 
-def one_run(args: argparse.Namespace, k: int, root: Path, n: int) -> TeamRun:
+def one_run(args: argparse.Namespace, k: str, root: Path, n: int) -> TeamRun:
     out = root / f"k{k}-{n}"
     cmd = [str(BIN / "murdoch"), "run", "longterm", "--world", args.world, "--until",
            args.until, "--seed", str(args.seed), "--speedup", "0", "--no-replay",
-           "--out", str(out)]
-    if k != 1:
-        cmd += ["--robots-per-process", str(k)]
+           "--out", str(out), "--robots-per-process", str(k)]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout,
                           stdin=subprocess.DEVNULL)
     if proc.returncode != 0:
@@ -130,8 +131,9 @@ def main() -> None:
     p.add_argument("--until", default="10m")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--runs", type=int, default=3)
-    p.add_argument("--robots-per-process", default="1",
-                   help="comma-separated values, taking turns within each round")
+    p.add_argument("--robots-per-process", default="10",
+                   help="comma-separated values (whole numbers or auto), taking turns within "
+                        "each round")
     p.add_argument("--interval", type=float, default=0.1, help="the world's tick (s)")
     p.add_argument("--timeout", type=float, default=7200.0, help="wall seconds per run")
     p.add_argument("--existing", nargs="*", default=None, metavar="RUN_DIR",
@@ -141,8 +143,8 @@ def main() -> None:
         for d in args.existing:
             print(f"{d}: {_fmt(measure(Path(d), args.interval))}")
         return
-    ks = [int(x) for x in args.robots_per_process.split(",")]
-    results: dict[int, list[TeamRun]] = {k: [] for k in ks}
+    ks = [x.strip() for x in args.robots_per_process.split(",")]
+    results: dict[str, list[TeamRun]] = {k: [] for k in ks}
     with tempfile.TemporaryDirectory(prefix="team-scale-") as tmp:
         for n in range(args.runs):
             for k in ks:
@@ -150,7 +152,7 @@ def main() -> None:
                 r = one_run(args, k, Path(tmp), n)
                 results[k].append(r)
                 print(f"run {n} k={k} load={load:.1f}: {_fmt(r)}", flush=True)
-    med: dict[int, dict[str, float]] = {}
+    med: dict[str, dict[str, float]] = {}
     for k in ks:
         rs = results[k]
         med[k] = {f: statistics.median(getattr(r, f) for r in rs)
@@ -170,4 +172,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    main()
