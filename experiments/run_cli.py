@@ -14,6 +14,7 @@ config.json); `run_experiment` puts the pieces together (`experiments.run_parts`
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import socket
 import sys
@@ -115,8 +116,10 @@ class PerProcess(click.ParamType):
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("runs"),
               show_default=True)
 @click.option("--world", default=None, help="World name or .toml (default: the experiment's).")
-@click.option("--task-interval", type=float, default=240.0, show_default=True,
-              help="Mean simulated seconds between new tasks.")
+@click.option("--task-interval", type=click.FloatRange(min=0, min_open=True), default=None,
+              show_default="240 for six robots, shorter for a bigger team",
+              help="Mean simulated seconds between new tasks (default: 240 s for a team of "
+                   "up to six mobile robots, 240 x 6 / N for N of them).")
 @click.option("--kill", "kills", multiple=True,
               help="Kill a robot process: ROBOT@TIME (ROBOT 'busy' = one holding a task).")
 @click.option("--restart", "restarts", multiple=True,
@@ -189,7 +192,7 @@ class PerProcess(click.ParamType):
                    "teams of up to 16, else 10.")
 def run(experiment: str, sim_hours: float | None, until: str | None, speedup: float | None,
         seed: int,
-        meshcat: bool, out: Path, world: str | None, task_interval: float,
+        meshcat: bool, out: Path, world: str | None, task_interval: float | None,
         kills: tuple[str, ...], restarts: tuple[str, ...], switch_offs: tuple[str, ...],
         switch_ons: tuple[str, ...], goal_radius: float | None, goal_velocity: str | None,
         retargets: tuple[str, ...], metric_terms: str, allocator: str, refine: bool,
@@ -255,7 +258,7 @@ def _metric_terms(text: str) -> tuple[str, ...]:
 
 def run_experiment(
     *, experiment: str, duration_s: float, speedup: float, seed: int, meshcat: bool, out: Path,
-    world_name: str, task_interval_s: float, kills: list[tuple[str, float]],
+    world_name: str, task_interval_s: float | None, kills: list[tuple[str, float]],
     restarts: list[tuple[str, float]], replay: bool,
     switch_offs: list[tuple[str, float]] | None = None,
     switch_ons: list[tuple[str, float]] | None = None, goal_radius_m: float | None = None,
@@ -271,6 +274,7 @@ def run_experiment(
     from experiments.experiment import RunOptions
     from experiments.run_extras import RunExtras
     from experiments.run_parts import RunSettings, assemble, check_run, finish, serve
+    from experiments.task_source import PAPER_INTERVAL_S, team_task_interval_s
 
     settings = RunSettings(
         experiment=EXPERIMENTS[experiment], world_name=world_name, speedup=speedup,
@@ -280,10 +284,14 @@ def run_experiment(
         metric_terms=metric_terms, extras=extras if extras is not None else RunExtras(),
         transport=transport, bind=bind, placements=placements, refine=refine,
         robots_per_process=robots_per_process)
-    options = RunOptions(duration_s, seed, task_interval_s, tuple(switch_offs or ()),
+    options = RunOptions(duration_s, seed,
+                         PAPER_INTERVAL_S if task_interval_s is None else task_interval_s,
+                         tuple(switch_offs or ()),
                          tuple(switch_ons or ()), goal_radius_m, goal_plan,
                          group_task_rate=group_task_rate, allocator=allocator)
     spec, options = check_run(settings, options)
+    if task_interval_s is None:  # the team's own rate (`team_task_interval_s`)
+        options = dataclasses.replace(options, task_interval_s=team_task_interval_s(spec))
     parts = assemble(settings, options, spec)
     reason = serve(parts)
     return finish(parts, reason)

@@ -28,6 +28,19 @@ def _colour_name(colour: int) -> str:
     return f"#{colour:06x}"
 
 
+PAPER_INTERVAL_S = 240.0
+"""The long-term domain's mean interval between new tasks, for its team of six robots."""
+PAPER_TEAM = 6
+
+
+def team_task_interval_s(world: WorldSpec) -> float:
+    """The default mean interval between new tasks for `world`: the domain's 240 s for six
+    mobile robots or fewer, shorter in proportion for a bigger team (a hundred robots: 14.4
+    s), so that each robot is offered about as much work as in the paper's team."""
+    mobile = sum(1 for r in world.robots if r.mobile)
+    return PAPER_INTERVAL_S * PAPER_TEAM / max(PAPER_TEAM, mobile)
+
+
 def longterm_tasks(
     world: WorldSpec,
     rng: random.Random,

@@ -57,3 +57,12 @@ def test_placements_are_a_robot_and_a_command_prefix() -> None:
     for bad in ("p2", "=ssh x", "p2=", "p2=ssh 'open"):
         with pytest.raises(click.BadParameter, match="ROBOT=COMMAND PREFIX"):
             parse_place(bad)
+
+
+def test_the_default_task_rate_grows_with_a_team_bigger_than_the_papers() -> None:
+    from experiments.task_source import team_task_interval_s
+    from worlds import load_world, world_path
+
+    assert team_task_interval_s(load_world(world_path("longterm"))) == 240.0
+    assert team_task_interval_s(load_world(world_path("boxpush"))) == 240.0  # fewer: as many
+    assert team_task_interval_s(load_world(world_path("swarm100"))) == pytest.approx(14.4)
