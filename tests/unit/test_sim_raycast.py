@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from player_server.sim.raycast import (
@@ -111,8 +111,14 @@ def reference(ox: float, oy: float, a: float, rects, circles, max_range: float) 
     return best
 
 
+GRAZE_M = 1e-4
+"""A ray that passes this close to a footprint's edge may hit or miss it in the caster's
+single precision: it is checked against the footprints shrunk and grown by this much."""
+
+
 @settings(max_examples=25, deadline=None)
 @given(st.integers(min_value=0, max_value=2**31 - 1))
+@example(23408667)  # a ray grazing a circle (the reference hits it, single precision misses)
 def test_matches_brute_force_reference(seed: int) -> None:
     rng = np.random.default_rng(seed)
     k, m = 4, 3
@@ -135,6 +141,16 @@ def test_matches_brute_force_reference(seed: int) -> None:
     circ = Circles(carr[:, 0], carr[:, 1], carr[:, 2], np.ones(m))
     angles = np.linspace(-math.pi, math.pi, 73)
     got = cast(ox, oy, angles, faces, circ, max_range=12.0)
-    want = [reference(ox, oy, a, rects, circles, 12.0) for a in angles]
-    assert np.allclose(got, want, atol=2e-4)
+    bounds = []
+    for d in (-GRAZE_M, GRAZE_M):
+        r = [(cx, cy, yaw, hx + d, hy + d) for cx, cy, yaw, hx, hy in rects]
+        c = [(cx, cy, rad + d) for cx, cy, rad in circles]
+        bounds.append([reference(ox, oy, a, r, c, 12.0) for a in angles])
+    lo, hi = np.minimum(*bounds), np.maximum(*bounds)
+    assert np.all((got >= lo - 2e-4) & (got <= hi + 2e-4)), (got, lo, hi)
+    # away from grazes the caster gives the reference's range itself
+    want = np.array([reference(ox, oy, a, rects, circles, 12.0) for a in angles])
+    clear = np.isclose(lo, hi, atol=1e-3)
+    assert clear.sum() > len(angles) // 2
+    assert np.allclose(got[clear], want[clear], atol=2e-4)
 
