@@ -97,7 +97,7 @@ class PerProcess(click.ParamType):
         text = str(value).strip()
         if text == "auto":
             return None
-        if text.isdigit() and int(text) >= 1:
+        if text.isascii() and text.isdigit() and int(text) >= 1:
             return int(text)
         self.fail(f"expected a whole number of at least 1 or 'auto', found {text!r}", param,
                   ctx)

@@ -162,7 +162,7 @@ def _check_placement(settings: RunSettings, robots: set[str]) -> None:
     if per_process > 1 and settings.placements:
         raise RunSetupError("--place starts one robot's own process elsewhere; it cannot be "
                             "combined with --robots-per-process above 1")
-    paused = sorted({f.action for f in settings.extras.faults if f.action in ("freeze", "thaw")})
+    paused = _pausing_actions(settings)
     if per_process > 1 and paused:
         raise RunSetupError(f"{' and '.join(paused)} pause one robot's process; a robot sharing "
                             "its process with others (--robots-per-process above 1) cannot be "
@@ -300,15 +300,20 @@ def assemble(settings: RunSettings, options: RunOptions, spec: WorldSpec) -> Run
                     referee, split, own_cpus, bus_loss, [ep.name for ep in endpoints])
 
 
+def _pausing_actions(settings: RunSettings) -> list[str]:
+    """The fault schedule's actions that pause one robot's process (freeze, thaw)."""
+    return sorted({f.action for f in settings.extras.faults if f.action in ("freeze", "thaw")})
+
+
 def _supervisor(settings: RunSettings, specs: dict[str, Any], rec: RunRecorder,
                 env: dict[str, str]) -> RobotSupervisor | HostSupervisor:
     """A process per robot, or (--robots-per-process above 1) robots grouped into hosts in
     the world's order (their layout goes into config.json)."""
     from experiments.robot_hosts import HostSupervisor, group_robots, robots_per_process
 
-    pausing = any(f.action in ("freeze", "thaw") for f in settings.extras.faults)
     per_process = robots_per_process(settings.robots_per_process, len(specs),
-                                     placed=bool(settings.placements), pausing=pausing)
+                                     placed=bool(settings.placements),
+                                     pausing=bool(_pausing_actions(settings)))
     if per_process == 1:
         return RobotSupervisor(specs, lambda n: rec.run.log_file(f"robot-{n}"), env,
                                settings.robot_nice)

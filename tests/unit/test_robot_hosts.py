@@ -119,7 +119,7 @@ def test_one_robot_per_process_and_pausing_as_before() -> None:
                      set(ROBOTS))
 
 
-@pytest.mark.parametrize("text", ["0", "-1", "2.5", "many", ""])
+@pytest.mark.parametrize("text", ["0", "-1", "2.5", "many", "", "\u00b2"])
 def test_murdoch_run_refuses_a_count_below_one_or_not_a_count(text: str) -> None:
     result = CliRunner().invoke(run, ["longterm", "--robots-per-process", text])
     assert result.exit_code == 2
