@@ -23,8 +23,10 @@ from __future__ import annotations
 import json
 import logging
 import random
+import threading
 from collections import deque
 from collections.abc import Callable, Mapping
+from types import MappingProxyType
 from typing import IO, Any, Protocol
 
 from behaviors.events import TASK_DONE, TASK_FAILED, TASK_STOPPED, Event, EventSink
@@ -101,6 +103,33 @@ class TickTransport(Protocol):
                     give_up_after_s: float = 60.0) -> int: ...
 
 
+class SharedTables:
+    """Team clock tables decoded once per process: the robots of a host process all get the
+    same table bytes at a tick, so the first to see new bytes decodes them and the others get
+    the same read-only mapping (the last few kept: robots of one host may be a tick apart).
+    Thread-safe; a table that does not decode raises `ValueError` as `decode_table` does."""
+
+    KEEP = 4
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._known: dict[bytes, Mapping[str, int]] = {}
+
+    def decode(self, raw: bytes) -> Mapping[str, int]:
+        with self._lock:
+            table = self._known.get(raw)
+            if table is None:
+                table = MappingProxyType(decode_table(raw) if raw else {})
+                if len(self._known) >= self.KEEP:
+                    del self._known[next(iter(self._known))]
+                self._known[raw] = table
+            return table
+
+
+PROCESS_TABLES = SharedTables()
+"""The tables of this process's robots (`TickSync`'s default)."""
+
+
 class TickSync:
     """The robot's side of the lockstep tick protocol (see `murdoch.tick_order`).
 
@@ -111,15 +140,17 @@ class TickSync:
     round."""
 
     def __init__(self, clock_proxy: ClockChannel, transport: TickTransport, interval_s: float,
-                 wait_clock: Callable[[], float], give_up_after_s: float = 60.0) -> None:
+                 wait_clock: Callable[[], float], give_up_after_s: float = 60.0,
+                 tables: SharedTables = PROCESS_TABLES) -> None:
         self.proxy = clock_proxy
+        self.tables = tables
         self.transport = transport
         self.interval_s = interval_s
         self.wait_clock = wait_clock
         self.give_up_after_s = give_up_after_s
         self._last_declared = -1
         self._raw = b""
-        self._table: dict[str, int] = {}
+        self._table: Mapping[str, int] = MappingProxyType({})
 
     def tick_of(self, time_s: float) -> int:
         return round(time_s / self.interval_s)
@@ -127,7 +158,7 @@ class TickSync:
     def settle(self, time_s: float) -> None:
         raw = self.proxy.data
         if raw != self._raw:  # most ticks nobody sent anything: the same table again
-            self._table = decode_table(raw) if raw else {}
+            self._table = self.tables.decode(raw)
             self._raw = raw
         table = self._table
         self.transport.settle_tick(self.tick_of(time_s), table, wait_clock=self.wait_clock,

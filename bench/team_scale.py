@@ -1,14 +1,15 @@
 """A big team's run: real-time factor, start-up, memory and CPU per robot.
 
     python bench/team_scale.py [--world swarm100] [--until 10m] [--runs 3]
-                               [--robots-per-process 10,1] [--seed 1]
+                               [--robots-per-process auto,10] [--seed 1]
     python bench/team_scale.py --existing RUN_DIR ...
 
 Runs `murdoch run longterm --world W --until T --speedup 0 --no-replay
---robots-per-process K` (lockstep; K 10 by default, what `auto` picks for swarm100) into a
-temporary directory and reads what the run left: `summary.json` (its real-time factor, start-up
-included) and `processes.jsonl` (the runner samples every process's resident memory and CPU
-time about every two wall seconds). Per run it prints:
+--robots-per-process K` (lockstep; K `auto` by default: for swarm100 on two CPUs a host of
+100 robots and one of 1) into a temporary directory and reads what the run left:
+`summary.json` (its real-time factor, start-up included) and `processes.jsonl` (the runner
+samples every process's resident memory and CPU time about every two wall seconds).
+Per run it prints:
 
 - ``rtf``: the run's own real-time factor (simulated time over the whole wall time);
 - ``startup_s``: wall seconds until simulated time first advanced (the robot processes start,
@@ -131,7 +132,7 @@ def main() -> None:
     p.add_argument("--until", default="10m")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--runs", type=int, default=3)
-    p.add_argument("--robots-per-process", default="10",
+    p.add_argument("--robots-per-process", default="auto",
                    help="comma-separated values (whole numbers or auto), taking turns within "
                         "each round")
     p.add_argument("--interval", type=float, default=0.1, help="the world's tick (s)")

@@ -43,21 +43,27 @@ class PauseRefused(RuntimeError):
 
 AUTO_ALONE_UP_TO = 16
 """`--robots-per-process auto`: teams of at most this many members run a process each."""
-AUTO_PER_PROCESS = 10
-"""`--robots-per-process auto`: bigger teams run this many robots to a host process."""
+AUTO_MAX_PER_PROCESS = 100
+"""`--robots-per-process auto`: a host process runs at most this many robots."""
 
 
 def robots_per_process(choice: int | None, members: int, *, placed: bool,
-                       pausing: bool) -> int:
+                       pausing: bool, cpus: int = 2) -> int:
     """Robots to a process: `choice` when given; for ``auto`` (None) one each for a team of up
     to `AUTO_ALONE_UP_TO` members, or when a robot is placed on another host (`placed`) or
-    paused alone by the fault schedule (`pausing`), else `AUTO_PER_PROCESS`. A lockstep run's
-    events do not depend on it (the robots of a host act at tick boundaries alike)."""
+    paused alone by the fault schedule (`pausing`); else the team spread evenly over one host
+    per CPU left to the robots (`cpus` the run may use, less one for the serving thread), at
+    most `AUTO_MAX_PER_PROCESS` to a host. The robots of a host share one interpreter lock,
+    so more hosts than CPUs only add processes that wake every tick (on two CPUs, one host
+    of a hundred ran swarm100 faster than ten hosts of ten: `docs/experiments.md`). A
+    lockstep run's events do not depend on it (the robots of a host act at tick boundaries
+    alike)."""
     if choice is not None:
         return choice
     if members <= AUTO_ALONE_UP_TO or placed or pausing:
         return 1
-    return AUTO_PER_PROCESS
+    robot_cpus = max(1, cpus - 1)
+    return min(AUTO_MAX_PER_PROCESS, -(-members // robot_cpus))
 
 
 def group_robots(names: list[str], per_process: int) -> list[tuple[str, ...]]:

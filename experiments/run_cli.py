@@ -189,7 +189,8 @@ class PerProcess(click.ParamType):
               help="Robots to a process: 1 runs a murdoch-robot process per robot; K above 1 "
                    "runs ceil(N/K) host processes of K robots, each robot in a thread of its "
                    "own (less memory per robot; no pausing one robot alone); auto: 1 for "
-                   "teams of up to 16, else 10.")
+                   "teams of up to 16, else one host per CPU left to the robots (all "
+                   "CPUs but the serving thread's), at most 100 robots to a host.")
 def run(experiment: str, sim_hours: float | None, until: str | None, speedup: float | None,
         seed: int,
         meshcat: bool, out: Path, world: str | None, task_interval: float | None,

@@ -310,10 +310,12 @@ def _supervisor(settings: RunSettings, specs: dict[str, Any], rec: RunRecorder,
     """A process per robot, or (--robots-per-process above 1) robots grouped into hosts in
     the world's order (their layout goes into config.json)."""
     from experiments.robot_hosts import HostSupervisor, group_robots, robots_per_process
+    from player_server.server.affinity import allowed_cpus
 
     per_process = robots_per_process(settings.robots_per_process, len(specs),
                                      placed=bool(settings.placements),
-                                     pausing=bool(_pausing_actions(settings)))
+                                     pausing=bool(_pausing_actions(settings)),
+                                     cpus=len(allowed_cpus() or ()) or os.cpu_count() or 1)
     if per_process == 1:
         return RobotSupervisor(specs, lambda n: rec.run.log_file(f"robot-{n}"), env,
                                settings.robot_nice)

@@ -7,12 +7,19 @@ lies wholly beyond the nearest hit found so far; a slab test finds the entry int
 (none from inside it), a quadratic the near side of a circle; footprints lower than the ray
 pass under it; the room's walls bound every ray at most as tall as they are. Compiled on first
 use and cached on disk next to this module (``cache=True``); divisions by zero give inf/nan as
-in numpy (``error_model="numpy"``).
+in numpy (``error_model="numpy"``). The casts run without the interpreter lock (``nogil``):
+`CompiledCaster` splits a big batch between the calling thread and a helper of its own when
+the calling thread may run on two CPUs or more. Each ray's distance depends on that ray
+alone, so the split changes no reading.
 """
 
 from __future__ import annotations
 
 import math
+import os
+import threading
+from concurrent.futures import Future
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -24,6 +31,9 @@ _PARALLEL = 1e-30  # nudges a direction component off zero: a huge finite slab t
 _SLACK = 1e-6  # metres: a cell entered this little beyond the nearest hit is still visited
 # Footprints beyond which rays walk the grid (`grid_index`) rather than test every footprint
 GRID_MIN_FOOTPRINTS = 48
+SPLIT_MIN_RAYS = 20_000
+"""Rays from which a batch is cast in two halves at once (on two CPUs or more); below it
+handing half to another thread costs more than it saves."""
 
 
 @njit(cache=True, error_model="numpy")
@@ -99,7 +109,7 @@ def _every_footprint(skip: int, zi: float, ox: float, oy: float, dx: float, dy: 
     return b
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def cast_rays(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarray,
               own: np.ndarray, centre: np.ndarray, head_conj: np.ndarray, half: np.ndarray,
               radius: np.ndarray, top: np.ndarray, room: np.ndarray) -> np.ndarray:
@@ -131,7 +141,7 @@ def cast_rays(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarray,
     return best
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def cast_rays_grid(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarray,
                    own: np.ndarray, centre: np.ndarray, head_conj: np.ndarray,
                    half: np.ndarray, radius: np.ndarray, top: np.ndarray, room: np.ndarray,
@@ -250,10 +260,16 @@ _NO_ROOM = np.zeros(0)
 
 class CompiledCaster:
     """`FootprintCaster`'s interface over `cast_rays`, or `cast_rays_grid` when there are at
-    least ``grid_min`` footprints (owns no state between calls)."""
+    least ``grid_min`` footprints. A batch of at least ``split_min`` rays is cast in two
+    halves at once, the second by the caster's helper thread (started on first use, ended by
+    `close`), when the calling thread may run on two CPUs or more (a serving thread pinned
+    to one CPU never splits). Owns no state between calls but that thread."""
 
-    def __init__(self, grid_min: int = GRID_MIN_FOOTPRINTS) -> None:
+    def __init__(self, grid_min: int = GRID_MIN_FOOTPRINTS,
+                 split_min: int = SPLIT_MIN_RAYS) -> None:
         self.grid_min = grid_min
+        self.split_min = split_min
+        self._helper: _Helper | None = None
 
     def cast(self, o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarray,
              fp: Footprints, room: Room | None, own: np.ndarray | None = None) -> np.ndarray:
@@ -264,16 +280,81 @@ class CompiledCaster:
         if own is None:
             own = np.full(n, -1, dtype=np.int64)
         walls = _NO_ROOM if room is None else np.array([room.half_x, room.half_y, room.top])
-        args = (np.ascontiguousarray(o, dtype=np.complex128),
+        rays = (np.ascontiguousarray(o, dtype=np.complex128),
                 np.ascontiguousarray(d, dtype=np.complex128),
                 np.ascontiguousarray(limit, dtype=np.float64),
                 np.ascontiguousarray(z, dtype=np.float64),
-                np.ascontiguousarray(own, dtype=np.int64), fp.centre, fp.head_conj,
-                fp.half, fp.radius, fp.top, walls)
-        if fp.count < self.grid_min or n == 0:
-            return cast_rays(*args)
-        grid = footprint_grid(fp, room)
-        return cast_rays_grid(*args, grid.params(), grid.start, grid.items)
+                np.ascontiguousarray(own, dtype=np.int64))
+        scene: tuple[np.ndarray, ...] = (fp.centre, fp.head_conj, fp.half, fp.radius, fp.top,
+                                         walls)
+        kernel: Any = cast_rays
+        if fp.count >= self.grid_min and n > 0:
+            grid = footprint_grid(fp, room)
+            scene = (*scene, grid.params(), grid.start, grid.items)
+            kernel = cast_rays_grid
+        if n < self.split_min or not _two_cpus():
+            return kernel(*rays, *scene)
+        half = n // 2
+        if self._helper is None:
+            self._helper = _Helper()
+        later = self._helper.submit(kernel, tuple(r[half:] for r in rays) + scene)
+        first = kernel(*(r[:half] for r in rays), *scene)
+        return np.concatenate((first, later.result()))
+
+    def close(self) -> None:
+        """End the helper thread (a later split starts another)."""
+        helper, self._helper = self._helper, None
+        if helper is not None:
+            helper.close()
+
+
+def _two_cpus() -> bool:
+    """May the calling thread run on two CPUs or more?"""
+    getter = getattr(os, "sched_getaffinity", None)
+    if getter is None:
+        return (os.cpu_count() or 1) >= 2
+    try:
+        return len(getter(0)) >= 2
+    except OSError:
+        return False
+
+
+class _Helper:
+    """One daemon thread that runs the casts handed to it, one at a time."""
+
+    def __init__(self) -> None:
+        self._ready = threading.Condition()
+        self._job: tuple[Any, tuple[np.ndarray, ...], Future[np.ndarray]] | None = None
+        self._closed = False
+        self._thread = threading.Thread(target=self._run, name="ray-cast-helper", daemon=True)
+        self._thread.start()
+
+    def submit(self, kernel: Any, args: tuple[np.ndarray, ...]) -> Future[np.ndarray]:
+        done: Future[np.ndarray] = Future()
+        with self._ready:
+            self._job = (kernel, args, done)
+            self._ready.notify()
+        return done
+
+    def _run(self) -> None:
+        while True:
+            with self._ready:
+                while self._job is None and not self._closed:
+                    self._ready.wait()
+                if self._job is None:
+                    return
+                kernel, args, done = self._job
+                self._job = None
+            try:
+                done.set_result(kernel(*args))
+            except BaseException as exc:  # handed back to the caster's thread
+                done.set_exception(exc)
+
+    def close(self) -> None:
+        with self._ready:
+            self._closed = True
+            self._ready.notify()
+        self._thread.join(timeout=10.0)
 
 
 def footprint_grid(fp: Footprints, room: Room | None) -> grid_index.Grid:

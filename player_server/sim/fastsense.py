@@ -24,9 +24,14 @@ C128 = NDArray[np.complex128]
 _make_blob = fast_constructor(Blob)
 
 
-def _blob_order(b: Blob) -> tuple[int, int, int]:
-    """Blobs by channel, then area (largest first), then x."""
-    return (b.id, -b.area, b.x)
+BlobRow = tuple[int, int, int, int, int, int, int, int, int, float]
+"""A `Blob`'s fields in order: channel, colour, area, x, y, left, right, top, bottom, range."""
+
+
+def make_blobs(rows: tuple[BlobRow, ...]) -> tuple[Blob, ...]:
+    """The `Blob`s of one camera's rows."""
+    make = _make_blob
+    return tuple([make(*row) for row in rows])
 
 
 @dataclass(frozen=True)
@@ -243,10 +248,11 @@ class BlobPlan:
                        rows[3], rows)
 
     def project(self, p: Pending, visible: NDArray[np.bool_], pan: F64, tilt: F64,
-                zoom: F64) -> list[tuple[Blob, ...]]:
-        """Pinhole boxes of the visible pending pairs, per camera slot (sorted by channel,
-        then area, largest first)."""
-        out: list[list[Blob]] = [[] for _ in self.cams]
+                zoom: F64) -> list[tuple[BlobRow, ...]]:
+        """Pinhole boxes of the visible pending pairs, per camera slot, as `BlobRow`s (the
+        fields of a `Blob` in order), sorted by channel, then area (largest first), then x;
+        pairs of equal keys keep their pending order."""
+        out: list[list[BlobRow]] = [[] for _ in self.cams]
         sel = np.flatnonzero(visible)
         if sel.size == 0:
             return [() for _ in self.cams]
@@ -256,10 +262,17 @@ class BlobPlan:
         consts[:, DZ_TOP] = self.z_top[targets] - self.cam_z[slots]
         consts[:, DZ_BOTTOM] = self.z_bottom[targets] - self.cam_z[slots]
         boxes = blob_boxes(self.robot[slots], consts, p.rows[:, sel], zoom, tilt)
-        make = _make_blob
+        seen = np.flatnonzero(boxes[:, 0])  # area 0: too small to see
+        if seen.size == 0:
+            return [() for _ in self.cams]
+        boxes = boxes[seen]
+        slots = slots[seen]
+        channel = p.channel[sel][seen]
+        # slot, then channel, area (largest first) and x; a stable sort keeps ties in order
+        order = np.lexsort((boxes[:, 1], -boxes[:, 0], channel, slots))
         for (area, x, y, left, right, top, bottom), sl, ch, col, near in zip(
-                boxes.tolist(), slots.tolist(), p.channel[sel].tolist(),
-                self.t_colour[targets].tolist(), p.near[sel].tolist(), strict=True):
-            if area:
-                out[sl].append(make(ch, col, area, x, y, left, right, top, bottom, near))
-        return [tuple(sorted(bl, key=_blob_order)) if len(bl) > 1 else tuple(bl) for bl in out]
+                boxes[order].tolist(), slots[order].tolist(), channel[order].tolist(),
+                self.t_colour[targets[seen][order]].tolist(),
+                p.near[sel][seen][order].tolist(), strict=True):
+            out[sl].append((ch, col, area, x, y, left, right, top, bottom, near))
+        return [tuple(rows) for rows in out]

@@ -229,6 +229,7 @@ class Simulation:
     def close(self) -> None:
         if not self._closed:
             self._closed = True
+            self.sensing.caster.close()
             with contextlib.suppress(pb.error):  # already gone
                 pb.disconnect(physicsClientId=self._client)
 

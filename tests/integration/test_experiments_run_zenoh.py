@@ -46,3 +46,13 @@ def test_a_lockstep_run_over_zenoh_writes_the_multicast_runs_events(tmp_path: Pa
     assert not any(terminal_state_problems(events).values())
     assert summaries[0]["tasks"]["introduced"] >= 2
     assert {"announce", "bid", "award"} <= set(summaries[0]["messages"]["by_kind"])
+
+
+def test_robots_sharing_a_process_over_zenoh_write_the_same_events(tmp_path: Path) -> None:
+    shared = _run(tmp_path / "shared", "--transport", "zenoh", "--robots-per-process", "3")
+    alone = _run(tmp_path / "alone", "--transport", "zenoh", "--robots-per-process", "1")
+    config = json.loads((shared / "config.json").read_text())
+    assert config["robots_per_process"] == 3 and len(config["robot_hosts"]) == 3
+    summaries = [json.loads((r / "summary.json").read_text()) for r in (shared, alone)]
+    assert summaries[0]["events_sha256"] == summaries[1]["events_sha256"]
+    assert summaries[0]["tasks"]["introduced"] >= 2

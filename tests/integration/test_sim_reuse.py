@@ -85,7 +85,7 @@ def test_unchanged_readings_are_the_same_objects_and_equal_fresh_ones() -> None:
         ranged = [n for n in names if sim.spec.robot(n).devices.sonar is not None]
         cams = [n for n in names if sim.spec.robot(n).devices.blobfinder is not None]
         assert ranged and cams
-        still = moved = 0
+        still = moved = still_blobs = 0
         before: dict[tuple[str, str], object] = {}
         for tick in range(80):
             moving = names[0] if (tick // 20) % 2 else None
@@ -104,12 +104,16 @@ def test_unchanged_readings_are_the_same_objects_and_equal_fresh_ones() -> None:
             for n in cams:
                 got_b = sim.blobs(n)
                 assert got_b == twin.blobs(n)
+                assert list(got_b) == sorted(got_b, key=lambda b: (b.id, -b.area, b.x))
                 prev = before.get((n, "blobs"))
                 if prev is not None and prev != got_b:
                     moved += 1
                     assert prev is not got_b
+                elif prev is not None:  # the same blobs: the same tuple, nothing made again
+                    assert prev is got_b
+                    still_blobs += got_b != ()
                 before[(n, "blobs")] = got_b
-        assert still > 0 and moved > 0
+        assert still > 0 and moved > 0 and still_blobs > 0
     finally:
         sim.close()
         twin.close()

@@ -4,12 +4,14 @@ force: random scenes must give the same readings, bit for bit."""
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from player_server.sim import grid_index
+from player_server.sim import cast_kernel, grid_index
 from player_server.sim.cast_kernel import CompiledCaster
 from player_server.sim.footprint_cast import Footprints, Room
 
@@ -51,6 +53,44 @@ def test_grid_cast_equals_brute_force_bit_for_bit(seed: int) -> None:
         own = np.where(rng.uniform(size=n) < 0.2, rng.integers(0, nr + nc, n), -1)
     assert np.array_equal(GRID.cast(o, d, limit, z, fp, room, own),
                           BRUTE.cast(o, d, limit, z, fp, room, own))
+
+
+@pytest.mark.parametrize("grid_min", [0, 10**9])
+def test_a_batch_cast_in_two_halves_gives_the_same_readings(
+        grid_min: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A big batch split between the caller and the helper thread (as on two CPUs, whatever
+    this machine has) gives every ray the distance of one whole cast; the helper ends with
+    `close`."""
+    rng = np.random.default_rng(7)
+    fp = _scene(rng, 300, 80, 20.0)
+    room = Room(21.0, 20.0, 0.5)
+    n = 5001
+    o = rng.uniform(-22, 22, n) + 1j * rng.uniform(-22, 22, n)
+    d = np.exp(1j * rng.uniform(-4, 4, n))
+    limit = rng.uniform(0.1, 50.0, n)
+    z = rng.choice([0.0, 0.3, 0.6], n)
+    own = np.where(rng.uniform(size=n) < 0.1, rng.integers(0, 380, n), -1)
+    whole = CompiledCaster(grid_min=grid_min, split_min=10**9).cast(o, d, limit, z, fp, room,
+                                                                    own)
+    monkeypatch.setattr(cast_kernel, "_two_cpus", lambda: True)
+    split = CompiledCaster(grid_min=grid_min, split_min=1000)
+    helpers = set()
+    try:
+        for _ in range(3):  # the helper is reused
+            assert np.array_equal(split.cast(o, d, limit, z, fp, room, own), whole)
+            assert split._helper is not None
+            helpers.add(split._helper._thread)
+        (helper,) = helpers
+        assert helper.is_alive() and helper is not threading.current_thread()
+        small = split.cast(o[:999], d[:999], limit[:999], z[:999], fp, room, own[:999])
+        assert np.array_equal(small, whole[:999])  # below split_min: one cast
+    finally:
+        split.close()
+    assert not helper.is_alive() and split._helper is None
+    monkeypatch.setattr(cast_kernel, "_two_cpus", lambda: False)
+    alone = CompiledCaster(grid_min=grid_min, split_min=1000)
+    assert np.array_equal(alone.cast(o, d, limit, z, fp, room, own), whole)
+    assert alone._helper is None  # one CPU: never split
 
 
 def test_rays_along_cell_boundaries_and_through_corners() -> None:

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from player_server.sim import blobs as blobmod
 from player_server.sim.devices.base import StatelessModel
-from player_server.sim.fastsense import BlobPlan, Frame
+from player_server.sim.fastsense import BlobPlan, BlobRow, Frame, make_blobs
 from player_server.sim.readings import Blob
 
 if TYPE_CHECKING:
@@ -35,6 +35,7 @@ class CameraModel(StatelessModel):
     def build(self) -> None:
         self.plans: dict[tuple[int, ...], BlobPlan] = {}
         self.last: dict[int, tuple[Blob, ...]] = {}
+        self.last_rows: dict[int, tuple[BlobRow, ...]] = {}  # what each of `last` was made of
 
     def blobs(self, robot: str) -> tuple[Blob, ...]:
         w = self.world
@@ -82,16 +83,19 @@ class CameraModel(StatelessModel):
 
     def fast_blobs(self, cams: list[int], bplan: BlobPlan, pending: Any,
                    visible: np.ndarray) -> dict[int, tuple[Blob, ...]]:
+        """Each camera's blobs; a camera that sees exactly what it saw at the last tick gets
+        the same tuple back (its Blobs are not made again, and readers can tell it by
+        identity)."""
         pan, tilt, zoom = self.world.ptz_model.arrays()
         last_blobs = self.last
+        last_rows = self.last_rows
         seen: dict[int, tuple[Blob, ...]] = {}
-        for cam, blobs in zip(cams, bplan.project(pending, visible, pan, tilt, zoom),
-                              strict=True):
-            old_blobs = last_blobs.get(cam)
-            if old_blobs is not None and old_blobs == blobs:
-                blobs = old_blobs
-            else:
-                last_blobs[cam] = blobs
+        for cam, rows in zip(cams, bplan.project(pending, visible, pan, tilt, zoom),
+                             strict=True):
+            blobs = last_blobs.get(cam)
+            if blobs is None or last_rows.get(cam) != rows:
+                blobs = last_blobs[cam] = make_blobs(rows)
+                last_rows[cam] = rows
             seen[cam] = blobs
         return seen
 
