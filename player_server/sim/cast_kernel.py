@@ -17,8 +17,7 @@ from __future__ import annotations
 
 import math
 import os
-import threading
-from concurrent.futures import Future
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -269,7 +268,7 @@ class CompiledCaster:
                  split_min: int = SPLIT_MIN_RAYS) -> None:
         self.grid_min = grid_min
         self.split_min = split_min
-        self._helper: _Helper | None = None
+        self._helper: ThreadPoolExecutor | None = None
 
     def cast(self, o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarray,
              fp: Footprints, room: Room | None, own: np.ndarray | None = None) -> np.ndarray:
@@ -296,8 +295,8 @@ class CompiledCaster:
             return kernel(*rays, *scene)
         half = n // 2
         if self._helper is None:
-            self._helper = _Helper()
-        later = self._helper.submit(kernel, tuple(r[half:] for r in rays) + scene)
+            self._helper = ThreadPoolExecutor(1, thread_name_prefix="ray-cast-helper")
+        later = self._helper.submit(kernel, *(r[half:] for r in rays), *scene)
         first = kernel(*(r[:half] for r in rays), *scene)
         return np.concatenate((first, later.result()))
 
@@ -305,7 +304,7 @@ class CompiledCaster:
         """End the helper thread (a later split starts another)."""
         helper, self._helper = self._helper, None
         if helper is not None:
-            helper.close()
+            helper.shutdown(wait=True)
 
 
 def _two_cpus() -> bool:
@@ -317,44 +316,6 @@ def _two_cpus() -> bool:
         return len(getter(0)) >= 2
     except OSError:
         return False
-
-
-class _Helper:
-    """One daemon thread that runs the casts handed to it, one at a time."""
-
-    def __init__(self) -> None:
-        self._ready = threading.Condition()
-        self._job: tuple[Any, tuple[np.ndarray, ...], Future[np.ndarray]] | None = None
-        self._closed = False
-        self._thread = threading.Thread(target=self._run, name="ray-cast-helper", daemon=True)
-        self._thread.start()
-
-    def submit(self, kernel: Any, args: tuple[np.ndarray, ...]) -> Future[np.ndarray]:
-        done: Future[np.ndarray] = Future()
-        with self._ready:
-            self._job = (kernel, args, done)
-            self._ready.notify()
-        return done
-
-    def _run(self) -> None:
-        while True:
-            with self._ready:
-                while self._job is None and not self._closed:
-                    self._ready.wait()
-                if self._job is None:
-                    return
-                kernel, args, done = self._job
-                self._job = None
-            try:
-                done.set_result(kernel(*args))
-            except BaseException as exc:  # handed back to the caster's thread
-                done.set_exception(exc)
-
-    def close(self) -> None:
-        with self._ready:
-            self._closed = True
-            self._ready.notify()
-        self._thread.join(timeout=10.0)
 
 
 def footprint_grid(fp: Footprints, room: Room | None) -> grid_index.Grid:
