@@ -426,14 +426,6 @@ class Simulation:
                               physicsClientId=self.physics_client)
 
     # ---- devices: answered by their models ---------------------------------------------
-    @property
-    def _last_ranges(self) -> dict[tuple[int, str], np.ndarray]:
-        return self.range_model.last
-
-    @property
-    def _last_blobs(self) -> dict[int, tuple[Blob, ...]]:
-        return self.camera_model.last
-
     def sonar(self, robot: str) -> NDArray[np.float32]:
         """Sonar ranges (m), one per transducer, in the world file's transducer order."""
         return self.range_model.reading(robot, "sonar")
