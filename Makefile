@@ -17,6 +17,7 @@ run: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/lint-imports
+	$(BIN)/python tools/import_cycles.py --tolerate experiments
 	$(BIN)/mypy player_server behaviors murdoch worlds experiments
 
 test: lint
