@@ -38,7 +38,7 @@ def read_solid(path: Path) -> NDArray[np.bool_]:
 def merge_runs(solid: NDArray[np.bool_]) -> list[Rect]:
     """Rectangles covering exactly the solid pixels: the runs of each row, a run merged with
     the identical run (same columns) of the rows below."""
-    rows, cols = solid.shape
+    rows, _cols = solid.shape
     open_runs: dict[tuple[int, int], int] = {}  # (col, cols) -> first row
     out: list[Rect] = []
     for r in range(rows + 1):

@@ -31,7 +31,7 @@ from worlds.stage.tree import Reader, StageModel, Units, Warnings
 #: keys every model may carry that mean nothing for a robot's simulation here
 COMMON_IGNORED = frozenset({
     "gui_nose", "gui_grid", "gui_outline", "gui_move", "gui_boundary", "obstacle_return",
-    "laser_return", "ranger_return", "blob_return", "ranger_return", "fiducial_key",
+    "laser_return", "ranger_return", "blob_return", "fiducial_key",
     "gripper_return", "map_resolution", "stack_children", "update_interval", "watts",
     "alwayson", "ctrl", "boundary", "color_rgba", "color", "mass", "origin", "name",
     "pose", "size", "fiducial_return", "joules", "joules_capacity", "kjoules",
