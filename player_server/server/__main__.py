@@ -172,11 +172,11 @@ def main(argv: list[str] | None = None) -> int:
         else f"speedup {server.speedup:g}"
     if args.allow_world_control:
         mode += ", world control allowed"
-    print(f"world {world.name!r} ({world.source}), {mode}", flush=True)
-    print(server.table(), flush=True)
-    if args.ports_json:
+    if args.ports_json:  # before the table: a script that read the table finds the file
         write_atomically(Path(args.ports_json), table_json(
             endpoints, plan.ports() if stage is not None else None))
+    print(f"world {world.name!r} ({world.source}), {mode}", flush=True)
+    print(server.table(), flush=True)
 
     try:
         return serve_until_done(server)
