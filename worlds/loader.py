@@ -73,7 +73,7 @@ DEVICE_DRAW_W: dict[str, float] = {
 def world_path(name: str) -> Path:
     """The path of a bundled world by name (``"longterm"`` -> ``worlds/longterm.toml``)."""
     candidate = Path(name)
-    if candidate.suffix == ".toml" and candidate.exists():
+    if candidate.suffix in (".toml", ".world") and candidate.exists():
         return candidate
     path = WORLDS_DIR / f"{candidate.stem if candidate.suffix == '.toml' else name}.toml"
     if not path.exists():
@@ -83,8 +83,13 @@ def world_path(name: str) -> Path:
 
 
 def load_world(path: Path | str) -> WorldSpec:
-    """Parse and validate a world file; raises WorldError naming file, key, expected, found."""
+    """Parse and validate a world file (TOML, or a Stage ``.world``); raises WorldError
+    naming file, key (or line), expected, found."""
     file = Path(path)
+    if file.suffix == ".world":
+        from worlds.stage import load_stage_world
+
+        return load_stage_world(file).spec
     try:
         text = file.read_text(encoding="utf-8")
     except OSError as exc:

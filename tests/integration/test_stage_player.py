@@ -21,6 +21,7 @@ import pytest
 
 from player_server.client import (
     LaserProxy,
+    PowerProxy,
     PlayerClient,
     PlayerNack,
     Position2dProxy,
@@ -234,6 +235,16 @@ def test_sonar_ranger_and_simulation_interface_by_name(
             sim.get_pose2d("nobody")
         with pytest.raises(PlayerNack):
             sim.set_pose2d("home", 0.0, 0.0, 0.0)  # a zone does not move here
+        # the dock gives watts: a robot touching it charges through its power device
+        power = cl.subscribe(PowerProxy)
+        for _ in range(3):
+            cl.read()
+        assert power.state_values is not None and power.state_values[5] == 0
+        sim.set_pose2d("robot1", 4.15, -4.0, 0.0)  # nose against the dock's face
+        deadline = time.monotonic() + 20.0
+        while time.monotonic() < deadline and not (power.state_values or (0,) * 6)[5]:
+            cl.read()
+        assert power.state_values is not None and power.state_values[5] == 1
 
 
 def test_world_control_is_refused_without_the_option(files: tuple[Path, np.ndarray]) -> None:
@@ -304,6 +315,20 @@ def test_bad_cfg_is_one_line_and_exit_2(files: tuple[Path, np.ndarray], tmp_path
     assert len(lines) == 1 and "Traceback" not in err
     assert expected.replace("test.cfg", bad.name) in lines[0] or expected in lines[0], lines
     assert cfg.exists()
+
+
+def test_murdoch_world_convert_prints_a_toml_world(files: tuple[Path, np.ndarray]) -> None:
+    import tomllib
+
+    from worlds import load_world
+    from worlds.loader import parse_world
+
+    d, _ = files
+    proc = subprocess.run([sys.executable, "-c", "from experiments.cli import main; main()", "world", "convert",
+                           str(d / "test.world")], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    again = parse_world(tomllib.loads(proc.stdout), d / "test.world")
+    assert again == load_world(d / "test.world")
 
 
 def test_a_world_is_served_one_port_per_position_model(files: tuple[Path, np.ndarray]) -> None:

@@ -28,7 +28,7 @@ def stage_colour(name: str, where: Where, warnings: Warnings, default: int = 0x8
     from matplotlib.colors import CSS4_COLORS  # X11 names, as the web took them over
 
     hexcode = CSS4_COLORS.get(key)
-    if hexcode is not None:
+    if isinstance(hexcode, str):
         return int(hexcode[1:], 16)
     warnings.once(f"colour:{key}", f"{where}: unknown colour {name!r}; grey used")
     return default

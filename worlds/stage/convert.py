@@ -233,6 +233,6 @@ def _arena(out: _Out) -> ArenaSpec:
     hx = max([abs(x) for x, _ in out.extents] + [0.5])
     hy = max([abs(y) for _, y in out.extents] + [0.5])
     colour, height = out.wall or (0xC0C0C0, 0.5)
-    return ArenaSpec(size_x_m=2 * hx + 1e-6, size_y_m=2 * hy + 1e-6, wall_thickness_m=0.1,
+    return ArenaSpec(size_x_m=2 * hx, size_y_m=2 * hy, wall_thickness_m=0.1,
                      wall_height_m=height, wall_colour=colour, floor_colour=0xE8E8E8,
                      obstacles=tuple(out.obstacles))
