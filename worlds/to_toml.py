@@ -84,9 +84,9 @@ def _robot(r: RobotSpec) -> list[str]:
             ("pose", g.pose), ("width", g.width_m), ("depth", g.depth_m),
             ("max_object_radius", g.max_object_radius_m), ("capacity", g.capacity),
             ("move_time", g.move_time_s)])
-    if (z := d.ptz) is not None:
+    if (pt := d.ptz) is not None:
         out += _table("[robots.ptz]", [(f"{k.removesuffix('_radps').removesuffix('_rad')}_rad",
-                                        getattr(z, k)) for k in z.__dataclass_fields__])
+                                        getattr(pt, k)) for k in pt.__dataclass_fields__])
     if (pw := d.power) is not None:
         out += _table("[robots.power]", [
             ("capacity", pw.capacity_j), ("initial_fraction", pw.initial_fraction),

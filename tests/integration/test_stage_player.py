@@ -21,10 +21,10 @@ import pytest
 
 from player_server.client import (
     LaserProxy,
-    PowerProxy,
     PlayerClient,
     PlayerNack,
     Position2dProxy,
+    PowerProxy,
     RangerProxy,
 )
 from player_server.client.device_proxies import SimulationProxy
@@ -324,8 +324,9 @@ def test_murdoch_world_convert_prints_a_toml_world(files: tuple[Path, np.ndarray
     from worlds.loader import parse_world
 
     d, _ = files
-    proc = subprocess.run([sys.executable, "-c", "from experiments.cli import main; main()", "world", "convert",
-                           str(d / "test.world")], capture_output=True, text=True, timeout=120)
+    proc = subprocess.run([sys.executable, "-c", "from experiments.cli import main; main()",
+                           "world", "convert", str(d / "test.world")],
+                          capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     again = parse_world(tomllib.loads(proc.stdout), d / "test.world")
     assert again == load_world(d / "test.world")
