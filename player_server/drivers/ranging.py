@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
@@ -210,7 +211,8 @@ class RangerDriver(Driver):
 class SonarRangerDriver(Driver):
     """The ranger interface over a sonar array (Stage serves its sonars as rangers): one
     reading per transducer, each element's pose in the geometry. Its configuration is
-    fixed: SET_CONFIG is ACKed only when it asks for what is in force."""
+    fixed: SET_CONFIG is ACKed only when it asks for what is in force (fields left zero keep
+    it)."""
 
     interf = int(Interface.RANGER)
     requests = frozenset({1, 2, 4, 5})
@@ -248,7 +250,9 @@ class SonarRangerDriver(Driver):
         if subtype == c.PLAYER_RANGER_REQ_SET_CONFIG and body is not None:
             now = self.config()
             fields = ("min_angle", "max_angle", "angular_res", "min_range", "max_range")
-            if any(abs(getattr(body, f) - getattr(now, f)) > 1e-6 for f in fields):
+            asked = [(getattr(body, f), getattr(now, f)) for f in fields]
+            # fields left zero (or NaN) keep what is in force, as for the laser
+            if any(math.isfinite(a) and a != 0.0 and abs(a - b) > 1e-6 for a, b in asked):
                 raise ValueError("the sonar array's configuration is fixed")
             return ack(now)
         if subtype == c.PLAYER_RANGER_REQ_POWER and body is not None:
