@@ -339,3 +339,30 @@ def test_a_world_is_served_one_port_per_position_model(files: tuple[Path, np.nda
         with _client(srv.ports["robot2"]) as cl:
             got = {(a.interf, a.index) for a in cl.devlist()}
         assert {(4, 0), (62, 0), (62, 1), (6, 0), (5, 0), (31, 0)} <= got
+
+
+def test_many_floorplan_walls_are_solid_to_a_driving_robot(tmp_path: Path) -> None:
+    """A bitmap of many walls (built as compound bodies) stops a robot driving into it."""
+    from PIL import Image
+
+    from worlds.stage import load_stage_world
+
+    img = np.full((100, 100), 255, dtype=np.uint8)
+    for k in range(100):  # a diagonal wall, one box per row; at y = 0 (row 50) x is 2 m
+        img[k, 20 + k: 24 + k] = 0
+    Image.fromarray(img, mode="L").save(tmp_path / "stairs.png")
+    world_file = tmp_path / "stairs.world"
+    world_file.write_text(f'include "{INCLUDE}/pioneer.inc"\n'
+                          'model( name "m" bitmap "stairs.png" size [10 10 0.5] '
+                          'obstacle_return 1 )\n'
+                          'pioneer2dx( name "r" pose [0 0 0 0] )\n')
+    spec = load_stage_world(world_file).spec
+    assert len(spec.arena.obstacles) > 64
+    sim = Simulation(spec, seed=1)
+    try:
+        sim.set_velocity("r", 0.5, 0.0)
+        sim.step(80)  # 8 s at 0.5 m/s would carry it 4 m, through the wall at x = 2 m
+        x, _, _ = sim.get_pose("r")
+        assert 1.2 < x < 2.0
+    finally:
+        sim.close()
