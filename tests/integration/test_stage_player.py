@@ -366,3 +366,16 @@ def test_many_floorplan_walls_are_solid_to_a_driving_robot(tmp_path: Path) -> No
         assert 1.2 < x < 2.0
     finally:
         sim.close()
+
+
+def test_the_long_term_experiment_runs_on_the_shipped_stage_world(tmp_path: Path) -> None:
+    world = Path(__file__).resolve().parents[2] / "worlds" / "stage" / "pioneers.world"
+    proc = subprocess.run(
+        [sys.executable, "-c", "from experiments.cli import main; main()", "run", "longterm",
+         "--world", str(world), "--until", "20s", "--out", str(tmp_path)],
+        capture_output=True, text=True, timeout=300, stdin=subprocess.DEVNULL)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    (summary,) = tmp_path.glob("longterm-*/summary.json")
+    got = json.loads(summary.read_text())
+    assert got["end_reason"] == "completed"
+    assert set(got["distance_m"]["by_robot"]) == {"robot1", "robot2"}
