@@ -298,7 +298,7 @@ def test_player_server_prints_its_table_at_once_through_a_pipe_and_as_json(
      'driver ( name "stage" provides [ "simulation:0" ] worldfile "test.world" )',
      'test.cfg:1: expected model "NAME" in the stage driver providing 6665:position2d:0'),
     ('driver ( name "stage" provides [ "simulation:0" ] worldfile "nowhere.world" )',
-     "nowhere.world:0: expected a readable text file"),
+     "nowhere.world: expected a readable text file"),
     ('driver ( name "stage" provides [ "simulation:0" ] worldfile "test.world"\n',
      "test.cfg:2: expected a key, a child entity or ) in driver, found end of file"),
 ])

@@ -133,13 +133,16 @@ def test_pucks_chargers_zones_blocks_and_ctrl(tmp_path: Path,
 def test_unknown_keys_and_kinds_are_warned_once_with_file_and_line(tmp_path: Path) -> None:
     w = _write(tmp_path, "w.world", 'model( name "a" frobnicate 3 )\n'
                'model( name "b" frobnicate 3 )\nwidget( name "c" )\nwidget( name "d" )\n'
-               'window( size [1 1] )\n')
+               'window( size [1 1] )\nthreads 2\nshow_clock 1\ninterval_real 100\n'
+               'quit_time 60\nspeedup 0\nresolution 0.02\nsomething 1\n')
     warnings = Warnings()
     load_stage_world(w, warnings=warnings)
     said = " | ".join(warnings.said)
     assert f"{w}:1: key 'frobnicate'" in said and f"{w}:2: key 'frobnicate'" in said
     assert sum("widget" in m for m in warnings.said) == 1
     assert f"{w}:3: unknown model kind 'widget'" in said
+    assert f"{w}:12: key 'something' of the world" in said
+    assert len(warnings.said) == 4  # the global keys Stage has are accepted silently
 
 
 @pytest.mark.parametrize(("text", "line", "expected"), [

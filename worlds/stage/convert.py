@@ -79,9 +79,9 @@ def convert(doc: Document, file: Path, warnings: Warnings) -> StageWorld:
                          f"{sim.speedup:g}, {sim.quit_time_s:g}")
     paused = g.number("paused", 0.0) != 0.0
     g.number("resolution", 0.02)
-    g.finish(Where(file, 1))
-    for k in GLOBAL_KEYS:
+    for k in GLOBAL_KEYS:  # accepted; those not read above have no effect here
         g.has(k)
+    g.finish(Where(file, 1))
     models = TreeBuilder(doc, warnings).build()
     out = _Out([], [], [], [], {}, {}, [])
     seen: dict[str, Where] = {}

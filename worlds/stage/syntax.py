@@ -25,7 +25,7 @@ class Where:
     line: int
 
     def __str__(self) -> str:
-        return f"{self.file}:{self.line}"
+        return f"{self.file}:{self.line}" if self.line else str(self.file)
 
 
 class StageError(WorldError):
@@ -230,7 +230,8 @@ def parse_text(text: str, file: Path) -> Document:
 
 
 def parse_file(path: Path | str) -> Document:
-    """Read and parse a file; a missing or unreadable file is a StageError at line 0."""
+    """Read and parse a file; a missing or unreadable file is a StageError naming it (line 0:
+    no line)."""
     file = Path(path)
     try:
         text = file.read_text(encoding="utf-8")
