@@ -156,6 +156,9 @@ def test_unknown_keys_and_kinds_are_warned_once_with_file_and_line(tmp_path: Pat
     ('model( name "a" )\nmodel( name "a" )\n', 2, "expected a model name not used before"),
     ('speedup "fast"\n', 1, "expected one number for speedup"),
     ('model( name "a" color 3 @ )\n', 1, "expected a word, number, string"),
+    ('position( name "r"\n ranger( sensor( range [5 1] ) ) )\n', 2, "expected a sensor with"),
+    ('position( name "r" joules 10 joules_capacity -5 )\n', 1, "expected a positive"),
+    ('model( name "a"\n pose [1e999 0 0 0] )\n', 2, "expected finite numbers for pose"),
 ])
 def test_malformed_worlds_name_file_line_expected_and_found(tmp_path: Path, text: str,
                                                             line: int, expected: str) -> None:

@@ -25,7 +25,7 @@ from worlds.spec import (
     SonarSpec,
 )
 from worlds.stage.colour import model_colour, stage_colour
-from worlds.stage.syntax import StageError
+from worlds.stage.syntax import StageError, Where
 from worlds.stage.tree import Reader, StageModel, Units, Warnings
 
 #: keys every model may carry that mean nothing for a robot's simulation here
@@ -95,7 +95,7 @@ def convert_position(m: StageModel, units: Units, warnings: Warnings) -> RobotOu
         max_speed_mps=vmax, max_yaw_rate_radps=wmax, accel_mps2=amax, yaw_accel_radps2=awmax,
         odom_noise_fraction=max(err[0], err[1]) if loc == "odom" else 0.0,
         odom_yaw_noise_fraction=err_yaw if loc == "odom" else 0.0)
-    power = _power(r)
+    power = _power(r, m.where)
     top = Mount(0.0, 0.0, body.height_m, 0.0)
     devices: dict[str, object] = {"position2d": position, "power": power}
     rangers: list[RangerRole] = []
@@ -112,25 +112,19 @@ def convert_position(m: StageModel, units: Units, warnings: Warnings) -> RobotOu
     return RobotOut(spec, tuple(rangers))
 
 
-def _power(r: Reader) -> PowerSpec | None:
+def _power(r: Reader, where: Where) -> PowerSpec | None:
     if not (r.has("joules") or r.has("joules_capacity") or r.has("kjoules")):
         return None
     cap = r.number("joules_capacity", 0.0) or r.number("kjoules", 0.0) * 1000.0
     joules = r.number("joules", cap)
     cap = cap or joules
     if cap <= 0 or joules < 0:
-        raise StageError(r.where("joules", r.where("joules_capacity", _nowhere(r))),
+        raise StageError(r.where("joules", r.where("joules_capacity", where)),
                          "a positive joules_capacity (or kjoules) and joules >= 0",
                          f"{cap:g} / {joules:g}")
     watts = r.number("watts", PowerSpec().idle_w)
     return PowerSpec(capacity_j=cap, initial_fraction=min(1.0, joules / cap),
                      idle_w=watts, moving_w=0.0, sensor_w=0.0)
-
-
-def _nowhere(r: Reader):  # a place for errors about keys that may be absent
-    for p in r.props.values():
-        return p.where
-    raise AssertionError("no properties")
 
 
 def _device(m: StageModel, parent: Mount, units: Units, warnings: Warnings,
@@ -141,10 +135,8 @@ def _device(m: StageModel, parent: Mount, units: Units, warnings: Warnings,
     if kind == "ranger":
         role = _ranger(m, r, mount, units, warnings, devices)
         rangers.append(RangerRole(m.name, role))
-    elif kind == "laser":
-        _put(devices, "laser", _scan(LaserSpec, r, mount, r.numbers("range_max", 1, (8.0,)),
-                                     r.angle("fov", math.pi), int(r.number("samples", 361))),
-             m, warnings)
+    elif kind == "laser":  # Stage 3
+        _put(devices, "laser", _stage3_laser(m, r, mount), m, warnings)
     elif kind == "blobfinder":
         _blobfinder(m, r, mount, devices, warnings)
     elif kind == "fiducial":
@@ -186,13 +178,16 @@ def _put(devices: dict[str, object], slot: str, spec: object, m: StageModel,
     devices[slot] = spec
 
 
-def _scan(cls, r: Reader, mount: Mount, rng: tuple[float, ...], fov: float, samples: int):
-    lo, hi = (rng[0], rng[1]) if len(rng) == 2 else (0.0, rng[0])
-    if samples < 1 or not 0 < fov <= 2 * math.pi or hi <= lo:
-        raise StageError(_nowhere(r), "samples >= 1, 0 < fov <= 360 deg and range max > min",
-                         f"samples {samples}, fov {math.degrees(fov):g}, range [{lo:g} {hi:g}]")
-    return cls(pose=mount, min_angle_rad=-fov / 2, max_angle_rad=fov / 2, samples=samples,
-               min_range_m=lo * r.units.length, max_range_m=hi * r.units.length)
+def _stage3_laser(m: StageModel, r: Reader, mount: Mount) -> LaserSpec:
+    top = r.length("range_max", 8.0)
+    fov = r.angle("fov", math.pi)
+    samples = int(r.number("samples", 361))
+    if samples < 1 or not 0 < fov <= 2 * math.pi or top <= 0:
+        raise StageError(m.where, f"laser {m.name!r} with samples >= 1, 0 < fov <= 360 deg "
+                                  "and range_max > 0",
+                         f"samples {samples}, fov {math.degrees(fov):g}, range_max {top:g}")
+    return LaserSpec(pose=mount, min_angle_rad=-fov / 2, max_angle_rad=fov / 2,
+                     samples=samples, max_range_m=top)
 
 
 def _ranger(m: StageModel, r: Reader, mount: Mount, units: Units, warnings: Warnings,
@@ -205,8 +200,15 @@ def _ranger(m: StageModel, r: Reader, mount: Mount, units: Units, warnings: Warn
         sr = _reader(s, units, warnings, frozenset({"color", "resolution"}))
         smount = _mount(sr.pose(), mount)
         rng = sr.numbers("range", 2, (0.0, 5.0))
-        sensors.append((smount, (rng[0] * units.length, rng[1] * units.length),
-                        sr.angle("fov", math.radians(15.0)), int(sr.number("samples", 1))))
+        fov, samples = sr.angle("fov", math.radians(15.0)), sr.number("samples", 1)
+        if samples < 1 or samples != int(samples) or not 0 < fov <= 2 * math.pi \
+                or not 0 <= rng[0] < rng[1]:
+            raise StageError(s.where, "a sensor with whole samples >= 1, 0 < fov <= 360 deg "
+                                      "and range [min max] with 0 <= min < max",
+                             f"samples {samples:g}, fov {math.degrees(fov):g}, "
+                             f"range [{rng[0]:g} {rng[1]:g}]")
+        sensors.append((smount, (rng[0] * units.length, rng[1] * units.length), fov,
+                        int(samples)))
         sr.finish(s.where)
     count = int(r.number("scount", 0))
     if count:  # the older scount / spose[i] / sview form

@@ -146,7 +146,11 @@ class Reader:
     def _values(self, key: str) -> tuple[object, ...] | None:
         self.used.add(key)
         p = self.props.get(key)
-        return None if p is None else p.values
+        if p is None:
+            return None
+        if any(isinstance(v, float) and not math.isfinite(v) for v in p.values):
+            raise StageError(p.where, f"finite numbers for {key}", _show(p.values))
+        return p.values
 
     def number(self, key: str, default: float) -> float:
         v = self._values(key)
