@@ -1,5 +1,6 @@
 """Cost of a big Stage floorplan: a simulation step with two lasers, against the bundled
-Pioneer world (a few wall boxes) measured in the same run, alternating.
+Pioneer world (a few wall boxes) and against the same floorplan built one body per box (as
+before compound bodies), all measured in the same run, alternating.
 
 The floorplan is drawn here: 800 x 800 pixels over 16 x 16 m with diagonal walls and rings,
 which merge badly into boxes (a diagonal wall is one box per pixel row), so it is close to the
@@ -7,8 +8,8 @@ worst a real Stage map gives.
 
     python bench/stage_floorplan.py [--rounds 5] [--steps 20]
 
-Prints per world: boxes, convert and build seconds; then the median step (ms) of each world
-over the rounds and the ratio big / baseline.
+Prints per world: boxes, convert and build seconds; then the median step (ms) of each
+over the rounds and the ratios big / baseline and one-body-per-box / big.
 """
 
 from __future__ import annotations
@@ -42,16 +43,23 @@ def _draw(d: Path) -> Path:
     return world
 
 
-def _build(path: Path):
-    from player_server.sim import Simulation
+def _build(path: Path, *, compound: bool = True):
+    from player_server.sim import Simulation, bodies
     from worlds.stage import load_stage_world
 
     t0 = time.perf_counter()
     world = load_stage_world(path)
     t1 = time.perf_counter()
-    sim = Simulation(world.spec, seed=1)
+    keep = bodies._MERGE_BOXES_OVER
+    if not compound:
+        bodies._MERGE_BOXES_OVER = 1 << 30
+    try:
+        sim = Simulation(world.spec, seed=1)
+    finally:
+        bodies._MERGE_BOXES_OVER = keep
     t2 = time.perf_counter()
-    print(f"{path.name}: {len(world.spec.arena.obstacles)} boxes, convert {t1 - t0:.2f} s, "
+    print(f"{path.name}{'' if compound else ' (one body per box)'}: "
+          f"{len(world.spec.arena.obstacles)} boxes, convert {t1 - t0:.2f} s, "
           f"build {t2 - t1:.2f} s")
     sim.step(1)
     return sim
@@ -72,17 +80,19 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=20)
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
-        big = _build(_draw(Path(tmp)))
-        base = _build(ROOT / "worlds" / "stage" / "pioneers.world")
-        times: dict[str, list[float]] = {"big": [], "baseline": []}
+        path = _draw(Path(tmp))
+        sims = {"baseline": _build(ROOT / "worlds" / "stage" / "pioneers.world"),
+                "big": _build(path), "per_box": _build(path, compound=False)}
+        times: dict[str, list[float]] = {k: [] for k in sims}
         for _ in range(args.rounds):
-            times["baseline"].append(_steps(base, args.steps))
-            times["big"].append(_steps(big, args.steps))
+            for name, sim in sims.items():
+                times[name].append(_steps(sim, args.steps))
         med = {k: statistics.median(v) * 1000 for k, v in times.items()}
-        big.close()
-        base.close()
+        for sim in sims.values():
+            sim.close()
     print(f"step_ms_baseline={med['baseline']:.2f} step_ms_big={med['big']:.2f} "
-          f"ratio={med['big'] / med['baseline']:.2f}")
+          f"step_ms_per_box={med['per_box']:.2f} big/baseline={med['big'] / med['baseline']:.1f} "
+          f"per_box/big={med['per_box'] / med['big']:.1f}")
 
 
 if __name__ == "__main__":
