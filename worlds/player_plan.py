@@ -70,9 +70,7 @@ def _device(world: StageWorld, d: DriverBlock, a: Address, model: str) -> str:
             raise StageError(d.where, f"a {a.interface} on model {model!r} in the world "
                                       "(for power: joules or joules_capacity)", str(a))
         return a.interface
-    raise StageError(d.where, "an interface the stage driver serves here (position2d, ranger, "
-                              "laser, sonar, blobfinder, fiducial, camera, gripper, bumper, "
-                              "power, ptz, simulation)", str(a))
+    return ""  # an interface Stage has and this server does not
 
 
 def plan_from_cfg(cfg: PlayerConfig, world: StageWorld, warnings: Warnings) -> ServePlan:
@@ -94,7 +92,13 @@ def plan_from_cfg(cfg: PlayerConfig, world: StageWorld, warnings: Warnings) -> S
                 if d.model is None:
                     raise StageError(d.where, f'model "NAME" in the stage driver providing {a}',
                                      "none")
-                bind(Binding(a, d.model, _device(world, d, a, d.model)), d.where)
+                device = _device(world, d, a, d.model)
+                if not device:
+                    warnings.once(f"iface:{a.interface}",
+                                  f"{d.where}: interface {a.interface!r} is not provided here; "
+                                  f"{a} skipped")
+                    continue
+                bind(Binding(a, d.model, device), d.where)
         elif d.name == "rangertolaser":
             if len(d.requires) != 1 or len(d.provides) != 1 or \
                     d.provides[0].interface != "laser" or d.requires[0].interface != "ranger":

@@ -187,7 +187,8 @@ def test_cfg_addresses_and_blocks(tmp_path: Path) -> None:
                       '"ranger:1"] )\n'
                       'driver( name "rangertolaser" requires ["ranger:1"] provides '
                       '["laser:0"] )\n'
-                      'driver( name "vfh" provides ["position2d:1"] )\n')
+                      'driver( name "vfh" provides ["position2d:1"] )\n'
+                      'driver( name "stage" model "r0" provides ["graphics2d:0"] )\n')
     warnings = Warnings()
     cfg = load_player_cfg(cfg_path, 6700, warnings)
     world = load_stage_world(tmp_path / "w.world")
@@ -197,6 +198,8 @@ def test_cfg_addresses_and_blocks(tmp_path: Path) -> None:
         ("6700:ranger:0", "sonar_ranger"), ("6700:ranger:1", "laser_ranger"),
         ("6700:laser:0", "laser")]
     assert any("driver 'vfh' is not provided here" in w for w in warnings.said)
+    assert any("x.cfg:5: interface 'graphics2d' is not provided here; 6700:graphics2d:0 "
+               "skipped" in w for w in warnings.said)
 
 
 @pytest.mark.parametrize(("cfg", "expected"), [
