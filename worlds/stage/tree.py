@@ -64,7 +64,7 @@ def _chain(kind: str, defines: Mapping[str, object], where: Where) -> list[str]:
     while chain[-1] not in MODEL_KINDS and chain[-1] not in PART_KINDS:
         d = defines.get(chain[-1])
         if d is None:
-            return []
+            return chain[::-1]  # ends in an unknown kind: the caller warns
         base = d.base  # type: ignore[attr-defined]
         if base in chain:
             raise StageError(where, f"a definition chain without a loop (kind {kind})", base)
@@ -90,9 +90,10 @@ class TreeBuilder:
 
     def model(self, e: Entity, parent: str) -> StageModel | None:
         chain = _chain(e.kind, self.doc.defines, e.where)
-        if not chain:
-            self.warnings.once(f"kind:{e.kind}", f"{e.where}: unknown model kind {e.kind!r} "
-                                                 "(no define for it); ignored")
+        if chain[0] not in MODEL_KINDS and chain[0] not in PART_KINDS:
+            via = f" (defined from {chain[0]!r}, which is not one)" if len(chain) > 1 else ""
+            self.warnings.once(f"kind:{chain[0]}", f"{e.where}: unknown model kind "
+                                                   f"{e.kind!r}{via}; ignored")
             return None
         bodies = [self.doc.defines[k].body for k in chain[1:]] + [e]
         props: dict[str, Prop] = {}
