@@ -74,6 +74,9 @@ def convert_position(m: StageModel, units: Units, warnings: Warnings) -> RobotOu
                          "differential drive)", f'"{drive}"')
     x, y, _, yaw = r.pose()
     sx, sy, sz = r.size((0.44, 0.38, 0.22))
+    if sx <= 0 or sy <= 0:
+        raise StageError(r.where("size", m.where), f"a positive size for position {m.name!r}",
+                         [sx, sy, sz])
     ox = r.numbers("origin", 4, (0.0, 0.0, 0.0, 0.0))[0] * units.length
     mass = r.number("mass", 9.0)
     body = BodySpec(length_m=sx, width_m=sy, height_m=max(sz, 0.05), offset_x_m=ox,
@@ -82,8 +85,9 @@ def convert_position(m: StageModel, units: Units, warnings: Warnings) -> RobotOu
     if loc not in ("gps", "odom"):
         raise StageError(r.where("localization", m.where), 'localization "gps" or "odom"',
                          f'"{loc}"')
+    given = r.props.get("odom_error")
     err = r.numbers("odom_error", 4, (0.03, 0.03, 0.0, 0.05), min_n=3)
-    err_yaw = err[3] if len(err) == 4 else err[2]
+    err_yaw = err[2] if given is not None and len(given.values) == 3 else err[3]  # [x y a]
     vb = r.numbers("velocity_bounds", 8, (-1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -90.0, 90.0))
     ab = r.numbers("acceleration_bounds", 8, (-1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -90.0, 90.0))
     vmax, wmax = vb[1] * units.length, vb[7] * units.angle
@@ -123,6 +127,8 @@ def _power(r: Reader, where: Where) -> PowerSpec | None:
                          "a positive joules_capacity (or kjoules) and joules >= 0",
                          f"{cap:g} / {joules:g}")
     watts = r.number("watts", PowerSpec().idle_w)
+    if watts < 0:
+        raise StageError(r.where("watts", where), "watts >= 0", watts)
     return PowerSpec(capacity_j=cap, initial_fraction=min(1.0, joules / cap),
                      idle_w=watts, moving_w=0.0, sensor_w=0.0)
 
