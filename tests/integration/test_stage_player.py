@@ -222,6 +222,7 @@ def test_sonar_ranger_and_simulation_interface_by_name(
         assert len(sonar.get_geometry().element_poses) == 16
         assert sim.get_pose2d("home") == pytest.approx((-4.0, -4.0, 0.0))
         assert sim.get_pose2d("map") == pytest.approx((0.0, 0.0, 0.0))
+        assert sim.get_pose2d("dock") == pytest.approx((4.5, -4.0, 0.0))
         sim.set_pose2d("puck1", -1.0, 3.5, 0.0)
         assert sim.get_pose2d("puck1")[:2] == pytest.approx((-1.0, 3.5), abs=0.02)
         sim.set_pose2d("robot1", 1.0, -3.0, math.pi / 2)

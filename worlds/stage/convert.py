@@ -127,6 +127,7 @@ def _top(m: StageModel, file: Path, units: Units, warnings: Warnings, out: _Out)
         half = math.hypot(size[0], size[1]) / 2
         out.chargers.append(ChargerSpec(m.name, x, y, half + (0.35 if obstacle else 0.0),
                                         colour, give, beacon_height_m=0.0))
+        out.fixed[m.name] = Pose(x, y, yaw)
         if obstacle:
             _solid(m, r, (x, y, yaw), size, colour, out, suffix=".body")
     elif grip:
