@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: run test lint bench soak clean
+.PHONY: run test test-fast lint bench soak clean
 
 $(STAMP): pyproject.toml constraints.txt
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -17,10 +17,17 @@ run: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/lint-imports
+	$(BIN)/python tools/import_cycles.py --tolerate experiments
 	$(BIN)/mypy player_server behaviors murdoch worlds experiments
 
+# two workers (pytest-xdist); a module's tests stay on one worker, so a run they share is
+# made once
 test: lint
-	$(BIN)/python -m pytest -q --durations=10
+	$(BIN)/python -m pytest -q -n 2 --dist loadscope --durations=20
+
+# the inner loop: unit tests and pure logic, the slow ones left out (tests/unit/conftest.py)
+test-fast: $(STAMP)
+	$(BIN)/python -m pytest -q -n 2 -m "not slow and not soak" tests/unit
 
 soak: $(STAMP)
 	$(BIN)/python -m pytest -q -m soak

@@ -26,6 +26,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from murdoch.consensus.allocation_result import AllocationResult, build_result, graph_diameter
 from murdoch.consensus.async_refine import RefineChunk, receive_chunk, refine_chunks
 from murdoch.consensus.cbba import CbbaAgent
 from murdoch.consensus.cbga import CbgaAgent, CbgaOptions
@@ -39,7 +40,6 @@ from murdoch.consensus.refine import (
 )
 from murdoch.consensus.scenario import Scenario
 from murdoch.consensus.scoring import build_problem, evaluate_plan
-from murdoch.consensus.sync_runner import AllocationResult, build_result, graph_diameter
 from murdoch.transport import Transport
 from murdoch.wire import Codec, Envelope
 

@@ -16,11 +16,11 @@ from typing import Any
 
 import numpy as np
 
+from murdoch.consensus.allocation_result import AllocationResult, build_result, graph_diameter
 from murdoch.consensus.conflict import rule_arrays
 from murdoch.consensus.messages import encoded_size
 from murdoch.consensus.scenario import Agent, Scenario, Task
 from murdoch.consensus.scoring import Problem, build_problem
-from murdoch.consensus.sync_runner import AllocationResult, build_result, graph_diameter
 
 ENGINE_COMPILED = "compiled"  # result.extra["engine"]; the agents' runs say "agents"
 

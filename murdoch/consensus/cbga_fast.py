@@ -15,13 +15,13 @@ from typing import Any
 
 import numpy as np
 
+from murdoch.consensus.allocation_result import AllocationResult, build_result
 from murdoch.consensus.cbba_fast import ENGINE_COMPILED, kernel_arrays
 from murdoch.consensus.cbga import CbgaOptions
 from murdoch.consensus.conflict import rule_arrays
 from murdoch.consensus.messages import encoded_size
 from murdoch.consensus.scenario import Agent, Scenario, Task
 from murdoch.consensus.scoring import Problem, build_problem
-from murdoch.consensus.sync_runner import AllocationResult, build_result
 
 _MAX_ITEMS = 62  # equipment items travel as bits of an int64
 

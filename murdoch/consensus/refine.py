@@ -50,6 +50,7 @@ from typing import cast
 
 import numpy as np
 
+from murdoch.consensus.allocation_result import AllocationResult, build_result, graph_diameter
 from murdoch.consensus.pair_replan import PairReplan
 from murdoch.consensus.refine_moves import MoveSearch
 from murdoch.consensus.refine_plan import (
@@ -63,7 +64,6 @@ from murdoch.consensus.refine_plan import (
 )
 from murdoch.consensus.scenario import Scenario
 from murdoch.consensus.scoring import Problem, build_problem, evaluate_plan
-from murdoch.consensus.sync_runner import AllocationResult, build_result, graph_diameter
 
 __all__ = ["MoveSearch", "Opening", "Plan", "PlanScorer", "Proposal", "RefineAgent",
            "RefineOptions", "RefineOutcome", "canonical_plan", "complete_graph", "guess_plan",

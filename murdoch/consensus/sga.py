@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from murdoch.consensus.allocation_result import AllocationResult, build_result
 from murdoch.consensus.gains import insertion_gains
 from murdoch.consensus.scenario import Scenario
 from murdoch.consensus.scoring import build_problem, path_starts
-from murdoch.consensus.sync_runner import AllocationResult, build_result
 
 
 def sequential_greedy(scenario: Scenario) -> AllocationResult:

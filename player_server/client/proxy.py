@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import Any, ClassVar, Protocol
 
 from player_server.client.errors import PlayerNack
 from player_server.client.framing import decode_frame
@@ -11,8 +11,22 @@ from player_server.protocol import player_msgs as pm
 from player_server.protocol.codec import Undecodable
 from player_server.protocol.errors import DecodeError
 
-if TYPE_CHECKING:
-    from player_server.client.connection import PlayerClient
+
+class ClientLink(Protocol):
+    """What a proxy asks of its client (`connection.PlayerClient` is one)."""
+
+    def request(self, interf: int, index: int, subtype: int, body: Any = None,
+                timeout_s: float | None = None) -> Any: ...
+
+    def command(self, interf: int, index: int, subtype: int, body: Any = None) -> None: ...
+
+    def clock(self) -> float:
+        """The client's clock (seconds), which stamps what it sends."""
+        ...
+
+    def send_encoded(self, wire: bytes, *, defer: bool = False) -> None: ...
+
+
 
 _DATA = int(c.MsgType.DATA)
 
@@ -34,7 +48,7 @@ class Proxy:
 
     interf: ClassVar[int] = 0
 
-    def __init__(self, client: PlayerClient, index: int = 0) -> None:
+    def __init__(self, client: ClientLink, index: int = 0) -> None:
         self.client = client
         self.index = index
         self.driver_name = ""

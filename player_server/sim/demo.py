@@ -52,7 +52,7 @@ class WanderDriver:
         self.full_percent = full_percent
         self._seeking: dict[str, tuple[float, float]] = {}
         self.stats = WanderStats()
-        self._robots: list[_Driven] = []
+        self.robots: list[_Driven] = []
         for spec in sim.spec.robots:
             if spec.devices.position2d is None:
                 continue
@@ -68,14 +68,14 @@ class WanderDriver:
             readers = [getattr(sim, meth) for dev, meth in _READ_ALL if dev in devs]
             readers.append(sim.odometry)
             at = devs.index(kind)
-            self._robots.append(_Driven(spec.name, getattr(sim, kind), bearings,
+            self.robots.append(_Driven(spec.name, getattr(sim, kind), bearings,
                                         Wanderer(wander_rng), tuple(readers[:at]),
                                         tuple(readers[at + 1:]), d.power is not None))
             self.stats.distance_m[spec.name] = 0.0
             self.stats.charging_s[spec.name] = 0.0
             self.stats.min_percent[spec.name] = 100.0
             self.stats.charge_trips[spec.name] = 0
-        self._last = {r.name: sim.get_pose(r.name)[:2] for r in self._robots}
+        self._last = {r.name: sim.get_pose(r.name)[:2] for r in self.robots}
 
     def tick(self) -> None:
         sim = self.sim
@@ -85,7 +85,7 @@ class WanderDriver:
         charger_goal = self._charger_goal
         power = sim.power
         set_velocity = sim.set_velocity
-        for r in self._robots:
+        for r in self.robots:
             name = r.name
             if sense_all:
                 for read in r.readers:
@@ -116,7 +116,7 @@ class WanderDriver:
         last = self._last
         get_pose = sim.get_pose
         hypot = math.hypot
-        for r in self._robots:
+        for r in self.robots:
             name = r.name
             x, y, _ = get_pose(name)
             lx, ly = last[name]

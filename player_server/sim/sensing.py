@@ -9,6 +9,7 @@ model renders its own.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -18,14 +19,24 @@ from player_server.sim.cast_kernel import CompiledCaster
 if TYPE_CHECKING:
     from player_server.sim.devices.camera import CameraModel
     from player_server.sim.devices.ranging import RangeModel
-    from player_server.sim.simulation import Simulation
+    from player_server.sim.devices.world import DeviceWorld
+    from player_server.sim.tick_arrays import TickArrays
+    from player_server.sim.timings import Timings
 
 
 class SensingPass:
-    def __init__(self, world: Simulation, ranging: RangeModel, camera: CameraModel) -> None:
+    """The pass of one world (its cache, fidelity and fixed arrays), over its two sensing
+    models; `clock`, when given, times the pass into `timings`."""
+
+    def __init__(self, world: DeviceWorld, ranging: RangeModel, camera: CameraModel,
+                 tick_arrays: TickArrays, clock: Callable[[], float] | None,
+                 timings: Timings) -> None:
         self.world = world
         self.ranging = ranging
         self.camera = camera
+        self.tick_arrays = tick_arrays
+        self._clock = clock
+        self.timings = timings
         self.caster = CompiledCaster()
         self._zeros = np.zeros(256)
         self._rkeys: tuple[tuple[int, str], ...] = ()
@@ -36,7 +47,7 @@ class SensingPass:
     def sensed(self) -> dict[str, dict[Any, Any]]:
         """This tick's readings of every active range sensor and blobfinder, computed together
         on first use."""
-        cache = self.world._cached(self.key, lambda: {"ranges": {}, "blobs": {}})
+        cache = self.world.cached(self.key, lambda: {"ranges": {}, "blobs": {}})
         assert isinstance(cache, dict)
         if cache["ranges"]:
             rkeys = tuple(sorted(k for k in self.ranging.active if k not in cache["ranges"]))
@@ -65,6 +76,9 @@ class SensingPass:
             self._cams = tuple(sorted(self.camera.active))
         return self._cams
 
+    def _now(self) -> float:
+        return self._clock() if self._clock is not None else 0.0
+
     def _zeros_for(self, n: int) -> np.ndarray:
         if self._zeros.size < n:
             self._zeros = np.zeros(max(n, 2 * self._zeros.size))
@@ -73,8 +87,8 @@ class SensingPass:
     def _fast(self, rkeys: tuple[tuple[int, str], ...], cams: list[int],
               cache: dict[str, dict[Any, Any]]) -> None:
         w = self.world
-        t0 = w._now()
-        frame = w.tick_arrays.frame()
+        t0 = self._now()
+        frame = self.tick_arrays.frame()
         origins: list[np.ndarray] = []
         dirs: list[np.ndarray] = []
         maxr: list[np.ndarray] = []
@@ -101,37 +115,36 @@ class SensingPass:
                 maxr.append(pending.dist)
                 zs.append(self._zeros_for(pending.slot.size))
                 own.append(bplan.own[pending.slot])
-        t1 = w._now()
+        t1 = self._now()
         hits = np.zeros(0)
         if origins:
             o = np.concatenate(origins) if len(origins) > 1 else origins[0]
             d = np.concatenate(dirs) if len(dirs) > 1 else dirs[0]
             hits = self.caster.cast(o, d, np.concatenate(maxr) if len(maxr) > 1 else maxr[0],
                                     np.concatenate(zs) if len(zs) > 1 else zs[0],
-                                    w.tick_arrays.footprints(), w._arrays.room,
+                                    self.tick_arrays.footprints(), w.arrays.room,
                                     np.concatenate(own) if len(own) > 1 else own[0])
-        t2 = w._now()
+        t2 = self._now()
         if plan is not None:
             cache["ranges"].update(self.ranging.fast_readings(plan, hits[:n_range]))
-        t3 = w._now()
+        t3 = self._now()
         if bplan is not None and pending is not None:
             visible = hits[n_range:] >= pending.near - 0.05
             cache["blobs"].update(self.camera.fast_blobs(cams, bplan, pending, visible))
-        if w._clock is not None:
-            t4 = w._now()
+        if self._clock is not None:
+            t4 = self._now()
             share = n_range / max(1, hits.size)
-            w.timings.ranges_s += (t3 - t2) + (t2 - t1) * share
-            w.timings.blobs_s += (t1 - t0) + (t4 - t3) + (t2 - t1) * (1 - share)
+            self.timings.ranges_s += (t3 - t2) + (t2 - t1) * share
+            self.timings.blobs_s += (t1 - t0) + (t4 - t3) + (t2 - t1) * (1 - share)
 
     def _render(self, rkeys: tuple[tuple[int, str], ...], cams: list[int],
                 cache: dict[str, dict[Any, Any]]) -> None:
-        w = self.world
-        t0 = w._now()
+        t0 = self._now()
         if rkeys:
-            cache["ranges"].update(self.ranging.render(rkeys, w.tick_arrays.frame()))
-        t1 = w._now()
+            cache["ranges"].update(self.ranging.render(rkeys, self.tick_arrays.frame()))
+        t1 = self._now()
         if cams:
             cache["blobs"].update(self.camera.render(cams))
-        if w._clock is not None:
-            w.timings.ranges_s += t1 - t0
-            w.timings.blobs_s += w._now() - t1
+        if self._clock is not None:
+            self.timings.ranges_s += t1 - t0
+            self.timings.blobs_s += self._now() - t1

@@ -16,24 +16,24 @@ import contextlib
 import logging
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import TypeVar, cast
 
 import numpy as np
 import pybullet as pb
 from numpy.typing import NDArray
 
-from player_server.sim.battery import Battery
 from player_server.sim.bodies import BodyIds, build_world
 from player_server.sim.devices import MODEL_CLASSES, DeviceModel
 from player_server.sim.devices.bumper import BumperModel
 from player_server.sim.devices.camera import CameraModel
-from player_server.sim.devices.gripper import GripperModel, Paddles
+from player_server.sim.devices.gripper import GripperModel
 from player_server.sim.devices.position2d import Position2dModel
 from player_server.sim.devices.power import PowerModel
-from player_server.sim.devices.ptz import PtzHead, PtzModel
+from player_server.sim.devices.ptz import PtzModel
 from player_server.sim.devices.ranging import RangeModel
+from player_server.sim.devices.state import RobotState
 from player_server.sim.devices.tracking import TrackingModel
+from player_server.sim.devices.world import Sensed
 from player_server.sim.drive import ramp, wrap_angle
 from player_server.sim.drive import yaw_of as _yaw_of
 from player_server.sim.readings import (
@@ -50,8 +50,9 @@ from player_server.sim.readings import (
 )
 from player_server.sim.sensing import SensingPass
 from player_server.sim.tick_arrays import TickArrays
+from player_server.sim.timings import Timings
 from player_server.sim.world_arrays import WorldArrays
-from worlds import RobotSpec, WorldSpec
+from worlds import BoxSpec, ObjectSpec, WorldSpec
 
 log = logging.getLogger(__name__)
 
@@ -64,46 +65,6 @@ _GRAVITY_MPS2 = 9.81
 
 def _quat_yaw(yaw: float) -> tuple[float, float, float, float]:
     return (0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0))
-
-
-@dataclass
-class _Robot:
-    """Mutable per-robot state owned by the Simulation."""
-
-    index: int
-    spec: RobotSpec
-    body: int
-    rng: np.random.Generator
-    x: float = 0.0
-    y: float = 0.0
-    yaw: float = 0.0
-    target_v: float = 0.0
-    target_w: float = 0.0
-    v: float = 0.0
-    w: float = 0.0
-    motors_on: bool = True
-    odom: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    odom_v: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    stall: bool = False
-    battery: Battery | None = None
-    gripper: Paddles | None = None
-    ptz: PtzHead | None = None
-    z0: float = 0.0  # body-centre height it glides at
-    z: float = 0.0
-
-
-@dataclass
-class Timings:
-    """Cumulative wall seconds spent per activity (for benchmarks), measured by the clock."""
-
-    physics_s: float = 0.0
-    ranges_s: float = 0.0
-    blobs_s: float = 0.0
-    battery_s: float = 0.0
-    other_s: float = 0.0
-
-    def as_dict(self) -> dict[str, float]:
-        return dict(self.__dict__)
 
 
 class Simulation:
@@ -126,7 +87,7 @@ class Simulation:
         self.substeps = spec.sim.physics_substeps
         self._clock = profile_clock
         self.timings = Timings()
-        self._client = pb.connect(pb.DIRECT)
+        self.physics_client = pb.connect(pb.DIRECT)
         self._closed = False
         self._robot_index = {r.name: i for i, r in enumerate(spec.robots)}
         # the device models (the registry's, in its order) and the sensing pass
@@ -142,8 +103,9 @@ class Simulation:
         # the models with per-tick state (after power, which the timings count apart)
         self._advanced_after_power = tuple(m for m in self.models
                                            if m.ticking and m is not self.power_model)
-        self.sensing = SensingPass(self, self.range_model, self.camera_model)
         self.tick_arrays = TickArrays(self)
+        self.sensing = SensingPass(self, self.range_model, self.camera_model,
+                                   self.tick_arrays, profile_clock, self.timings)
         self._build()
 
     def model(self, cls: type[M]) -> M:
@@ -152,7 +114,7 @@ class Simulation:
 
     # ---- lifecycle -------------------------------------------------------------------------
     def _build(self) -> None:
-        cid = self._client
+        cid = self.physics_client
         pb.resetSimulation(physicsClientId=cid)
         pb.setPhysicsEngineParameter(
             fixedTimeStep=self.interval_s / self.substeps,
@@ -160,62 +122,61 @@ class Simulation:
             deterministicOverlappingPairs=1,
             physicsClientId=cid,
         )
-        self._ids: BodyIds = build_world(self.spec, cid)
+        self.ids: BodyIds = build_world(self.spec, cid)
         self.tick = 0
         self.paused = False
         self._cache: dict[object, object] = {}
         self._cache_tick = -1
         self._poses: dict[str, BodyPose] = {}  # the last pose of each body (see `snapshot`)
         seeds = np.random.SeedSequence(self.seed).spawn(len(self.spec.robots) + 1)
-        self._noise_seed = int(seeds[-1].generate_state(1)[0])
-        self._robots: list[_Robot] = []
+        self.noise_seed = int(seeds[-1].generate_state(1)[0])
+        self.robots: list[RobotState] = []
         # robot name -> state, per device kind, for the robots with that device (filled on use)
-        self._has_device: dict[str, dict[str, _Robot]] = {}
+        self._has_device: dict[str, dict[str, RobotState]] = {}
         for i, r in enumerate(self.spec.robots):
-            st = _Robot(index=i, spec=r, body=self._ids.robots[r.name],
+            st = RobotState(index=i, spec=r, body=self.ids.robots[r.name],
                         rng=np.random.default_rng(seeds[i]))
             st.x, st.y, st.yaw = r.pose
             st.z0 = st.z = r.body.height_m / 2 + 0.001
             st.odom = (0.0, 0.0, 0.0)
-            self._robots.append(st)
-        self._drive_limits = _drive_limits(self._robots)
-        self._arrays = WorldArrays.from_spec(self.spec)
-        self._robot_offset = np.array([r.body.offset_x_m for r in self.spec.robots])
-        self._dyn_ids = ([self._ids.boxes[b.name] for b in self.spec.boxes]
-                         + [self._ids.objects[o.name] for o in self.spec.objects])
-        self._dyn_row = {n: i for i, n in enumerate(
+            self.robots.append(st)
+        self._drive_limits = _drive_limits(self.robots)
+        self.arrays = WorldArrays.from_spec(self.spec)
+        self.robot_offset = np.array([r.body.offset_x_m for r in self.spec.robots])
+        self.dyn_ids = ([self.ids.boxes[b.name] for b in self.spec.boxes]
+                         + [self.ids.objects[o.name] for o in self.spec.objects])
+        self.dyn_row = {n: i for i, n in enumerate(
             [b.name for b in self.spec.boxes] + [o.name for o in self.spec.objects])}
         self._dyn_kinds = ["box"] * len(self.spec.boxes) + ["object"] * len(self.spec.objects)
         self._obj_row = {o.name: i for i, o in enumerate(self.spec.objects)}
-        self._obj_visible = np.ones(len(self.spec.objects), dtype=bool)
+        self.obj_visible = np.ones(len(self.spec.objects), dtype=bool)
         self._blob_hidden = np.zeros(len(self.spec.objects), dtype=bool)
         self._marker_row = {m.name: i for i, m in enumerate(self.spec.markers)}
-        wa = self._arrays
+        wa = self.arrays
         # Footprint radii and tops: rectangles, then circles (all objects visible).
-        self._fp_radius = np.concatenate([wa.fp_rect_radius, wa.fp_circle_radius])
-        self._fp_top = np.concatenate([wa.fp_rect_top, wa.fp_circle_top])
-        self._target_hidden: np.ndarray | None = None
-        self._fixed_target_pos = np.array(
+        self.fp_radius = np.concatenate([wa.fp_rect_radius, wa.fp_circle_radius])
+        self.fp_top = np.concatenate([wa.fp_rect_top, wa.fp_circle_top])
+        self.target_hidden: np.ndarray | None = None
+        self.fixed_target_pos = np.array(
             [complex(m.x, m.y) for m in self.spec.markers]
             + [complex(c.x, c.y) for c in self.spec.chargers], dtype=np.complex128)
-        self._fixed_target_head = np.ones(len(self._fixed_target_pos), dtype=np.complex128)
+        self.fixed_target_head = np.ones(len(self.fixed_target_pos), dtype=np.complex128)
         self._body_kind: dict[str, tuple[str, int]] = {}
         for r in self.spec.robots:
-            self._body_kind[r.name] = ("robot", self._ids.robots[r.name])
+            self._body_kind[r.name] = ("robot", self.ids.robots[r.name])
         for b in self.spec.boxes:
-            self._body_kind[b.name] = ("box", self._ids.boxes[b.name])
+            self._body_kind[b.name] = ("box", self.ids.boxes[b.name])
         for o in self.spec.objects:
-            self._body_kind[o.name] = ("object", self._ids.objects[o.name])
+            self._body_kind[o.name] = ("object", self.ids.objects[o.name])
         for m in self.spec.markers:
-            self._body_kind[m.name] = ("marker", self._ids.markers[m.name])
-        self._hidden: set[str] = set()
-        self._held: set[str] = set()
+            self._body_kind[m.name] = ("marker", self.ids.markers[m.name])
+        self.hidden: set[str] = set()
+        self.held: set[str] = set()
         self._marker_pos = {m.name: (m.x, m.y, 0.0) for m in self.spec.markers}
         self._box_specs = list(self.spec.boxes)
         log.debug("built world %s: %d robots, %d boxes, %d objects, seed %d, %s fidelity",
-                  self.spec.name, len(self._robots), len(self.spec.boxes),
+                  self.spec.name, len(self.robots), len(self.spec.boxes),
                   len(self.spec.objects), self.seed, self.fidelity)
-        self._obj_specs = list(self.spec.objects)
         for model in self.models:
             model.build()
 
@@ -231,7 +192,7 @@ class Simulation:
             self._closed = True
             self.sensing.caster.close()
             with contextlib.suppress(pb.error):  # already gone
-                pb.disconnect(physicsClientId=self._client)
+                pb.disconnect(physicsClientId=self.physics_client)
 
     def __enter__(self) -> Simulation:
         return self
@@ -261,7 +222,7 @@ class Simulation:
         return self._clock() if self._clock is not None else 0.0
 
     def _step_once(self) -> None:
-        cid = self._client
+        cid = self.physics_client
         dt = self.interval_s
         t0 = self._now()
         sub_dt = dt / self.substeps
@@ -284,7 +245,7 @@ class Simulation:
         t1 = self._now()
         get_pose = pb.getBasePositionAndOrientation
         cos, sin = math.cos, math.sin
-        moves: list[tuple[_Robot, float, float, float]] = []
+        moves: list[tuple[RobotState, float, float, float]] = []
         add_move = moves.append
         for st, _, _, off in self._drive_limits:
             pos, q = get_pose(st.body, cid)
@@ -313,13 +274,13 @@ class Simulation:
     def body_names(self) -> tuple[str, ...]:
         return tuple(self._body_kind)
 
-    def _robot(self, name: str) -> _Robot:
+    def _robot(self, name: str) -> RobotState:
         try:
-            return self._robots[self._robot_index[name]]
+            return self.robots[self._robot_index[name]]
         except KeyError:
             raise KeyError(f"no robot named {name!r}") from None
 
-    def _device(self, name: str, device: str) -> _Robot:
+    def device(self, name: str, device: str) -> RobotState:
         try:
             return self._has_device[device][name]
         except KeyError:
@@ -334,7 +295,7 @@ class Simulation:
         """Ground-truth pose (x, y, yaw); for robots, of the drive-axle centre."""
         i = self._robot_index.get(name)
         if i is not None:
-            st = self._robots[i]
+            st = self.robots[i]
             return (st.x, st.y, st.yaw)
         if name not in self._body_kind:
             raise KeyError(f"no body named {name!r}")
@@ -350,7 +311,7 @@ class Simulation:
         if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(yaw)):
             raise ValueError(f"pose of {name!r} must be finite, got ({x}, {y}, {yaw})")
         kind, bid = self._body_kind[name]
-        cid = self._client
+        cid = self.physics_client
         if kind == "robot":
             st = self._robot(name)
             off = st.spec.body.offset_x_m
@@ -363,33 +324,44 @@ class Simulation:
             st.v = st.w = 0.0
         else:
             z = {"box": lambda: self._box_spec(name).size_z_m / 2,
-                 "object": lambda: self._obj_spec(name).height_m / 2,
+                 "object": lambda: self.object_spec(name).height_m / 2,
                  "marker": lambda: self._marker_spec_height(name) / 2}[kind]()
             pb.resetBasePositionAndOrientation(bid, (x, y, z), _quat_yaw(yaw),
                                                physicsClientId=cid)
             if kind == "marker":
                 self._marker_pos[name] = (x, y, wrap_angle(yaw))
-                self._fixed_target_pos[self._marker_row[name]] = complex(x, y)
+                self.fixed_target_pos[self._marker_row[name]] = complex(x, y)
             if kind == "object":
                 self.gripper_model.release_if_held(name)
-                self._unhide(name)
+                self.unhide_object(name)
         if kind != "marker":
             pb.resetBaseVelocity(bid, (0, 0, 0), (0, 0, 0), physicsClientId=cid)
-        self._invalidate()
+        self.invalidate()
 
-    def _box_spec(self, name: str):
+    def sensed_now(self) -> Sensed | None:
+        if self._cache_tick != self.tick:
+            return None
+        return self._cache.get(self.sensing.key)  # type: ignore[return-value]
+
+    def sense(self) -> Sensed:
+        return self.sensing.sensed()
+
+    def ptz_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return self.ptz_model.arrays()
+
+    def _box_spec(self, name: str) -> BoxSpec:
         return next(b for b in self.spec.boxes if b.name == name)
 
-    def _obj_spec(self, name: str):
+    def object_spec(self, name: str) -> ObjectSpec:
         return next(o for o in self.spec.objects if o.name == name)
 
     def _marker_spec_height(self, name: str) -> float:
         return next(m.height_m for m in self.spec.markers if m.name == name)
 
-    def _invalidate(self) -> None:
+    def invalidate(self) -> None:
         self._cache.clear()
 
-    def _cached(self, key: object, compute: Callable[[], object]) -> object:
+    def cached(self, key: object, compute: Callable[[], object]) -> object:
         if self._cache_tick != self.tick:
             self._cache.clear()
             self._cache_tick = self.tick
@@ -420,48 +392,40 @@ class Simulation:
         self.drive_model.set_odometry(robot, x, y, yaw)
 
     # ---- objects hidden, held or stored ------------------------------------------------
-    def _update_visibility(self) -> None:
+    def update_visibility(self) -> None:
         """Held and stored objects are not footprints for the 2-D caster; stored ones are not
         blob targets either."""
         for name, i in self._obj_row.items():
-            self._obj_visible[i] = name not in self._held and name not in self._hidden
+            self.obj_visible[i] = name not in self.held and name not in self.hidden
         self._blob_hidden = np.array(
-            [name in self._hidden for name in self._obj_row], dtype=bool)
+            [name in self.hidden for name in self._obj_row], dtype=bool)
         if self._blob_hidden.any():
-            mask = np.zeros(self._arrays.t_radius.size, dtype=bool)
-            start = self._arrays.n_robots + self._arrays.n_boxes
+            mask = np.zeros(self.arrays.t_radius.size, dtype=bool)
+            start = self.arrays.n_robots + self.arrays.n_boxes
             mask[start:start + self._blob_hidden.size] = self._blob_hidden
-            self._target_hidden = mask
+            self.target_hidden = mask
         else:
-            self._target_hidden = None
-        self._invalidate()
+            self.target_hidden = None
+        self.invalidate()
 
-    def _hide(self, name: str) -> None:
-        bid = self._ids.objects[name]
-        idx = sorted(self._ids.objects).index(name)
+    def hide_object(self, name: str) -> None:
+        bid = self.ids.objects[name]
+        idx = sorted(self.ids.objects).index(name)
         pb.resetBasePositionAndOrientation(bid, (idx * 1.0, 0.0, _HIDDEN_Z_M), (0, 0, 0, 1),
-                                           physicsClientId=self._client)
-        pb.resetBaseVelocity(bid, (0, 0, 0), (0, 0, 0), physicsClientId=self._client)
-        pb.changeDynamics(bid, -1, mass=0.0, physicsClientId=self._client)
-        self._hidden.add(name)
-        self._update_visibility()
+                                           physicsClientId=self.physics_client)
+        pb.resetBaseVelocity(bid, (0, 0, 0), (0, 0, 0), physicsClientId=self.physics_client)
+        pb.changeDynamics(bid, -1, mass=0.0, physicsClientId=self.physics_client)
+        self.hidden.add(name)
+        self.update_visibility()
 
-    def _unhide(self, name: str) -> None:
-        if name in self._hidden:
-            self._hidden.discard(name)
-            self._update_visibility()
-            pb.changeDynamics(self._ids.objects[name], -1, mass=self._obj_spec(name).mass_kg,
-                              physicsClientId=self._client)
+    def unhide_object(self, name: str) -> None:
+        if name in self.hidden:
+            self.hidden.discard(name)
+            self.update_visibility()
+            pb.changeDynamics(self.ids.objects[name], -1, mass=self.object_spec(name).mass_kg,
+                              physicsClientId=self.physics_client)
 
     # ---- devices: answered by their models ---------------------------------------------
-    @property
-    def _last_ranges(self) -> dict[tuple[int, str], np.ndarray]:
-        return self.range_model.last
-
-    @property
-    def _last_blobs(self) -> dict[int, tuple[Blob, ...]]:
-        return self.camera_model.last
-
     def sonar(self, robot: str) -> NDArray[np.float32]:
         """Sonar ranges (m), one per transducer, in the world file's transducer order."""
         return self.range_model.reading(robot, "sonar")
@@ -535,24 +499,24 @@ class Simulation:
                     bp = poses[name] = make(name, kind, x, y, yaw)
                 return bp
 
-            bodies = [pose(st.spec.name, "robot", st.x, st.y, st.yaw) for st in self._robots]
+            bodies = [pose(st.spec.name, "robot", st.x, st.y, st.yaw) for st in self.robots]
             kinds = self._dyn_kinds
-            hidden = self._hidden
+            hidden = self.hidden
             dynamic = self.tick_arrays.dynamic_poses().tolist()
-            for name, kind, (x, y, yaw) in zip(self._dyn_row, kinds, dynamic, strict=True):
+            for name, kind, (x, y, yaw) in zip(self.dyn_row, kinds, dynamic, strict=True):
                 if name not in hidden:
                     bodies.append(pose(name, kind, x, y, yaw))
             marker_pos = self._marker_pos
             bodies += [pose(m.name, "marker", *marker_pos[m.name]) for m in self.spec.markers]
             return SceneSnapshot(self.time_s, self.tick, tuple(bodies))
 
-        return self._cached("snapshot", compute)  # type: ignore[return-value]
+        return self.cached("snapshot", compute)  # type: ignore[return-value]
 
 
-_DriveLimits = list[tuple[_Robot, float | None, float, float]]
+_DriveLimits = list[tuple[RobotState, float | None, float, float]]
 
 
-def _drive_limits(robots: list[_Robot]) -> _DriveLimits:
+def _drive_limits(robots: list[RobotState]) -> _DriveLimits:
     """Per robot: its state, the drive's accelerations (None without a drive), axle offset."""
     out: _DriveLimits = []
     for st in robots:

@@ -7,7 +7,8 @@ until the next tick; the sensing pass and the device models read them from here.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 import pybullet as pb
@@ -19,11 +20,31 @@ from player_server.sim.fastsense import Frame
 from player_server.sim.footprint_cast import Footprints
 
 if TYPE_CHECKING:
-    from player_server.sim.simulation import Simulation
+    from player_server.sim.devices.state import RobotState
+    from player_server.sim.world_arrays import WorldArrays
+
+
+class TickWorld(Protocol):
+    """What the per-tick arrays are read from (the Simulation implements it)."""
+
+    physics_client: int
+    robots: list[RobotState]
+    arrays: WorldArrays
+    robot_offset: NDArray[np.float64]
+    dyn_ids: list[int]
+    """PyBullet ids of the boxes, then the objects (the rows of `dynamic`)."""
+    dyn_row: dict[str, int]
+    obj_visible: NDArray[np.bool_]
+    fp_radius: NDArray[np.float64]
+    fp_top: NDArray[np.float64]
+    fixed_target_pos: NDArray[np.complex128]
+    fixed_target_head: NDArray[np.complex128]
+
+    def cached(self, key: object, compute: Callable[[], object]) -> object: ...
 
 
 class TickArrays:
-    def __init__(self, world: Simulation) -> None:
+    def __init__(self, world: TickWorld) -> None:
         self.world = world
 
     def dynamic_poses(self) -> NDArray[np.float64]:
@@ -38,10 +59,10 @@ class TickArrays:
 
         def compute() -> tuple[NDArray[np.float64], NDArray[np.complex128],
                                NDArray[np.complex128]]:
-            cid = w._client
+            cid = w.physics_client
             get = pb.getBasePositionAndOrientation
             rows, pos, head = [], [], []
-            for bid in w._dyn_ids:
+            for bid in w.dyn_ids:
                 p, q = get(bid, physicsClientId=cid)
                 yaw = _yaw_of(q)
                 rows.append((p[0], p[1], yaw))
@@ -50,11 +71,11 @@ class TickArrays:
             return (np.array(rows, dtype=np.float64).reshape(-1, 3),
                     np.array(pos, dtype=np.complex128), np.array(head, dtype=np.complex128))
 
-        return w._cached("dynamic", compute)  # type: ignore[return-value]
+        return w.cached("dynamic", compute)  # type: ignore[return-value]
 
     def dyn_pose(self, name: str) -> tuple[float, float, float]:
         w = self.world
-        x, y, yaw = self.dynamic_poses()[w._dyn_row[name]].tolist()
+        x, y, yaw = self.dynamic_poses()[w.dyn_row[name]].tolist()
         return (x, y, yaw)
 
     def footprints(self) -> Footprints:
@@ -63,17 +84,17 @@ class TickArrays:
         w = self.world
 
         def compute() -> Footprints:
-            wa = w._arrays
+            wa = w.arrays
             frame = self.frame()
             _, pos, head = self.dynamic()
             nb = wa.n_boxes
-            vis = w._obj_visible
+            vis = w.obj_visible
             if vis.all():
-                circles, c_radius, c_top = pos[nb:], w._fp_radius, w._fp_top
+                circles, c_radius, c_top = pos[nb:], w.fp_radius, w.fp_top
             else:
                 keep = np.concatenate([np.ones(wa.static_circle_centre.size, dtype=bool), vis])
                 circles = pos[nb:][vis]
-                c_radius, c_top = w._fp_radius[keep], w._fp_top[keep]
+                c_radius, c_top = w.fp_radius[keep], w.fp_top[keep]
             return Footprints(
                 centre=np.concatenate([wa.static_rect_centre, frame.body, pos[:nb],
                                        wa.static_circle_centre, circles]),
@@ -84,12 +105,12 @@ class TickArrays:
                 top=c_top,
             )
 
-        return w._cached("footprints", compute)  # type: ignore[return-value]
+        return w.cached("footprints", compute)  # type: ignore[return-value]
 
     def frame(self) -> Frame:
         w = self.world
         def compute() -> Frame:
-            robots = w._robots
+            robots = w.robots
             n = len(robots)
             x = np.array([st.x for st in robots], dtype=np.float64)
             y = np.array([st.y for st in robots], dtype=np.float64)
@@ -102,26 +123,26 @@ class TickArrays:
             head = np.empty(n, dtype=np.complex128)
             head.real, head.imag = c, s
             # the body centre, the axle centre plus the heading times the offset
-            off = w._robot_offset
+            off = w.robot_offset
             body = np.empty(n, dtype=np.complex128)
             body.real, body.imag = x + c * off, y + s * off
             return Frame(pos, head, np.array(yaw_list, dtype=np.float64), body)
 
-        return w._cached("frame", compute)  # type: ignore[return-value]
+        return w.cached("frame", compute)  # type: ignore[return-value]
 
     def robots_near(self, x: float, y: float, reach: float) -> list[int]:
         """Indices (increasing) of the robots whose axle centre may lie within ``reach`` of
         (x, y) on each axis: a superset, from this tick's grid of the robots."""
         w = self.world
-        if len(w._robots) < grid_index.FEW:
-            return list(range(len(w._robots)))
+        if len(w.robots) < grid_index.FEW:
+            return list(range(len(w.robots)))
 
         def compute() -> grid_index.Grid:
             pos = self.frame().pos
             return grid_index.build(pos.real.copy(), pos.imag.copy(), np.zeros(pos.size),
                                     _room_bounds(w))
 
-        grid = w._cached("robot_grid", compute)
+        grid = w.cached("robot_grid", compute)
         assert isinstance(grid, grid_index.Grid)
         return grid.near(x, y, reach).tolist()
 
@@ -129,26 +150,26 @@ class TickArrays:
         """Rows (increasing, in world-file order) of the objects whose centre may lie within
         ``reach`` of (x, y) on each axis: a superset, from this tick's grid of the objects."""
         w = self.world
-        if w._arrays.n_objects < grid_index.FEW:
-            return list(range(w._arrays.n_objects))
+        if w.arrays.n_objects < grid_index.FEW:
+            return list(range(w.arrays.n_objects))
 
         def compute() -> grid_index.Grid:
-            pos = self.dynamic()[1][w._arrays.n_boxes:]
+            pos = self.dynamic()[1][w.arrays.n_boxes:]
             return grid_index.build(pos.real.copy(), pos.imag.copy(), np.zeros(pos.size),
                                     _room_bounds(w))
 
-        grid = w._cached("object_grid", compute)
+        grid = w.cached("object_grid", compute)
         assert isinstance(grid, grid_index.Grid)
         return grid.near(x, y, reach).tolist()
 
     def target_poses(self, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
         w = self.world
         _, pos, head = self.dynamic()
-        t_pos = np.concatenate([frame.body, pos, w._fixed_target_pos])
-        t_head = np.concatenate([frame.head, head, w._fixed_target_head])
+        t_pos = np.concatenate([frame.body, pos, w.fixed_target_pos])
+        t_head = np.concatenate([frame.head, head, w.fixed_target_head])
         return t_pos, t_head
 
 
-def _room_bounds(w: Simulation) -> tuple[float, float, float, float]:
-    room = w._arrays.room
+def _room_bounds(w: TickWorld) -> tuple[float, float, float, float]:
+    room = w.arrays.room
     return (-room.half_x, -room.half_y, room.half_x, room.half_y)

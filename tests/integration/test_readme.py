@@ -1,6 +1,7 @@
-"""The README's commands work as written.
+"""The commands of the README and of the docs work as written.
 
-Every fenced ``sh`` block of README.md runs, in order, in a scratch directory holding the
+Every fenced ``sh`` block of README.md and of each page of docs/ runs, in order (each file in
+its own scratch directory, its blocks one after the other), in a directory holding the
 checkout's ``.venv`` (activated by the block's own ``source .venv/bin/activate`` or, for the
 blocks after it, by the environment) and ``worlds``. An HTML comment just before a block
 adjusts it for the test: ``<!-- readme-test: skip (why) -->`` leaves it out;
@@ -24,6 +25,7 @@ free_ports = load_sibling(__file__, "free_ports.py")
 
 REPO = Path(__file__).resolve().parents[2]
 README = REPO / "README.md"
+PAGES = [README, *sorted((REPO / "docs").glob("*.md"))]
 
 pytestmark = pytest.mark.timeout(900)
 
@@ -91,10 +93,17 @@ def test_directives_are_parsed() -> None:
     assert blocks[1].script() == "murdoch run x --until 1m\n"
 
 
-def test_every_readme_command_block_runs(tmp_path: Path) -> None:
+def test_the_pages_hold_runnable_blocks() -> None:
+    blocks = [b for page in PAGES for b in sh_blocks(page.read_text(encoding="utf-8"))]
+    assert len([b for b in blocks if b.skip is None]) >= 8
+
+
+@pytest.mark.parametrize("page", PAGES, ids=[p.relative_to(REPO).as_posix() for p in PAGES])
+def test_every_command_block_runs(page: Path, tmp_path: Path) -> None:
     venv = Path(sys.executable).parent.parent
-    blocks = sh_blocks(README.read_text(encoding="utf-8"))
-    assert len([b for b in blocks if b.skip is None]) >= 6
+    blocks = sh_blocks(page.read_text(encoding="utf-8"))
+    if not any(b.skip is None for b in blocks):
+        pytest.skip(f"{page.name} has no command block to run")
     work = tmp_path / "clone"
     work.mkdir()
     (work / ".venv").symlink_to(venv)
@@ -111,6 +120,6 @@ def test_every_readme_command_block_runs(tmp_path: Path) -> None:
         proc = subprocess.run(["bash", "-c", script], cwd=work, env=env, capture_output=True,
                               text=True, timeout=600, stdin=subprocess.DEVNULL)
         assert proc.returncode == 0, (
-            f"README block at line {block.line} failed ({proc.returncode}):\n{script}\n"
+            f"{page.name} block at line {block.line} failed ({proc.returncode}):\n{script}\n"
             f"--- stdout\n{proc.stdout[-3000:]}\n--- stderr\n{proc.stderr[-3000:]}")
         assert "Traceback" not in proc.stderr, proc.stderr[-3000:]

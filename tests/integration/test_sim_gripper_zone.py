@@ -19,13 +19,13 @@ from worlds.loader import parse_world
 def _reference(sim: Simulation, robot: str) -> str | None:
     """Every object tested one by one: nearest to the paddles' line wins, the first in
     world-file order among equals."""
-    st = sim._device(robot, "gripper")
+    st = sim.device(robot, "gripper")
     g = st.spec.devices.gripper
     assert g is not None
     c, s = math.cos(st.yaw), math.sin(st.yaw)
     best, best_d = None, math.inf
     for o in sim.spec.objects:
-        if o.name in sim._hidden or o.name in sim._held or o.radius_m > g.max_object_radius_m:
+        if o.name in sim.hidden or o.name in sim.held or o.radius_m > g.max_object_radius_m:
             continue
         x, y, _ = sim.get_pose(o.name)
         wx, wy = x - st.x, y - st.y
@@ -64,7 +64,7 @@ def test_the_zone_is_the_nearest_object_between_the_paddles(objects: int) -> Non
             sim.step()
             for robot in grippers:
                 want = _reference(sim, robot)
-                got = model._grip_zone(sim._device(robot, "gripper"))
+                got = model._grip_zone(sim.device(robot, "gripper"))
                 assert got == want, (robot, round_)
                 hits += want is not None
                 checked += 1

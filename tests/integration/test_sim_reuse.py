@@ -93,8 +93,8 @@ def test_unchanged_readings_are_the_same_objects_and_equal_fresh_ones() -> None:
                 for n in names:
                     s.set_velocity(n, 0.4 if n == moving else 0.0, 0.3 if n == moving else 0.0)
                 s.step()
-            twin._last_ranges.clear()  # the twin computes every reading afresh
-            twin._last_blobs.clear()
+            twin.range_model.last.clear()  # the twin computes every reading afresh
+            twin.camera_model.last.clear()
             for n in ranged:
                 got, want = sim.sonar(n), twin.sonar(n)
                 assert np.array_equal(got, want) and got.dtype == want.dtype

@@ -25,8 +25,8 @@ def test_longterm_hour_stays_sane() -> None:
             if i % 50 == 0:
                 for r in spec.robots:
                     # Robots glide at their height: contacts do not lift them for long.
-                    z = pb.getBasePositionAndOrientation(sim._ids.robots[r.name],
-                                                         physicsClientId=sim._client)[0][2]
+                    z = pb.getBasePositionAndOrientation(sim.ids.robots[r.name],
+                                                         physicsClientId=sim.physics_client)[0][2]
                     worst_z = max(worst_z, abs(z - (r.body.height_m / 2 + 0.001)))
         assert worst_z < 0.05
         hx, hy = spec.arena.half_x_m, spec.arena.half_y_m

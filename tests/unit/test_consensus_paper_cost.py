@@ -26,6 +26,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from sibling import load_sibling
 
+from murdoch.consensus.allocation_result import dense_message_size
 from murdoch.consensus.cbga import CbgaAgent, CbgaOptions
 from murdoch.consensus.exact import solve_exact
 from murdoch.consensus.experiments import EXPERIMENTS, TaskSpec, make_scenario, run_seed
@@ -41,7 +42,7 @@ from murdoch.consensus.scenario import (
 )
 from murdoch.consensus.scoring import Problem, build_problem, path_starts, task_scores
 from murdoch.consensus.small_problems import SHAPES, small_problem
-from murdoch.consensus.sync_runner import SyncRunner, allocate, dense_message_size
+from murdoch.consensus.sync_runner import SyncRunner, allocate
 from murdoch.consensus_cli import allocate as allocate_command
 from murdoch.consensus_cli import sweep as sweep_command
 

@@ -2,8 +2,8 @@
 
 A model holds the state of its kind of device for every robot that has one, advances it as
 the world steps and computes its readings on request (cached by the world until the next
-tick). It reads the world (`player_server.sim.simulation.Simulation`: bodies, poses, the
-clock, the per-tick arrays) and never the other way round: the world only builds, advances
+tick). It reads the world through `world.DeviceWorld` (the robots' state, poses, the
+clock, the per-tick cache) and never the other way round: the world only builds, advances
 and asks its models. Models of sensors that depend on the fidelity compute their readings in
 both: ``fast`` (2-D ray casts and projected blobs, numba) and ``render`` (PyBullet rays and
 rendered images).
@@ -14,7 +14,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, ClassVar, Protocol
 
 if TYPE_CHECKING:
-    from player_server.sim.simulation import Simulation
+    from player_server.sim.devices.world import DeviceWorld
 
 
 class DeviceModel(Protocol):
@@ -23,7 +23,7 @@ class DeviceModel(Protocol):
     ticking: ClassVar[bool]
     """Whether it keeps state that `advance` moves on each tick (the world skips the others)."""
 
-    def __init__(self, world: Simulation) -> None: ...
+    def __init__(self, world: DeviceWorld) -> None: ...
 
     def build(self) -> None:
         """The world was built (or rebuilt at tick 0): fresh state for every robot with the
@@ -42,7 +42,7 @@ class StatelessModel:
     kinds: ClassVar[tuple[str, ...]] = ()
     ticking: ClassVar[bool] = False
 
-    def __init__(self, world: Simulation) -> None:
+    def __init__(self, world: DeviceWorld) -> None:
         self.world = world
 
     def build(self) -> None:

@@ -3,15 +3,12 @@
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, ClassVar
+from typing import ClassVar
 
 import pybullet as pb
 
 from player_server.sim.devices.base import StatelessModel
 from player_server.sim.grid_index import FEW
-
-if TYPE_CHECKING:
-    pass
 
 
 class BumperModel(StatelessModel):
@@ -19,15 +16,15 @@ class BumperModel(StatelessModel):
 
     def bumpers(self, robot: str) -> tuple[bool, ...]:
         w = self.world
-        st = w._device(robot, "bumper")
+        st = w.device(robot, "bumper")
 
         def compute() -> tuple[bool, ...]:
             spec = st.spec.devices.bumper
             assert spec is not None
             body = st.spec.body
-            if len(w._robots) < FEW:  # a few robots: ask for this body's contacts only
+            if len(w.robots) < FEW:  # a few robots: ask for this body's contacts only
                 contacts = [(cp[2], (cp[5][0], cp[5][1])) for cp in pb.getContactPoints(
-                    bodyA=st.body, physicsClientId=w._client)]
+                    bodyA=st.body, physicsClientId=w.physics_client)]
             else:
                 contacts = self._touching().get(st.body, [])
             c, s = math.cos(st.yaw), math.sin(st.yaw)
@@ -36,7 +33,7 @@ class BumperModel(StatelessModel):
             spans: dict[tuple[int, bool], list[float]] = {}
             reach = 0.6 * body.length_m / 2
             for other, (px, py) in contacts:
-                if other == w._ids.floor or other == st.body:
+                if other == w.ids.floor or other == st.body:
                     continue
                 wx, wy = px - st.x, py - st.y
                 lx, ly = c * wx + s * wy - body.offset_x_m, -s * wx + c * wy
@@ -54,7 +51,7 @@ class BumperModel(StatelessModel):
                         pressed[i] = True
             return tuple(pressed)
 
-        return w._cached(("bumpers", st.index), compute)  # type: ignore[return-value]
+        return w.cached(("bumpers", st.index), compute)  # type: ignore[return-value]
 
     def _touching(self) -> dict[int, list[tuple[int, tuple[float, float]]]]:
         """This tick's contact points by body: (the other body, the point on this body's
@@ -64,11 +61,11 @@ class BumperModel(StatelessModel):
 
         def compute() -> dict[int, list[tuple[int, tuple[float, float]]]]:
             by_body: dict[int, list[tuple[int, tuple[float, float]]]] = {}
-            for cp in pb.getContactPoints(physicsClientId=w._client):
+            for cp in pb.getContactPoints(physicsClientId=w.physics_client):
                 a, b = cp[1], cp[2]
                 by_body.setdefault(a, []).append((b, (cp[5][0], cp[5][1])))
                 if b != a:
                     by_body.setdefault(b, []).append((a, (cp[6][0], cp[6][1])))
             return by_body
 
-        return w._cached("contacts", compute)  # type: ignore[return-value]
+        return w.cached("contacts", compute)  # type: ignore[return-value]

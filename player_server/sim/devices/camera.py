@@ -22,13 +22,13 @@ from player_server.sim.fastsense import BlobPlan, BlobRow, Frame, make_blobs
 from player_server.sim.readings import Blob
 
 if TYPE_CHECKING:
-    from player_server.sim.simulation import Simulation
+    from player_server.sim.devices.world import DeviceWorld
 
 
 class CameraModel(StatelessModel):
     kinds: ClassVar[tuple[str, ...]] = ("camera", "blobfinder")
 
-    def __init__(self, world: Simulation) -> None:
+    def __init__(self, world: DeviceWorld) -> None:
         self.world = world
         self.active: set[int] = set()
 
@@ -39,34 +39,33 @@ class CameraModel(StatelessModel):
 
     def blobs(self, robot: str) -> tuple[Blob, ...]:
         w = self.world
-        st = w._device(robot, "blobfinder")
-        if w._cache_tick == w.tick:
-            done = w._cache.get(w.sensing.key)
-            if done is not None and st.index in done["blobs"]:  # type: ignore[index]
-                return done["blobs"][st.index]  # type: ignore[index]
+        st = w.device(robot, "blobfinder")
+        done = w.sensed_now()
+        if done is not None and st.index in done["blobs"]:
+            return done["blobs"][st.index]
         self.active.add(st.index)
-        return w.sensing.sensed()["blobs"][st.index]
+        return w.sense()["blobs"][st.index]
 
     def camera_image(self, robot: str) -> NDArray[np.uint8]:
         w = self.world
-        st = w._device(robot, "camera")
+        st = w.device(robot, "camera")
 
         def compute() -> NDArray[np.uint8]:
             img, _ = self.render_camera(self.cameras([st.index]).pose(0))
             img.setflags(write=False)
             return img
 
-        return w._cached(("image", st.index), compute)  # type: ignore[return-value]
+        return w.cached(("image", st.index), compute)  # type: ignore[return-value]
 
     def cameras(self, idx: list[int]) -> blobmod.Cameras:
         w = self.world
         frame = w.tick_arrays.frame()
         ii = np.array(idx, dtype=np.int64)
-        ptz = [w._robots[i].ptz for i in idx]
+        ptz = [w.robots[i].ptz for i in idx]
         pan = np.array([p.pan if p is not None else 0.0 for p in ptz])
         tilt = np.array([p.tilt if p is not None else 0.0 for p in ptz])
         zoom = np.array([p.zoom if p is not None else 0.0 for p in ptz])
-        return w._arrays.cameras(ii, frame.pos.real[ii], frame.pos.imag[ii], frame.yaw[ii],
+        return w.arrays.cameras(ii, frame.pos.real[ii], frame.pos.imag[ii], frame.yaw[ii],
                                  pan, tilt, zoom)
 
     # -- fast
@@ -76,17 +75,17 @@ class CameraModel(StatelessModel):
         cam_key = tuple(cams)
         bplan = self.plans.get(cam_key)
         if bplan is None:
-            bplan = self.plans[cam_key] = BlobPlan.build(cam_key, w._arrays)
+            bplan = self.plans[cam_key] = BlobPlan.build(cam_key, w.arrays)
         t_pos, t_head = w.tick_arrays.target_poses(frame)
-        pan, _, zoom = w.ptz_model.arrays()
-        return bplan, bplan.pending(frame, t_pos, t_head, pan, zoom, w._target_hidden)
+        pan, _, zoom = w.ptz_arrays()
+        return bplan, bplan.pending(frame, t_pos, t_head, pan, zoom, w.target_hidden)
 
     def fast_blobs(self, cams: list[int], bplan: BlobPlan, pending: Any,
                    visible: np.ndarray) -> dict[int, tuple[Blob, ...]]:
         """Each camera's blobs; a camera that sees exactly what it saw at the last tick gets
         the same tuple back (its Blobs are not made again, and readers can tell it by
         identity)."""
-        pan, tilt, zoom = self.world.ptz_model.arrays()
+        pan, tilt, zoom = self.world.ptz_arrays()
         last_blobs = self.last
         last_rows = self.last_rows
         seen: dict[int, tuple[Blob, ...]] = {}
@@ -116,7 +115,7 @@ class CameraModel(StatelessModel):
     def render_camera(
         self, cam: blobmod.CameraPose
     ) -> tuple[NDArray[np.uint8], NDArray[np.float64]]:
-        cid = self.world._client
+        cid = self.world.physics_client
         near, far = 0.05, max(cam.max_range, 1.0)
         ct, st_ = math.cos(cam.tilt), math.sin(cam.tilt)
         eye = [cam.x, cam.y, cam.z]

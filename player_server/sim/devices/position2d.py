@@ -17,7 +17,7 @@ from player_server.sim.readings import Odometry, fast_constructor
 _make_odometry = fast_constructor(Odometry)
 
 if TYPE_CHECKING:
-    from player_server.sim.simulation import _Robot
+    from player_server.sim.devices.state import RobotState
 
 
 class Position2dModel(StatelessModel):
@@ -25,12 +25,12 @@ class Position2dModel(StatelessModel):
 
     kinds: ClassVar[tuple[str, ...]] = ("position2d",)
 
-    def advance_odometry(self, st: _Robot, x: float, y: float, yaw: float, dt: float) -> None:
+    def advance_odometry(self, st: RobotState, x: float, y: float, yaw: float, dt: float) -> None:
         """Odometry (with its noise), its velocity and the stall flag from the robot's true
         motion over the tick that ended at (x, y, yaw)."""
         self.advance_all([(st, x, y, yaw)], dt)
 
-    def advance_all(self, moves: list[tuple[_Robot, float, float, float]], dt: float) -> None:
+    def advance_all(self, moves: list[tuple[RobotState, float, float, float]], dt: float) -> None:
         """`advance_odometry` for each (robot, x, y, yaw), in order (`drive.to_robot_frame`
         and `drive.integrate` written out: this runs for every robot every tick)."""
         cos, sin, atan2, hypot = math.cos, math.sin, math.atan2, math.hypot
@@ -59,7 +59,7 @@ class Position2dModel(StatelessModel):
 
     def set_velocity(self, robot: str, vx_mps: float, vyaw_radps: float) -> None:
         """Command forward and turn speed; clamped to the drive's limits."""
-        st = self.world._device(robot, "position2d")
+        st = self.world.device(robot, "position2d")
         p2d = st.spec.devices.position2d
         assert p2d is not None
         if not (math.isfinite(vx_mps) and math.isfinite(vyaw_radps)):
@@ -69,25 +69,25 @@ class Position2dModel(StatelessModel):
                                                        float(vyaw_radps)))
 
     def set_motor_power(self, robot: str, on: bool) -> None:
-        self.world._device(robot, "position2d").motors_on = bool(on)
+        self.world.device(robot, "position2d").motors_on = bool(on)
 
     def motor_power(self, robot: str) -> bool:
-        return self.world._device(robot, "position2d").motors_on
+        return self.world.device(robot, "position2d").motors_on
 
     def drive_command(self, robot: str) -> tuple[float, float]:
         """The forward and turn speed the drive is steering towards now: the commanded
         velocity, or zero while the motors are off or the battery is flat."""
-        st = self.world._device(robot, "position2d")
+        st = self.world.device(robot, "position2d")
         if not st.motors_on or (st.battery is not None and st.battery.flat):
             return 0.0, 0.0
         return st.target_v, st.target_w
 
     def odometry(self, robot: str) -> Odometry:
-        st = self.world._device(robot, "position2d")
+        st = self.world.device(robot, "position2d")
         x, y, yaw = st.odom
         vx, vy, vyaw = st.odom_v
         return _make_odometry(x, y, yaw, vx, vy, vyaw, st.stall)
 
     def set_odometry(self, robot: str, x: float, y: float, yaw: float) -> None:
-        st = self.world._device(robot, "position2d")
+        st = self.world.device(robot, "position2d")
         st.odom = (float(x), float(y), wrap_angle(float(yaw)))

@@ -8,19 +8,19 @@ from player_server.sim.battery import Battery
 from player_server.sim.readings import PowerState
 
 if TYPE_CHECKING:
-    from player_server.sim.simulation import Simulation
+    from player_server.sim.devices.world import DeviceWorld
 
 
 class PowerModel:
     kinds: ClassVar[tuple[str, ...]] = ("power",)
     ticking: ClassVar[bool] = True
 
-    def __init__(self, world: Simulation) -> None:
+    def __init__(self, world: DeviceWorld) -> None:
         self.world = world
-        self.chargers_off: set[str] = set()  # kept across rebuilds; `Simulation.reset` clears it
+        self.chargers_off: set[str] = set()  # kept across rebuilds; the world's `reset` clears it
 
     def build(self) -> None:
-        for st in self.world._robots:
+        for st in self.world.robots:
             spec = st.spec.devices.power
             if spec is not None:
                 st.battery = Battery.full_as_specified(spec)
@@ -30,7 +30,7 @@ class PowerModel:
         # rate
         pads = [(c.x, c.y, c.radius_m ** 2, c.rate_w) for c in self.world.spec.chargers
                 if c.name not in self.chargers_off]
-        for st in self.world._robots:
+        for st in self.world.robots:
             b = st.battery
             if b is None:
                 continue
@@ -47,12 +47,12 @@ class PowerModel:
             b.update(dt, b.draw_w(frac), charge)
 
     def power(self, robot: str) -> PowerState:
-        st = self.world._device(robot, "power")
+        st = self.world.device(robot, "power")
         assert st.battery is not None
         return st.battery.reading()
 
     def set_battery(self, robot: str, fraction: float) -> None:
-        st = self.world._device(robot, "power")
+        st = self.world.device(robot, "power")
         assert st.battery is not None
         if not 0.0 <= fraction <= 1.0:
             raise ValueError("fraction must be within [0, 1]")

@@ -3,54 +3,43 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
+from player_server.sim.devices.state import PtzHead
 from player_server.sim.drive import ramp
 from player_server.sim.readings import PtzState, fast_constructor
 
 _make_ptz_state = fast_constructor(PtzState)
 
 if TYPE_CHECKING:
-    from player_server.sim.simulation import Simulation, _Robot
-
-
-@dataclass
-class PtzHead:
-    pan: float = 0.0
-    tilt: float = 0.0
-    zoom: float = 0.0
-    pan_target: float = 0.0
-    tilt_target: float = 0.0
-    zoom_target: float = 0.0
-    pan_speed: float = 0.0
-    tilt_speed: float = 0.0
+    from player_server.sim.devices.state import RobotState
+    from player_server.sim.devices.world import DeviceWorld
 
 
 class PtzModel:
     kinds: ClassVar[tuple[str, ...]] = ("ptz",)
     ticking: ClassVar[bool] = True
 
-    def __init__(self, world: Simulation) -> None:
+    def __init__(self, world: DeviceWorld) -> None:
         self.world = world
         self.any = False
 
     def build(self) -> None:
-        for st in self.world._robots:
+        for st in self.world.robots:
             d = st.spec.devices
             if d.ptz is not None and d.camera is not None:
                 st.ptz = PtzHead(zoom=d.camera.fov_h_rad, zoom_target=d.camera.fov_h_rad)
-        self.any = any(st.ptz is not None for st in self.world._robots)
-        self._zeros = np.zeros(len(self.world._robots))
+        self.any = any(st.ptz is not None for st in self.world.robots)
+        self._zeros = np.zeros(len(self.world.robots))
 
     def advance(self, dt: float) -> None:
-        for st in self.world._robots:
+        for st in self.world.robots:
             if st.ptz is not None:
                 self._advance_ptz(st, dt)
 
-    def _advance_ptz(self, st: _Robot, dt: float) -> None:
+    def _advance_ptz(self, st: RobotState, dt: float) -> None:
         spec = st.spec.devices.ptz
         p = st.ptz
         assert spec is not None and p is not None
@@ -61,13 +50,13 @@ class PtzModel:
         p.zoom = ramp(p.zoom, p.zoom_target, spec.zoom_speed_radps * dt)
 
     def ptz(self, robot: str) -> PtzState:
-        st = self.world._device(robot, "ptz")
+        st = self.world.device(robot, "ptz")
         p = st.ptz
         assert p is not None
         return _make_ptz_state(p.pan, p.tilt, p.zoom, p.pan_speed, p.tilt_speed)
 
     def ptz_command(self, robot: str, pan: float, tilt: float, zoom: float) -> None:
-        st = self.world._device(robot, "ptz")
+        st = self.world.device(robot, "ptz")
         spec = st.spec.devices.ptz
         p = st.ptz
         assert spec is not None and p is not None
@@ -80,7 +69,7 @@ class PtzModel:
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Every robot's pan, tilt and zoom (zeros without a head), by robot index."""
-        robots = self.world._robots
+        robots = self.world.robots
         n = len(robots)
         if not self.any:
             z = self._zeros

@@ -18,7 +18,7 @@ from player_server.sim.devices.base import StatelessModel
 from player_server.sim.fastsense import Frame, RangePlan
 
 if TYPE_CHECKING:
-    from player_server.sim.simulation import Simulation
+    from player_server.sim.devices.world import DeviceWorld
 
 RangeKey = tuple[int, str]
 """(robot index, device kind)"""
@@ -27,7 +27,7 @@ RangeKey = tuple[int, str]
 class RangeModel(StatelessModel):
     kinds: ClassVar[tuple[str, ...]] = ("sonar", "laser", "ranger")
 
-    def __init__(self, world: Simulation) -> None:
+    def __init__(self, world: DeviceWorld) -> None:
         self.world = world
         self.active: set[RangeKey] = set()
 
@@ -39,14 +39,13 @@ class RangeModel(StatelessModel):
 
     def reading(self, robot: str, kind: str) -> np.ndarray:
         w = self.world
-        st = w._device(robot, kind)
+        st = w.device(robot, kind)
         key = (st.index, kind)
-        if w._cache_tick == w.tick:
-            done = w._cache.get(w.sensing.key)
-            if done is not None and key in done["ranges"]:  # type: ignore[index]
-                return done["ranges"][key]  # type: ignore[index]
+        done = w.sensed_now()
+        if done is not None and key in done["ranges"]:
+            return done["ranges"][key]
         self.active.add(key)
-        return w.sensing.sensed()["ranges"][key]
+        return w.sense()["ranges"][key]
 
     def sonar(self, robot: str) -> NDArray[np.float32]:
         return self.reading(robot, "sonar")
@@ -61,7 +60,7 @@ class RangeModel(StatelessModel):
         plan = self.plans.get(keys)
         if plan is None:
             plan = self.plans[keys] = RangePlan.build(keys, self.world.spec.robots,
-                                                       self.world._arrays)
+                                                       self.world.arrays)
         return plan
 
     # -- fast
@@ -115,9 +114,9 @@ class RangeModel(StatelessModel):
         w = self.world
         r = plan.robot
         head = frame.head[r]
-        body = frame.pos[r] + head * w._robot_offset[r]
-        half_l = w._arrays.rect_half_x[r]
-        half_w = w._arrays.rect_half_y[r]
+        body = frame.pos[r] + head * w.robot_offset[r]
+        half_l = w.arrays.rect_half_x[r]
+        half_w = w.arrays.rect_half_y[r]
         # Ray origin and direction in the body frame; slab exit distance of the body box.
         p = (o - body) * head.conjugate()
         q = d * head.conjugate()
@@ -134,7 +133,7 @@ class RangeModel(StatelessModel):
         to = np.stack([ox + dx * max_r, oy + dy * max_r, z], axis=1).tolist()
         out = np.array(max_r, copy=True)
         batch = 16000
-        cid = w._client
+        cid = w.physics_client
         for i in range(0, len(frm), batch):
             res = pb.rayTestBatch(frm[i:i + batch], to[i:i + batch], physicsClientId=cid)
             for j, hit in enumerate(res):

@@ -3,16 +3,13 @@
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
 from player_server.sim.devices.base import StatelessModel
 from player_server.sim.drive import wrap_angle
 from player_server.sim.readings import BodyPose, Fiducial, TrackedObject, fast_constructor
-
-if TYPE_CHECKING:
-    pass
 
 _make_tracked = fast_constructor(TrackedObject)
 
@@ -28,7 +25,7 @@ class TrackingModel(StatelessModel):
 
     def fiducials(self, robot: str) -> tuple[Fiducial, ...]:
         w = self.world
-        st = w._device(robot, "fiducial")
+        st = w.device(robot, "fiducial")
         spec = st.spec.devices.fiducial
         assert spec is not None
 
@@ -40,15 +37,15 @@ class TrackingModel(StatelessModel):
             things: list[tuple[int, float, float, float]] = []
             # only the robots and objects listed near the detector in this tick's grids
             reach = spec.max_range_m + 1e-6
-            robots = w._robots
+            robots = w.robots
             for i in w.tick_arrays.robots_near(sx, sy, reach):
                 other = robots[i]
                 if other is not st and other.spec.fiducial_id > 0:
                     things.append((other.spec.fiducial_id, other.x, other.y, other.yaw))
-            objects = w._obj_specs
+            objects = w.spec.objects
             for row in w.tick_arrays.objects_near(sx, sy, reach):
                 o = objects[row]
-                if o.fiducial_id > 0 and o.name not in w._hidden:
+                if o.fiducial_id > 0 and o.name not in w.hidden:
                     things.append((o.fiducial_id, *w.tick_arrays.dyn_pose(o.name)))
             out = []
             for fid, x, y, yaw in things:
@@ -62,7 +59,7 @@ class TrackingModel(StatelessModel):
                                         wrap_angle(yaw - syaw), rng, bearing))
             return tuple(sorted(out, key=lambda f: f.range_m))
 
-        return w._cached(("fiducials", st.index), compute)  # type: ignore[return-value]
+        return w.cached(("fiducials", st.index), compute)  # type: ignore[return-value]
 
     def overhead(self) -> tuple[TrackedObject, ...]:
         w = self.world
@@ -74,7 +71,7 @@ class TrackingModel(StatelessModel):
             colours = self._spec_colours()
             noise = None
             if oc.position_noise_m > 0:
-                noise = np.random.default_rng([w._noise_seed, w.tick])
+                noise = np.random.default_rng([w.noise_seed, w.tick])
             half_x, half_y = oc.view_size_x_m / 2, oc.view_size_y_m / 2
             seen = self._seen
             make = _make_tracked
@@ -95,7 +92,7 @@ class TrackingModel(StatelessModel):
                 out.append(hit[1])
             return tuple(out)
 
-        return w._cached("overhead", compute)  # type: ignore[return-value]
+        return w.cached("overhead", compute)  # type: ignore[return-value]
 
     def _spec_colours(self) -> dict[str, int]:
         """Name -> colour of every robot, box, object and marker (fixed by the world)."""
