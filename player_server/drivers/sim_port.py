@@ -13,6 +13,7 @@ if TYPE_CHECKING:
     import numpy as np
     from numpy.typing import NDArray
 
+    from player_server.sim.looks import Looks
     from player_server.sim.readings import (
         Blob,
         Fiducial,
@@ -53,6 +54,12 @@ class WorldPort(ClockPort, Protocol):
     def get_pose(self, name: str) -> tuple[float, float, float]: ...
 
     def set_pose(self, name: str, x: float, y: float, yaw: float) -> None: ...
+
+    @property
+    def looks(self) -> Looks: ...
+
+    def set_looks(self, name: str, colour: int | None = None,
+                  fiducial_id: int | None = None) -> None: ...
 
 
 class OverheadPort(ClockPort, Protocol):

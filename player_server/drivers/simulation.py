@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 from player_server.drivers.base import ACK, Driver, Reply, Unsupported, ack
 from player_server.drivers.geometry import finite
-from player_server.drivers.sim_properties import model_property
+from player_server.drivers.sim_properties import model_property, property_change
 from player_server.protocol import constants as c
 from player_server.protocol import simulation_msgs as simm
 from player_server.protocol.common import Pose2d, Pose3d
@@ -25,7 +25,8 @@ log = logging.getLogger(__name__)
 #: what changes the world: allowed to network clients only when the server says so
 WORLD_CONTROL_COMMANDS = frozenset({c.PLAYER_SIMULATION_CMD_PAUSE, c.PLAYER_SIMULATION_CMD_RESET})
 WORLD_CONTROL_REQUESTS = frozenset({c.PLAYER_SIMULATION_REQ_SET_POSE2D,
-                                    c.PLAYER_SIMULATION_REQ_SET_POSE3D})
+                                    c.PLAYER_SIMULATION_REQ_SET_POSE3D,
+                                    c.PLAYER_SIMULATION_REQ_SET_PROPERTY})
 
 
 class WorldControlRefused(ValueError):
@@ -39,7 +40,7 @@ class SimulationDriver(Driver):
     interf = int(Interface.SIMULATION)
     commands = frozenset({c.PLAYER_SIMULATION_CMD_PAUSE, c.PLAYER_SIMULATION_CMD_RESET,
                           c.PLAYER_SIMULATION_CMD_SAVE})
-    requests = frozenset({1, 2, 3, 4, 5})
+    requests = frozenset({1, 2, 3, 4, 5, 6})
 
     def __init__(self, sim: WorldPort, index: int = 0, *, world_control: bool = False,
                  fixed: Mapping[str, tuple[float, float, float]] | None = None) -> None:
@@ -109,5 +110,10 @@ class SimulationDriver(Driver):
             self.sim.set_pose(body.name, body.pose.px, body.pose.py, body.pose.pyaw)
             return ACK
         if subtype == c.PLAYER_SIMULATION_REQ_GET_PROPERTY:
-            return ack(replace(body, value=model_property(self.sim.spec, body.name, body.prop)))
+            return ack(replace(body, value=model_property(self.sim.spec, body.name, body.prop,
+                                                          self.sim.looks)))
+        if subtype == c.PLAYER_SIMULATION_REQ_SET_PROPERTY:
+            change = property_change(body.prop, bytes(body.value))
+            self.sim.set_looks(body.name, **change)
+            return ACK
         raise Unsupported(f"simulation request {subtype}")
