@@ -140,6 +140,7 @@ class LaserDriver(Driver):
             return ack(self.config())
         if subtype == c.PLAYER_LASER_REQ_SET_CONFIG and body is not None:
             self.scan.set(scan_request(body))  # ValueError: NACKed, nothing changed
+            self.sim.set_scan_fan(self.robot.name, "laser", self.scan.config.fan)
             return ack(self.config())
         if subtype == c.PLAYER_LASER_REQ_POWER and body is not None:
             self.powered = bool(body.state)
@@ -162,6 +163,7 @@ class RangerDriver(Driver):
         self.sim = sim
         self.robot = robot
         self.spec = declared(getattr(robot.devices, source), f"robot {robot.name!r}", source)
+        self.source = source
         self._read = sim.laser if source == "laser" else sim.ranger
         self.properties = {"max_range": float(self.spec.max_range_m)}
         self.property_limits = {"max_range": (0.0, float(self.spec.max_range_m))}
@@ -199,6 +201,7 @@ class RangerDriver(Driver):
         if subtype == c.PLAYER_RANGER_REQ_SET_CONFIG and body is not None:
             req = replace(scan_request(body), intensity=self.scan.config.intensity)
             self.scan.set(req)  # ValueError: NACKed, nothing changed
+            self.sim.set_scan_fan(self.robot.name, self.source, self.scan.config.fan)
             return ack(self.config())
         if subtype == c.PLAYER_RANGER_REQ_INTNS and body is not None:
             self.scan.set_intensity(bool(body.state))

@@ -441,6 +441,10 @@ class Simulation:
     def ranger(self, robot: str) -> NDArray[np.float64]:
         return self.range_model.reading(robot, "ranger")
 
+    def set_scan_fan(self, robot: str, kind: str, fan: tuple[float, float, int] | None) -> None:
+        """A laser's or ranger's rays: (first angle, spacing, count), or None: the world's."""
+        self.range_model.set_fan(robot, kind, fan)
+
     def blobs(self, robot: str) -> tuple[Blob, ...]:
         """Blobs of the blobfinder's channel colours, by channel then area (largest first)."""
         return self.camera_model.blobs(robot)
@@ -490,7 +494,6 @@ class Simulation:
         """Robots, boxes, objects and markers inside the overhead camera's view."""
         return self.tracking_model.overhead()
 
-    # ---- snapshots -------------------------------------------------------------------
     def snapshot(self) -> SceneSnapshot:
         def compute() -> SceneSnapshot:
             poses = self._poses

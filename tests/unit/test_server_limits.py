@@ -13,7 +13,7 @@ from sibling import load_sibling
 
 from player_server.drivers.base import Driver
 from player_server.drivers.ranging import scan_request
-from player_server.drivers.scan_config import scan_config, whole_scan
+from player_server.drivers.scan_config import reported, scan_config, whole_scan
 from player_server.protocol import sensor_msgs as sm
 from player_server.server.__main__ import default_speedup
 from player_server.server.log_limit import LogLimiter
@@ -169,6 +169,24 @@ def test_laser_config_accepts_a_subset_and_refuses_what_the_laser_cannot_do() ->
     for cfg in bad:
         with pytest.raises(ValueError):
             _window(s, cfg)
+
+
+def test_laser_config_off_the_world_readings_is_a_fan_of_its_own() -> None:
+    s = _laser_spec()  # 181 readings, one a degree
+    w = _window(s, sm.LaserConfig(math.radians(-30.1), math.radians(20.0), 25.0, 0.0, 0.0, 0,
+                                  0.0))
+    assert w.fan == pytest.approx((math.radians(-30.1), math.radians(0.25), 201))
+    assert (w.first, w.last, w.step, w.resolution_unit) == (0, 200, 1, "centideg")
+    lo, hi, res, *_ = reported(s, w, 0.1)
+    assert (lo, hi, res) == pytest.approx((math.radians(-30.1), math.radians(19.9), 25.0))
+    # on the world's readings: a window of them, as before (no fan)
+    w = _window(s, sm.LaserConfig(-math.pi / 4, math.pi / 4, 100.0, 0.0, 0.0, 0, 0.0))
+    assert w.fan is None and (w.first, w.last, w.step) == (45, 135, 1)
+    for lo_deg, hi_deg, r in ((-91.0, 0.0, 50.0), (10.0, -10.0, 50.0), (-10.5, 10.0, 30.0),
+                              (-60.5, 60.0, 25.0)):
+        with pytest.raises(ValueError):
+            _window(s, sm.LaserConfig(math.radians(lo_deg), math.radians(hi_deg), r, 0.0, 0.0,
+                                      0, 0.0))
 
 
 def test_player_server_runs_at_real_time_unless_told_or_in_lockstep() -> None:
