@@ -137,7 +137,10 @@ def world_to_toml(w: WorldSpec) -> str:
     for c in w.chargers:
         out += _table("[[chargers]]", [("name", c.name), ("position", [c.x, c.y]),
                                        ("radius", c.radius_m), ("colour", _colour(c.colour)),
-                                       ("rate", c.rate_w), ("beacon_height", c.beacon_height_m)])
+                                       ("rate", c.rate_w), ("beacon_height", c.beacon_height_m)]
+                       + ([("take", c.take_w)] if c.take_w else [])
+                       + ([("footprint", [c.size_x_m, c.size_y_m]),
+                           ("yaw_deg", math.degrees(c.yaw))] if c.size_x_m > 0 else []))
     if (oc := w.overhead_camera) is not None:
         out += _table("[overhead_camera]", [
             ("name", oc.name), ("position", [oc.x, oc.y]), ("height", oc.height_m),

@@ -130,6 +130,29 @@ def test_pucks_chargers_zones_blocks_and_ctrl(tmp_path: Path,
     assert sum("ctrl" in m for m in world.warnings) == 1
 
 
+def test_take_watts_models_are_drains_and_survive_conversion_to_toml(tmp_path: Path) -> None:
+    from worlds.to_toml import world_to_toml
+
+    w = _write(tmp_path, "w.world",
+               'model( name "sink" pose [1 2 0 30] size [0.4 0.2 0.3] take_watts 500 )\n'
+               'model( name "dock" pose [2 0 0 0] size [0.3 0.6 0.3] give_watts 250 )\n'
+               'position( name "r" )\n')
+    s = load_stage_world(w).spec
+    sink, dock = s.chargers
+    assert (sink.rate_w, sink.take_w, sink.size_x_m, sink.size_y_m) == (0.0, 500.0, 0.4, 0.2)
+    assert sink.yaw == pytest.approx(math.radians(30.0))
+    assert (dock.rate_w, dock.take_w, dock.size_x_m) == (250.0, 0.0, 0.3)
+    toml = tmp_path / "w.toml"
+    toml.write_text(world_to_toml(s))
+    again = load_world(toml).chargers
+    assert [(c.name, c.rate_w, c.take_w, c.size_x_m, c.size_y_m) for c in again] == [
+        (c.name, c.rate_w, c.take_w, c.size_x_m, c.size_y_m) for c in s.chargers]
+    assert again[0].yaw == pytest.approx(sink.yaw)
+    bad = _write(tmp_path, "bad.world", 'model( name "m" take_watts -1 )\n')
+    with pytest.raises(StageError, match=r"bad\.world:1: expected take_watts >= 0"):
+        load_stage_world(bad)
+
+
 def test_unknown_keys_and_kinds_are_warned_once_with_file_and_line(tmp_path: Path) -> None:
     w = _write(tmp_path, "w.world", 'model( name "a" frobnicate 3 )\n'
                'model( name "b" frobnicate 3 )\nwidget( name "c" )\nwidget( name "d" )\n'

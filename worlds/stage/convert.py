@@ -2,8 +2,9 @@
 
 Position models become robots (their children devices), models with `bitmap` become static
 wall boxes (runs of dark pixels merged), `gripper_return` models become grippable objects,
-`give_watts` models chargers, other solid models static obstacles (one box per block), and
-models that return nothing zones (named places, not simulated).
+`give_watts` / `take_watts` models chargers (or drains: a charger that takes), other solid
+models static obstacles (one box per block), and models that return nothing zones (named
+places, not simulated).
 """
 
 from __future__ import annotations
@@ -119,14 +120,19 @@ def _top(m: StageModel, file: Path, units: Units, warnings: Warnings, out: _Out)
     colour = model_colour(r, m, warnings, 0xC0C0C0)
     obstacle = r.number("obstacle_return", 1.0) != 0.0
     give = r.number("give_watts", 0.0)
+    take = r.number("take_watts", 0.0)
+    for key, watts in (("give_watts", give), ("take_watts", take)):
+        if watts < 0:
+            raise StageError(r.where(key, m.where), f"{key} >= 0", watts)
     grip = r.number("gripper_return", 0.0) != 0.0
     bitmap = r.string("bitmap", "")
     if bitmap:
         _floorplan(m, r, bitmap, file, (x, y, yaw), size, colour, out)
-    elif give > 0:
+    elif give > 0 or take > 0:
         half = math.hypot(size[0], size[1]) / 2
         out.chargers.append(ChargerSpec(m.name, x, y, half + (0.35 if obstacle else 0.0),
-                                        colour, give, beacon_height_m=0.0))
+                                        colour, give, beacon_height_m=0.0, take_w=take,
+                                        size_x_m=size[0], size_y_m=size[1], yaw=yaw))
         out.fixed[m.name] = Pose(x, y, yaw)
         if obstacle:
             _solid(m, r, (x, y, yaw), size, colour, out, suffix=".body")
