@@ -101,6 +101,7 @@ class TrackingModel(StatelessModel):
         colours = self._colours
         if colours is None or self._looks != self.world.looks.version:
             self._looks = self.world.looks.version
+            self._seen.clear()  # what was made with the old colours
             spec = self.world.looks.applied()
             colours = {r.name: r.colour for r in spec.robots}
             colours.update({b.name: b.colour for b in spec.boxes})
