@@ -146,3 +146,21 @@ def test_impossible_configurations_are_nacked_and_change_nothing(
             laser.set_config(_config(lo, hi, res))
         assert laser.get_config() == before
         _check_on_the_wall(_scan(cl, laser), -10.3, 1.0, 32)
+
+
+def test_a_fan_is_kept_across_a_reset_and_dropped_when_asked(cfg: Path) -> None:
+    world, _ = load_stage_source(str(cfg), 0)
+    with Simulation(world.spec, seed=1) as sim:
+        sim.step()
+        default = sim.laser("robot1").copy()
+        sim.set_scan_fan("robot1", "laser", (math.radians(-10.3), math.radians(1.0), 32))
+        assert len(sim.laser("robot1")) == 32  # this tick's reading is made again
+        sim.reset()  # the drivers still hold their configuration: so does the simulator
+        sim.step()
+        assert len(sim.laser("robot1")) == 32
+        sim.set_scan_fan("robot1", "laser", None)
+        assert sim.laser("robot1").tobytes() == default.tobytes()
+        with pytest.raises(ValueError):
+            sim.set_scan_fan("robot1", "laser", (0.0, 0.0, 3))
+        with pytest.raises(ValueError):
+            sim.set_scan_fan("robot1", "sonar", (0.0, 0.01, 3))

@@ -30,11 +30,12 @@ class RangeModel(StatelessModel):
     def __init__(self, world: DeviceWorld) -> None:
         self.world = world
         self.active: set[RangeKey] = set()
+        # lasers and rangers cast at angles of their own (first, spacing, count; `set_fan`),
+        # kept across rebuilds (a reset): they are the configuration their drivers hold
+        self.fans: dict[RangeKey, tuple[float, float, int]] = {}
 
     def build(self) -> None:
         self.plans: dict[tuple[RangeKey, ...], RangePlan] = {}
-        # lasers and rangers cast at angles of their own (first, spacing, count; `set_fan`)
-        self.fans: dict[RangeKey, tuple[float, float, int]] = {}
         self.last: dict[RangeKey, np.ndarray] = {}  # cleared by a reader: every reading afresh
         # the plan of the last fast batch and its readings' bits (see `fast_readings`)
         self._last_batch: tuple[RangePlan, NDArray[np.uint32]] | None = None
