@@ -42,7 +42,8 @@ def profile_from(
     if world is not None:
         coloured: tuple[BoxSpec | ObjectSpec, ...] = (*world.objects, *world.boxes)
         landmarks = tuple((b.colour, b.pose.x, b.pose.y) for b in coloured)
-        chargers = tuple(Charger(c.name, c.x, c.y, c.radius_m) for c in world.chargers)
+        chargers = tuple(Charger(c.name, c.x, c.y, c.radius_m) for c in world.chargers
+                         if c.rate_w > 0)  # a drain (take only) is no charger
         robot = next((r for r in world.robots if r.name == name), None)
         if robot is not None:
             if robot.devices.camera is not None:

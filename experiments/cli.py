@@ -34,6 +34,8 @@ SUBCOMMANDS: dict[str, Subcommand] = {
     "soak-report": Subcommand("experiments.soak.cli:soak_report",
                               "Rebuild a soak run's report; exit 3 if an invariant broke."),
     "report": Subcommand("experiments.report_cli:report", "Rebuild a run's summary and plots."),
+    "world": Subcommand("experiments.world_cli:world",
+                        "World files: convert a Stage .world to a TOML world."),
     "record-info": Subcommand("experiments.record_cli:record_info",
                               "Channels, message counts and duration of a run's run.mcap."),
 }

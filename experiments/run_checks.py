@@ -32,12 +32,12 @@ def _duration(seconds: float) -> str:
 
 
 def load_run_world(name: str) -> Any:
-    """The world of a run (a bundled name or a .toml path) or `RunSetupError` in one line."""
+    """The world of a run (a bundled name, a .toml or .world path) or `RunSetupError`."""
     from worlds import WorldError, load_world, world_path
 
     path = Path(name)
     try:
-        if path.suffix == ".toml" or os.sep in name:
+        if path.suffix in (".toml", ".world") or os.sep in name:
             if not path.is_file():
                 raise RunSetupError(f"--world {name}: no such world file")
             return load_world(path)

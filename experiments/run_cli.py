@@ -115,7 +115,7 @@ class PerProcess(click.ParamType):
 @click.option("--meshcat", is_flag=True, help="Serve the live 3-D view on 127.0.0.1.")
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("runs"),
               show_default=True)
-@click.option("--world", default=None, help="World name or .toml (default: the experiment's).")
+@click.option("--world", default=None, help="World name, .toml or .world (default: experiment's).")
 @click.option("--task-interval", type=click.FloatRange(min=0, min_open=True), default=None,
               show_default="240 for six robots, shorter for a bigger team",
               help="Mean simulated seconds between new tasks (default: 240 s for a team of "

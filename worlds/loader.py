@@ -11,6 +11,7 @@ File layout (all keys optional unless noted; SI units; angles as ``<key>_deg`` o
     [[objects]]  name pose radius height mass colour fiducial_id
     [[markers]]  name position = [x, y] radius height colour     (visual only)
     [[chargers]] name position = [x, y] radius colour rate beacon_height
+                 take footprint = [sx, sy] yaw_deg  (a model robots touch, not a pad)
     [overhead_camera] name position height view_size resolution position_noise
     [[robots]]   name pose colour fiducial_id, then one sub-table per device:
                  body position2d sonar laser ranger camera blobfinder bumper gripper ptz power
@@ -73,7 +74,7 @@ DEVICE_DRAW_W: dict[str, float] = {
 def world_path(name: str) -> Path:
     """The path of a bundled world by name (``"longterm"`` -> ``worlds/longterm.toml``)."""
     candidate = Path(name)
-    if candidate.suffix == ".toml" and candidate.exists():
+    if candidate.suffix in (".toml", ".world") and candidate.exists():
         return candidate
     path = WORLDS_DIR / f"{candidate.stem if candidate.suffix == '.toml' else name}.toml"
     if not path.exists():
@@ -83,8 +84,13 @@ def world_path(name: str) -> Path:
 
 
 def load_world(path: Path | str) -> WorldSpec:
-    """Parse and validate a world file; raises WorldError naming file, key, expected, found."""
+    """Parse and validate a world file (TOML, or a Stage ``.world``); raises WorldError
+    naming file, key (or line), expected, found."""
     file = Path(path)
+    if file.suffix == ".world":
+        from worlds.stage import load_stage_world
+
+        return load_stage_world(file).spec
     try:
         text = file.read_text(encoding="utf-8")
     except OSError as exc:
@@ -250,14 +256,21 @@ def _marker(t: Table) -> MarkerSpec:
 
 def _charger(t: Table) -> ChargerSpec:
     x, y = t.vector("position", 2)
+    footprint = t.vector("footprint", 2, (0.0, 0.0))
+    if min(footprint) < 0 or (max(footprint) > 0 and min(footprint) <= 0):
+        raise t.error("footprint", "two sizes > 0 (m), or none", list(footprint))
     spec = ChargerSpec(
         name=t.string("name"),
         x=x,
         y=y,
         radius_m=t.number("radius", 0.4, positive=True),
         colour=t.colour("colour", 0x00FFFF),
-        rate_w=t.number("rate", 100.0, positive=True),
+        rate_w=t.number("rate", 100.0, min_value=0.0),
         beacon_height_m=t.number("beacon_height", 0.5, min_value=0.0),
+        take_w=t.number("take", 0.0, min_value=0.0),
+        size_x_m=footprint[0],
+        size_y_m=footprint[1],
+        yaw=math.radians(t.number("yaw_deg", 0.0)),
     )
     t.finish()
     return spec

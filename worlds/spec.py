@@ -147,7 +147,10 @@ class MarkerSpec:
 
 @dataclass(frozen=True)
 class ChargerSpec:
-    """A charging pad on the floor: a robot whose origin is within radius_m charges."""
+    """A charging pad on the floor: a robot whose origin is within radius_m charges at
+    rate_w. A model with a footprint (size_x_m, size_y_m > 0, turned by yaw: a Stage model
+    with `give_watts` / `take_watts`) is in contact with a robot whose body touches it
+    instead (`player_server.sim.contact`); take_w is taken from a robot in contact."""
 
     name: str
     x: float
@@ -156,6 +159,10 @@ class ChargerSpec:
     colour: int
     rate_w: float
     beacon_height_m: float = 0.5
+    take_w: float = 0.0
+    size_x_m: float = 0.0
+    size_y_m: float = 0.0
+    yaw: float = 0.0
 
 
 @dataclass(frozen=True)

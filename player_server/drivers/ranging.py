@@ -4,16 +4,17 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from player_server.drivers.base import ACK, Driver, Reply, Unsupported, ack, declared
 from player_server.drivers.geometry import mount_pose
+from player_server.drivers.scan_config import ConfiguredScan, ScanRequest
 from player_server.protocol import constants as c
 from player_server.protocol import sensor_msgs as sm
-from player_server.protocol.common import Bbox3d
+from player_server.protocol.common import Bbox3d, Pose3d
 from player_server.protocol.constants import Interface
 
 if TYPE_CHECKING:
@@ -35,9 +36,6 @@ def _ranges(values: Any) -> tuple[float, ...]:
             return tuple(out)
     return tuple(v if v >= 0.0 and v - v == 0.0 else 0.0 for v in out)
 
-
-#: how far (in readings) a requested angle may lie from one of the laser's own
-_ANGLE_TOLERANCE = 1e-3
 
 _MAKE_SONAR = sm.SonarData.xdr_make  # type: ignore[attr-defined]
 _MAKE_LASER = sm.LaserData.xdr_make  # type: ignore[attr-defined]
@@ -80,67 +78,25 @@ class SonarDriver(Driver):
         raise Unsupported(f"sonar request {subtype}")
 
 
-@dataclass(frozen=True)
-class LaserWindow:
-    """What SET_CONFIG chose of the simulated scan: readings ``first``..``last`` (indices
-    into the full scan) every ``step``-th, clipped to ``max_range_m``."""
-
-    first: int
-    last: int
-    step: int
-    max_range_m: float
-
-
-def laser_window(spec: Any, cfg: sm.LaserConfig) -> LaserWindow:
-    """The window a SET_CONFIG asks for, or ValueError naming what the simulated laser
-    cannot do. It can narrow the scan to whole readings of its own, take every n-th reading
-    and shorten its range; it cannot scan finer, wider, further, at another range
-    resolution or rate, or report intensities."""
-    res = float(spec.resolution_rad)
-    n = int(spec.samples)
-    values = (cfg.min_angle, cfg.max_angle, cfg.resolution, cfg.max_range, cfg.range_res,
-              cfg.scanning_frequency)
-    if not all(math.isfinite(v) for v in values):
-        raise ValueError("laser config values must be finite")
-
-    def index(angle: float, what: str) -> int:
-        x = (angle - float(spec.min_angle_rad)) / res
-        i = round(x)
-        if abs(x - i) > _ANGLE_TOLERANCE or not 0 <= i < n:
-            raise ValueError(f"{what} {angle:.6g} rad is not one of the laser's readings "
-                             f"({spec.min_angle_rad:.6g} to {spec.max_angle_rad:.6g} rad "
-                             f"every {res:.6g} rad)")
-        return i
-
-    first = index(cfg.min_angle, "min_angle")
-    last = index(cfg.max_angle, "max_angle")
-    if last < first:
-        raise ValueError("max_angle is below min_angle")
-    step_f = cfg.resolution / res
-    step = round(step_f)
-    if step < 1 or abs(step_f - step) > _ANGLE_TOLERANCE or (last - first) % step:
-        raise ValueError(f"resolution {cfg.resolution:.6g} rad is not a whole multiple of "
-                         f"{res:.6g} rad that spans min_angle..max_angle")
-    if not 0.0 < cfg.max_range <= float(spec.max_range_m) * (1 + 1e-6):
-        raise ValueError(f"max_range {cfg.max_range:g} m is outside (0, {spec.max_range_m:g}]")
-    if abs(cfg.range_res - float(spec.range_res_m)) > 1e-6 * max(1.0, spec.range_res_m):
-        raise ValueError(f"range_res is fixed at {spec.range_res_m:g} m")
-    if cfg.intensity:
-        raise ValueError("the simulated laser reports no intensities")
-    if abs(cfg.scanning_frequency - float(spec.frequency_hz)) > 1e-3:
-        raise ValueError(f"scanning_frequency is fixed at {spec.frequency_hz:g} Hz")
-    return LaserWindow(first, last, step, min(float(cfg.max_range), float(spec.max_range_m)))
+def scan_request(cfg: Any) -> ScanRequest:
+    """A laser or ranger SET_CONFIG body as a `ScanRequest` (the ranger has no intensity
+    field: its INTNS request switches them)."""
+    if isinstance(cfg, sm.RangerConfig):
+        return ScanRequest(cfg.min_angle, cfg.max_angle, cfg.angular_res, cfg.max_range,
+                           cfg.range_res, False, cfg.frequency)
+    return ScanRequest(cfg.min_angle, cfg.max_angle, cfg.resolution, cfg.max_range,
+                       cfg.range_res, bool(cfg.intensity), cfg.scanning_frequency)
 
 
 class LaserDriver(Driver):
-    """The scanning laser. SET_CONFIG applies what ``laser_window`` accepts and is NACKed
+    """The scanning laser. SET_CONFIG applies what `scan_config` accepts and is NACKed
     otherwise; GET_CONFIG and the DATA follow the configuration in force."""
 
     interf = int(Interface.LASER)
     requests = frozenset({1, 2, 3, 4, 5})
 
     def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0,
-                 serial_number: int = 0) -> None:
+                 serial_number: int = 0, scan: ConfiguredScan | None = None) -> None:
         super().__init__(index, "sim_laser")
         self.sim = sim
         self.robot = robot
@@ -150,44 +106,32 @@ class LaserDriver(Driver):
         self.properties = {"max_range": float(self.spec.max_range_m)}
         self.property_limits = {"max_range": (0.0, float(self.spec.max_range_m))}
         self._geom = sm.LaserGeom(mount_pose(self.spec.pose), LASER_SIZE)
-        self.window: LaserWindow | None = None  # None: the whole scan as the world gives it
+        self.scan = scan or ConfiguredScan(self.spec, float(sim.spec.sim.interval_sim_s))
         self._last: tuple[Any, tuple[float, ...]] = (None, ())  # reading, its ranges
 
     def config(self) -> sm.LaserConfig:
-        s, w = self.spec, self.window
-        if w is None:
-            return sm.LaserConfig(s.min_angle_rad, s.max_angle_rad, s.resolution_rad,
-                                  s.max_range_m, s.range_res_m, 0, s.frequency_hz)
-        return sm.LaserConfig(s.min_angle_rad + w.first * s.resolution_rad,
-                              s.min_angle_rad + w.last * s.resolution_rad,
-                              s.resolution_rad * w.step, w.max_range_m, s.range_res_m, 0,
-                              s.frequency_hz)
-
-    def _windowed(self, ranges: tuple[float, ...]) -> tuple[float, ...]:
-        w = self.window
-        if w is None or len(ranges) != self.spec.samples:
-            return ranges
-        cut = ranges[w.first:w.last + 1:w.step]
-        top = w.max_range_m
-        return tuple(r if r <= top else top for r in cut)
+        lo, hi, res, top, rr, freq = self.scan.reported()
+        return sm.LaserConfig(lo, hi, res, top, rr, int(self.scan.config.intensity), freq)
 
     def data(self) -> Sequence[tuple[int, Any]]:
         s = self.spec
         reading = self.sim.laser(self.robot.name)
+        tick = int(self.sim.tick)
+        if not self.scan.is_whole:
+            ranges, intens = self.scan.serve(reading, tick, _ranges)
+            lo, hi, res = self.scan.angles()
+            return ((c.PLAYER_LASER_DATA_SCAN, _MAKE_LASER(
+                lo, hi, res, self.scan.config.max_range_m, ranges, intens,
+                tick & 0xFFFFFFFF)),)
         last_in, ranges = self._last
         if reading is not last_in:  # (the scan's id changes every tick, its ranges may not)
-            ranges = self._windowed(_ranges(reading))
+            ranges = _ranges(reading)
             self._last = (reading, ranges)
-        if self.window is not None:
-            cfg = self.config()
-            return ((c.PLAYER_LASER_DATA_SCAN, _MAKE_LASER(
-                cfg.min_angle, cfg.max_angle, cfg.resolution, cfg.max_range, ranges, b"",
-                int(self.sim.tick) & 0xFFFFFFFF)),)
         res = s.resolution_rad if len(ranges) == s.samples else (
             (s.max_angle_rad - s.min_angle_rad) / max(len(ranges) - 1, 1))
         return ((c.PLAYER_LASER_DATA_SCAN, _MAKE_LASER(
             s.min_angle_rad, s.max_angle_rad, res, s.max_range_m, ranges, b"",
-            int(self.sim.tick) & 0xFFFFFFFF)),)
+            tick & 0xFFFFFFFF)),)
 
     def handle_request(self, subtype: int, body: Any) -> Reply:
         if subtype == c.PLAYER_LASER_REQ_GET_GEOM:
@@ -195,12 +139,8 @@ class LaserDriver(Driver):
         if subtype == c.PLAYER_LASER_REQ_GET_CONFIG:
             return ack(self.config())
         if subtype == c.PLAYER_LASER_REQ_SET_CONFIG and body is not None:
-            window = laser_window(self.spec, body)  # ValueError: NACKed, nothing changed
-            s = self.spec
-            whole = (window.first == 0 and window.last == s.samples - 1 and window.step == 1
-                     and window.max_range_m >= s.max_range_m)
-            self.window = None if whole else window
-            self._last = (None, ())
+            self.scan.set(scan_request(body))  # ValueError: NACKed, nothing changed
+            self.sim.set_scan_fan(self.robot.name, "laser", self.scan.config.fan)
             return ack(self.config())
         if subtype == c.PLAYER_LASER_REQ_POWER and body is not None:
             self.powered = bool(body.state)
@@ -209,39 +149,115 @@ class LaserDriver(Driver):
             return ack(sm.LaserGetIdConfig(self.serial_number))
         raise Unsupported(f"laser request {subtype}")
 
-
 class RangerDriver(Driver):
+    """The ranger interface over a scanner: the world's ranger, or (``source="laser"``) a
+    robot's laser, as Stage serves its lasers. SET_CONFIG works as the laser's does (the
+    angular resolution in radians); INTNS switches intensity DATA on and off."""
+
     interf = int(Interface.RANGER)
     requests = frozenset({1, 2, 3, 4, 5})
 
-    def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0) -> None:
+    def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0, *,
+                 source: str = "ranger", scan: ConfiguredScan | None = None) -> None:
         super().__init__(index, "sim_ranger")
         self.sim = sim
         self.robot = robot
-        self.spec = declared(robot.devices.ranger, f"robot {robot.name!r}", "ranger")
+        self.spec = declared(getattr(robot.devices, source), f"robot {robot.name!r}", source)
+        self.source = source
+        self._read = sim.laser if source == "laser" else sim.ranger
         self.properties = {"max_range": float(self.spec.max_range_m)}
         self.property_limits = {"max_range": (0.0, float(self.spec.max_range_m))}
+        self.scan = scan or ConfiguredScan(self.spec, float(sim.spec.sim.interval_sim_s))
         self._geom = self.geometry()
 
     def config(self) -> sm.RangerConfig:
-        s = self.spec
-        return sm.RangerConfig(s.min_angle_rad, s.max_angle_rad, s.resolution_rad,
-                               s.min_range_m, s.max_range_m, s.range_res_m, s.frequency_hz)
+        lo, hi, res = self.scan.angles()
+        cfg = self.scan.config
+        freq = self.scan.reported()[5]
+        return sm.RangerConfig(lo, hi, res, float(self.spec.min_range_m), cfg.max_range_m,
+                               cfg.range_res_m, freq)
 
     def geometry(self) -> sm.RangerGeom:
         pose = mount_pose(self.spec.pose)
         return sm.RangerGeom(pose, LASER_SIZE, (pose,), (LASER_SIZE,))
 
     def data(self) -> Sequence[tuple[int, Any]]:
-        return ((c.PLAYER_RANGER_DATA_RANGE,
-                 sm.RangerDataRange(_ranges(self.sim.ranger(self.robot.name)))),)
+        reading = self._read(self.robot.name)
+        if self.scan.is_whole:
+            return ((c.PLAYER_RANGER_DATA_RANGE, sm.RangerDataRange(_ranges(reading))),)
+        ranges, intens = self.scan.serve(reading, int(self.sim.tick), _ranges)
+        out: tuple[tuple[int, Any], ...] = (
+            (c.PLAYER_RANGER_DATA_RANGE, sm.RangerDataRange(ranges)),)
+        if intens:
+            out += ((c.PLAYER_RANGER_DATA_INTNS,
+                     sm.RangerDataIntns(tuple(float(b) for b in intens))),)
+        return out
 
     def handle_request(self, subtype: int, body: Any) -> Reply:
         if subtype == c.PLAYER_RANGER_REQ_GET_GEOM:
             return ack(self._geom)
-        if subtype in (c.PLAYER_RANGER_REQ_GET_CONFIG, c.PLAYER_RANGER_REQ_SET_CONFIG):
-            return ack(self.config())  # SET answers with the resulting (fixed) config
-        if subtype in (c.PLAYER_RANGER_REQ_POWER, c.PLAYER_RANGER_REQ_INTNS) and body is not None:
+        if subtype == c.PLAYER_RANGER_REQ_GET_CONFIG:
+            return ack(self.config())
+        if subtype == c.PLAYER_RANGER_REQ_SET_CONFIG and body is not None:
+            req = replace(scan_request(body), intensity=self.scan.config.intensity)
+            self.scan.set(req)  # ValueError: NACKed, nothing changed
+            self.sim.set_scan_fan(self.robot.name, self.source, self.scan.config.fan)
+            return ack(self.config())
+        if subtype == c.PLAYER_RANGER_REQ_INTNS and body is not None:
+            self.scan.set_intensity(bool(body.state))
+            return ACK
+        if subtype == c.PLAYER_RANGER_REQ_POWER and body is not None:
             return ACK
         raise Unsupported(f"ranger request {subtype}")
 
+
+class SonarRangerDriver(Driver):
+    """The ranger interface over a sonar array (Stage serves its sonars as rangers): one
+    reading per transducer, each element's pose in the geometry. Its configuration is
+    fixed: SET_CONFIG is ACKed only when it asks for what is in force (fields left zero keep
+    it)."""
+
+    interf = int(Interface.RANGER)
+    requests = frozenset({1, 2, 4, 5})
+
+    def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0) -> None:
+        super().__init__(index, "sim_ranger")
+        self.sim = sim
+        self.robot = robot
+        self.spec = declared(robot.devices.sonar, f"robot {robot.name!r}", "sonar")
+        self.properties = {"max_range": float(self.spec.max_range_m)}
+        self.property_limits = {"max_range": (0.0, float(self.spec.max_range_m))}
+        poses = tuple(mount_pose(m) for m in self.spec.poses)
+        self._geom = sm.RangerGeom(Pose3d(0.0, 0.0, 0.0, 0.0, 0.0, 0.0), SONAR_SIZE, poses,
+                                   tuple(SONAR_SIZE for _ in poses))
+        self._last: tuple[Any, Any] = (None, None)
+
+    def config(self) -> sm.RangerConfig:
+        s = self.spec
+        return sm.RangerConfig(-s.cone_rad / 2, s.cone_rad / 2, 0.0, s.min_range_m,
+                               s.max_range_m, 0.001, 1.0 / float(self.sim.spec.sim.interval_sim_s))
+
+    def data(self) -> Sequence[tuple[int, Any]]:
+        reading = self.sim.sonar(self.robot.name)
+        last_in, body = self._last
+        if reading is not last_in:
+            body = sm.RangerDataRange(_ranges(reading))
+            self._last = (reading, body)
+        return ((c.PLAYER_RANGER_DATA_RANGE, body),)
+
+    def handle_request(self, subtype: int, body: Any) -> Reply:
+        if subtype == c.PLAYER_RANGER_REQ_GET_GEOM:
+            return ack(self._geom)
+        if subtype == c.PLAYER_RANGER_REQ_GET_CONFIG:
+            return ack(self.config())
+        if subtype == c.PLAYER_RANGER_REQ_SET_CONFIG and body is not None:
+            now = self.config()
+            fields = ("min_angle", "max_angle", "angular_res", "min_range", "max_range")
+            asked = [(getattr(body, f), getattr(now, f)) for f in fields]
+            # fields left zero (or NaN) keep what is in force, as for the laser
+            if any(math.isfinite(a) and a != 0.0 and abs(a - b) > 1e-6 for a, b in asked):
+                raise ValueError("the sonar array's configuration is fixed")
+            return ack(now)
+        if subtype == c.PLAYER_RANGER_REQ_POWER and body is not None:
+            return ACK
+        raise Unsupported(f"ranger request {subtype}")

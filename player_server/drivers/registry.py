@@ -42,6 +42,11 @@ _BY_DEVICE: dict[str, Any] = {
 }
 
 
+def driver_class(device: str) -> Any:
+    """The driver class serving a `DeviceSet` slot (KeyError if none)."""
+    return _BY_DEVICE[device]
+
+
 def _keyed(drivers: list[Driver]) -> dict[DeviceKey, Driver]:
     return {(d.interf, d.index): d for d in drivers}
 

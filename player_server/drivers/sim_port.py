@@ -13,6 +13,7 @@ if TYPE_CHECKING:
     import numpy as np
     from numpy.typing import NDArray
 
+    from player_server.sim.looks import Looks
     from player_server.sim.readings import (
         Blob,
         Fiducial,
@@ -54,6 +55,12 @@ class WorldPort(ClockPort, Protocol):
 
     def set_pose(self, name: str, x: float, y: float, yaw: float) -> None: ...
 
+    @property
+    def looks(self) -> Looks: ...
+
+    def set_looks(self, name: str, colour: int | None = None,
+                  fiducial_id: int | None = None) -> None: ...
+
 
 class OverheadPort(ClockPort, Protocol):
     """What the overhead camera's drivers read."""
@@ -77,6 +84,9 @@ class SimPort(WorldPort, OverheadPort, Protocol):
     def laser(self, robot: str) -> NDArray[np.float32]: ...
 
     def ranger(self, robot: str) -> NDArray[np.float64]: ...
+
+    def set_scan_fan(self, robot: str, kind: str, fan: tuple[float, float, int] | None
+                     ) -> None: ...
 
     def blobs(self, robot: str) -> tuple[Blob, ...]: ...
 

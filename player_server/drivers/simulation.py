@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import logging
+from collections.abc import Mapping
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 from player_server.drivers.base import ACK, Driver, Reply, Unsupported, ack
 from player_server.drivers.geometry import finite
+from player_server.drivers.sim_properties import model_property, property_change
 from player_server.protocol import constants as c
 from player_server.protocol import simulation_msgs as simm
 from player_server.protocol.common import Pose2d, Pose3d
@@ -22,7 +25,8 @@ log = logging.getLogger(__name__)
 #: what changes the world: allowed to network clients only when the server says so
 WORLD_CONTROL_COMMANDS = frozenset({c.PLAYER_SIMULATION_CMD_PAUSE, c.PLAYER_SIMULATION_CMD_RESET})
 WORLD_CONTROL_REQUESTS = frozenset({c.PLAYER_SIMULATION_REQ_SET_POSE2D,
-                                    c.PLAYER_SIMULATION_REQ_SET_POSE3D})
+                                    c.PLAYER_SIMULATION_REQ_SET_POSE3D,
+                                    c.PLAYER_SIMULATION_REQ_SET_PROPERTY})
 
 
 class WorldControlRefused(ValueError):
@@ -36,13 +40,26 @@ class SimulationDriver(Driver):
     interf = int(Interface.SIMULATION)
     commands = frozenset({c.PLAYER_SIMULATION_CMD_PAUSE, c.PLAYER_SIMULATION_CMD_RESET,
                           c.PLAYER_SIMULATION_CMD_SAVE})
-    requests = frozenset({1, 2, 3, 4})
+    requests = frozenset({1, 2, 3, 4, 5, 6})
 
-    def __init__(self, sim: WorldPort, index: int = 0, *, world_control: bool = False) -> None:
+    def __init__(self, sim: WorldPort, index: int = 0, *, world_control: bool = False,
+                 fixed: Mapping[str, tuple[float, float, float]] | None = None) -> None:
         super().__init__(index, "sim_simulation")
         self.sim = sim
         self.world_control = world_control
         self.refused = 0
+        #: names of things that do not move here (a Stage world's obstacles, floorplans,
+        #: zones) and their poses: readable, not movable
+        self.fixed = dict(fixed or {})
+
+    def _pose(self, name: str) -> tuple[float, float, float]:
+        try:
+            return self.sim.get_pose(name)
+        except KeyError:
+            if name in self.fixed:
+                x, y, yaw = self.fixed[name]
+                return (float(x), float(y), float(yaw))
+            raise
 
     def _check_control(self, what: str) -> None:
         if not self.world_control:
@@ -76,7 +93,7 @@ class SimulationDriver(Driver):
         if body is None:
             raise Unsupported("simulation requests need a body")
         if subtype == c.PLAYER_SIMULATION_REQ_GET_POSE2D:
-            x, y, yaw = self.sim.get_pose(body.name)
+            x, y, yaw = self._pose(body.name)
             return ack(simm.SimulationPose2dReq(body.name, Pose2d(x, y, yaw)))
         if subtype in WORLD_CONTROL_REQUESTS:
             self._check_control(f"simulation request {subtype}")
@@ -85,11 +102,18 @@ class SimulationDriver(Driver):
             self.sim.set_pose(body.name, body.pose.px, body.pose.py, body.pose.pa)
             return ACK
         if subtype == c.PLAYER_SIMULATION_REQ_GET_POSE3D:
-            x, y, yaw = self.sim.get_pose(body.name)
+            x, y, yaw = self._pose(body.name)
             return ack(simm.SimulationPose3dReq(
                 body.name, Pose3d(x, y, 0.0, 0.0, 0.0, yaw), float(self.sim.time_s)))
         if subtype == c.PLAYER_SIMULATION_REQ_SET_POSE3D:
             self._check_pose(body.name, body.pose.px, body.pose.py, body.pose.pyaw)
             self.sim.set_pose(body.name, body.pose.px, body.pose.py, body.pose.pyaw)
+            return ACK
+        if subtype == c.PLAYER_SIMULATION_REQ_GET_PROPERTY:
+            return ack(replace(body, value=model_property(self.sim.spec, body.name, body.prop,
+                                                          self.sim.looks)))
+        if subtype == c.PLAYER_SIMULATION_REQ_SET_PROPERTY:
+            change = property_change(body.prop, bytes(body.value))
+            self.sim.set_looks(body.name, **change)
             return ACK
         raise Unsupported(f"simulation request {subtype}")

@@ -13,6 +13,13 @@ from player_server.server.assembly import world_endpoints
 from player_server.server.core import CoreConfig
 from player_server.server.runner import PlayerServer
 from player_server.server.serve_loop import serve_until_done
+from player_server.server.stage_assembly import plan_endpoints
+from player_server.server.stage_source import (
+    is_stage_source,
+    load_stage_source,
+    table_json,
+    write_atomically,
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -21,7 +28,9 @@ def build_parser() -> argparse.ArgumentParser:
         description="Serve the robots of a world over the Player 3.x protocol "
                     "(one port per robot, starting at the base port).")
     p.add_argument("--help", action="help", help="show this help and exit")
-    p.add_argument("world", nargs="?", help="world file (.toml) or the name of a bundled world")
+    p.add_argument("world", nargs="?",
+                   help="world file (.toml), Stage world (.world), Player configuration "
+                        "(.cfg) or the name of a bundled world")
     p.add_argument("--replay", metavar="RUN.mcap", default=None,
                    help="serve a run recording (run.mcap or its run directory) instead of a "
                         "world: the recorded robots, commands ignored")
@@ -65,6 +74,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "rays, rendered images); default: the world's")
     p.add_argument("--quit-time", type=float, default=None, metavar="S",
                    help="stop at this simulation time (default: the world's; 0 = never)")
+    p.add_argument("--ports-json", metavar="FILE", default=None,
+                   help="also write the robot / port / devices table to FILE as JSON once "
+                        "every port is bound")
     p.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors")
     p.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     return p
@@ -112,16 +124,27 @@ def main(argv: list[str] | None = None) -> int:
     from worlds import WorldError, load_world, world_path
 
     path = Path(args.world)
+    stage = None
     try:
-        world = load_world(path if path.suffix == ".toml" or path.exists() else
-                           world_path(args.world))
+        if is_stage_source(args.world):
+            stage, plan = load_stage_source(args.world, args.port)
+            world = stage.spec
+        else:
+            world = load_world(path if path.suffix == ".toml" or path.exists() else
+                               world_path(args.world))
     except (WorldError, OSError, KeyError) as exc:
         print(f"player-server: {exc}", file=sys.stderr)
         return 2
     sim = Simulation(world, seed=args.seed, fidelity=args.fidelity)
-    sim.set_paused(args.paused)
-    endpoints = world_endpoints(world, sim, args.port,
-                                allow_world_control=args.allow_world_control)
+    if stage is not None:
+        sim.set_paused(args.paused or stage.paused)
+        endpoints = plan_endpoints(plan, stage, sim,
+                                   allow_world_control=args.allow_world_control,
+                                   ephemeral=args.port == 0)
+    else:
+        sim.set_paused(args.paused)
+        endpoints = world_endpoints(world, sim, args.port,
+                                    allow_world_control=args.allow_world_control)
     server = PlayerServer(
         sim, endpoints,
         interval_s=sim.interval_s,
@@ -149,6 +172,9 @@ def main(argv: list[str] | None = None) -> int:
         else f"speedup {server.speedup:g}"
     if args.allow_world_control:
         mode += ", world control allowed"
+    if args.ports_json:  # before the table: a script that read the table finds the file
+        write_atomically(Path(args.ports_json), table_json(
+            endpoints, plan.ports() if stage is not None else None))
     print(f"world {world.name!r} ({world.source}), {mode}", flush=True)
     print(server.table(), flush=True)
 

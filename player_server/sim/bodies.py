@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import pybullet as pb
 
-from worlds import ArenaSpec, WorldSpec, colour_rgb01
+from worlds import ArenaSpec, ObstacleSpec, WorldSpec, colour_rgb01
 
 _FLOOR_THICKNESS_M = 0.05
 
@@ -66,7 +66,13 @@ def _build_arena(arena: ArenaSpec, cid: int) -> tuple[int, list[int]]:
                                    rgbaColor=_rgba(arena.wall_colour), physicsClientId=cid)
         static.append(pb.createMultiBody(0.0, col, vis, [cx, cy, h / 2], physicsClientId=cid))
 
+    boxes = [ob for ob in arena.obstacles if ob.shape == "box"]
+    merged = len(boxes) > _MERGE_BOXES_OVER
+    if merged:  # a floorplan's thousands of walls: a few compound bodies, not one body each
+        static.extend(_compound_boxes(boxes, cid))
     for ob in arena.obstacles:
+        if merged and ob.shape == "box":
+            continue
         if ob.shape == "box":
             col = pb.createCollisionShape(
                 pb.GEOM_BOX, halfExtents=[ob.size_x_m / 2, ob.size_y_m / 2, ob.height_m / 2],
@@ -86,6 +92,38 @@ def _build_arena(arena: ArenaSpec, cid: int) -> tuple[int, list[int]]:
             physicsClientId=cid,
         ))
     return floor, static
+
+
+#: more static boxes than this are built as compound bodies (PyBullet's broad phase then
+#: sees a few bodies, each with its own tree of boxes, instead of thousands)
+_MERGE_BOXES_OVER = 64
+#: PyBullet keeps at most 16 shapes of a collision shape array (the rest are dropped)
+_BOXES_PER_COMPOUND = 16
+
+
+def _compound_boxes(boxes: list[ObstacleSpec], cid: int) -> list[int]:
+    """Static boxes of one colour grouped into compound bodies at the origin."""
+    out: list[int] = []
+    by_colour: dict[int, list[ObstacleSpec]] = {}
+    for ob in boxes:
+        by_colour.setdefault(ob.colour, []).append(ob)
+    for colour, group in by_colour.items():
+        for i in range(0, len(group), _BOXES_PER_COMPOUND):
+            chunk = group[i:i + _BOXES_PER_COMPOUND]
+            n = len(chunk)
+            halves = [[ob.size_x_m / 2, ob.size_y_m / 2, ob.height_m / 2] for ob in chunk]
+            places = [[ob.pose.x, ob.pose.y, ob.height_m / 2] for ob in chunk]
+            turns = [_quat_yaw(ob.pose.yaw) for ob in chunk]
+            col = pb.createCollisionShapeArray(
+                [pb.GEOM_BOX] * n, halfExtents=halves, collisionFramePositions=places,
+                collisionFrameOrientations=turns, physicsClientId=cid)
+            vis = pb.createVisualShapeArray(
+                [pb.GEOM_BOX] * n, halfExtents=halves, visualFramePositions=places,
+                visualFrameOrientations=turns, physicsClientId=cid)
+            body = pb.createMultiBody(0.0, col, vis, [0.0, 0.0, 0.0], physicsClientId=cid)
+            pb.changeVisualShape(body, -1, rgbaColor=_rgba(colour), physicsClientId=cid)
+            out.append(body)
+    return out
 
 
 def build_world(spec: WorldSpec, client: int) -> BodyIds:

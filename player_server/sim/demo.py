@@ -130,7 +130,7 @@ class WanderDriver:
                     min_percent[name] = p.percent
 
     def _charger_goal(self, name: str, percent: float | None) -> tuple[float, float] | None:
-        chargers = self.sim.spec.chargers
+        chargers = [c for c in self.sim.spec.chargers if c.rate_w > 0]  # (not the drains)
         if not chargers or percent is None:
             return None
         goal = self._seeking.get(name)

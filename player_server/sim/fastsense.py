@@ -8,6 +8,7 @@ sensors; each tick only evaluates them.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -68,7 +69,10 @@ class RangePlan:
 
     @staticmethod
     def build(keys: tuple[tuple[int, str], ...], robots: tuple[RobotSpec, ...],
-              wa: WorldArrays) -> RangePlan:
+              wa: WorldArrays, fans: Mapping[tuple[int, str], tuple[float, float, int]]
+              | None = None) -> RangePlan:
+        """``fans``: the rays of a laser or ranger cast at (first angle, spacing, count)
+        instead of its world-file `samples` over its field of view."""
         parts = []
         for idx, kind in keys:
             d = getattr(robots[idx].devices, kind)
@@ -80,7 +84,10 @@ class RangePlan:
                 z = d.poses[0].z
             else:
                 k = 1
-                la = np.array(d.angles_rad()) + d.pose.yaw
+                fan = fans.get((idx, kind)) if fans else None
+                angles = (d.angles_rad() if fan is None
+                          else fan[0] + fan[1] * np.arange(fan[2], dtype=np.float64))
+                la = np.array(angles) + d.pose.yaw
                 local = np.full(la.size, complex(d.pose.x, d.pose.y))
                 z = d.pose.z
             parts.append((idx, local, np.exp(1j * la), z, d.min_range_m, d.max_range_m, k))

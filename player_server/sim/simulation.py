@@ -36,6 +36,7 @@ from player_server.sim.devices.tracking import TrackingModel
 from player_server.sim.devices.world import Sensed
 from player_server.sim.drive import ramp, wrap_angle
 from player_server.sim.drive import yaw_of as _yaw_of
+from player_server.sim.looks import Looks
 from player_server.sim.readings import (
     Blob,
     BodyPose,
@@ -141,6 +142,7 @@ class Simulation:
             st.odom = (0.0, 0.0, 0.0)
             self.robots.append(st)
         self._drive_limits = _drive_limits(self.robots)
+        self.looks = Looks(self.spec, self.ids, cid)
         self.arrays = WorldArrays.from_spec(self.spec)
         self.robot_offset = np.array([r.body.offset_x_m for r in self.spec.robots])
         self.dyn_ids = ([self.ids.boxes[b.name] for b in self.spec.boxes]
@@ -161,15 +163,11 @@ class Simulation:
             [complex(m.x, m.y) for m in self.spec.markers]
             + [complex(c.x, c.y) for c in self.spec.chargers], dtype=np.complex128)
         self.fixed_target_head = np.ones(len(self.fixed_target_pos), dtype=np.complex128)
-        self._body_kind: dict[str, tuple[str, int]] = {}
-        for r in self.spec.robots:
-            self._body_kind[r.name] = ("robot", self.ids.robots[r.name])
-        for b in self.spec.boxes:
-            self._body_kind[b.name] = ("box", self.ids.boxes[b.name])
-        for o in self.spec.objects:
-            self._body_kind[o.name] = ("object", self.ids.objects[o.name])
-        for m in self.spec.markers:
-            self._body_kind[m.name] = ("marker", self.ids.markers[m.name])
+        self._body_kind: dict[str, tuple[str, int]] = {
+            name: (kind, bid) for kind, ids in (("robot", self.ids.robots), ("box", self.ids.boxes),
+                                               ("object", self.ids.objects),
+                                               ("marker", self.ids.markers))
+            for name, bid in ids.items()}
         self.hidden: set[str] = set()
         self.held: set[str] = set()
         self._marker_pos = {m.name: (m.x, m.y, 0.0) for m in self.spec.markers}
@@ -392,6 +390,12 @@ class Simulation:
         self.drive_model.set_odometry(robot, x, y, yaw)
 
     # ---- objects hidden, held or stored ------------------------------------------------
+    def set_looks(self, name: str, colour: int | None = None,
+                  fiducial_id: int | None = None) -> None:
+        """A body's colour or fiducial id as sensors see it from the next tick (`Looks`)."""
+        if self.looks.change(name, colour, fiducial_id):  # the colours changed
+            self.arrays = WorldArrays.from_spec(self.looks.applied())
+
     def update_visibility(self) -> None:
         """Held and stored objects are not footprints for the 2-D caster; stored ones are not
         blob targets either."""
@@ -436,6 +440,10 @@ class Simulation:
 
     def ranger(self, robot: str) -> NDArray[np.float64]:
         return self.range_model.reading(robot, "ranger")
+
+    def set_scan_fan(self, robot: str, kind: str, fan: tuple[float, float, int] | None) -> None:
+        """A laser's or ranger's rays: (first angle, spacing, count), or None: the world's."""
+        self.range_model.set_fan(robot, kind, fan)
 
     def blobs(self, robot: str) -> tuple[Blob, ...]:
         """Blobs of the blobfinder's channel colours, by channel then area (largest first)."""
@@ -486,7 +494,6 @@ class Simulation:
         """Robots, boxes, objects and markers inside the overhead camera's view."""
         return self.tracking_model.overhead()
 
-    # ---- snapshots -------------------------------------------------------------------
     def snapshot(self) -> SceneSnapshot:
         def compute() -> SceneSnapshot:
             poses = self._poses

@@ -12,12 +12,14 @@ from player_server.protocol import constants as c
 from player_server.protocol.constants import Interface, MsgType
 from player_server.protocol.registry import lookup, subtypes
 from player_server.server.assembly import world_endpoints
+from player_server.server.stage_assembly import plan_endpoints
+from player_server.server.stage_source import load_stage_source
 from player_server.sim import Simulation
 from worlds import WORLDS_DIR, load_world
 
 pytestmark = pytest.mark.timeout(120)
 
-WORLDS = sorted(p.stem for p in WORLDS_DIR.glob("*.toml"))
+WORLDS = [*sorted(p.stem for p in WORLDS_DIR.glob("*.toml")), "stage/pioneers.cfg"]
 ONLY_DATA_1 = {int(Interface.POWER), int(Interface.PTZ)}
 MUST_HAVE_BODY: dict[int, tuple[int, ...]] = {
     int(Interface.POSITION2D): (c.PLAYER_POSITION2D_REQ_GET_GEOM,),
@@ -49,10 +51,17 @@ def default_body(interf: int, subtype: int) -> object:
 
 @pytest.fixture(scope="module", params=WORLDS)
 def world_drivers(request: pytest.FixtureRequest) -> Iterator[list[tuple[str, Driver]]]:
-    spec = load_world(WORLDS_DIR / f"{request.param}.toml")
-    sim = Simulation(spec)
-    sim.step(2)
-    eps = world_endpoints(spec, sim, 0)
+    if request.param.endswith(".cfg"):  # a Player configuration and its Stage world
+        stage, plan = load_stage_source(str(WORLDS_DIR / request.param), 0)
+        spec = stage.spec
+        sim = Simulation(spec)
+        sim.step(2)
+        eps = plan_endpoints(plan, stage, sim, ephemeral=True)
+    else:
+        spec = load_world(WORLDS_DIR / f"{request.param}.toml")
+        sim = Simulation(spec)
+        sim.step(2)
+        eps = world_endpoints(spec, sim, 0)
     try:
         yield [(ep.name, d) for ep in eps for d in ep.drivers.values()]
     finally:

@@ -311,8 +311,8 @@ def test_laser_set_config_applies_what_the_laser_supports_and_nacks_the_rest() -
         for _ in range(3):
             cl.read()
         assert len(laser.ranges) == 46 and max(laser.ranges) <= 4.0 + 1e-6
-        for bad in (sm.LaserConfig(full.min_angle, full.max_angle, res, full.max_range,
-                                   full.range_res, 1, full.scanning_frequency),  # intensity
+        for bad in (sm.LaserConfig(full.min_angle - res, full.max_angle, res, full.max_range,
+                                   full.range_res, 0, full.scanning_frequency),  # wider
                     sm.LaserConfig(full.min_angle, full.max_angle, res / 2, full.max_range,
                                    full.range_res, 0, full.scanning_frequency),  # finer
                     sm.LaserConfig(full.min_angle, full.max_angle, res, 2 * full.max_range,

@@ -79,6 +79,18 @@ def test_missing_and_bad_worlds_give_one_line(tmp_path: Path) -> None:
     assert load_run_world("simple").robots
 
 
+def test_stage_world_paths_are_world_files(tmp_path: Path,
+                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(RunSetupError) as info:
+        load_run_world("missing.world")  # a file name, not a bundled world's name
+    assert str(info.value) == "--world missing.world: no such world file"
+    Path("bad.world").write_text("window ( size [ 100 100 ]\n")
+    with pytest.raises(RunSetupError) as info:
+        load_run_world("bad.world")
+    assert "bad.world" in str(info.value) and "\n" not in str(info.value)
+
+
 def test_unusable_output_directories_give_one_line(tmp_path: Path) -> None:
     for out, expected in ((Path("/proc/forbidden"), "--out /proc/forbidden: cannot write there"),
                           (Path("/sys/forbidden"), "--out /sys/forbidden: cannot write there")):

@@ -12,7 +12,8 @@ import pytest
 from sibling import load_sibling
 
 from player_server.drivers.base import Driver
-from player_server.drivers.ranging import laser_window
+from player_server.drivers.ranging import scan_request
+from player_server.drivers.scan_config import reported, scan_config, whole_scan
 from player_server.protocol import sensor_msgs as sm
 from player_server.server.__main__ import default_speedup
 from player_server.server.log_limit import LogLimiter
@@ -141,25 +142,51 @@ def _laser_spec() -> Any:
                            range_res_m=0.01, frequency_hz=10.0)
 
 
-def test_laser_window_accepts_a_subset_and_refuses_what_the_laser_cannot_do() -> None:
+def _window(s: Any, cfg: sm.LaserConfig) -> Any:
+    return scan_config(s, scan_request(cfg), whole_scan(s), 0.1)
+
+
+def test_laser_config_accepts_a_subset_and_refuses_what_the_laser_cannot_do() -> None:
     s = _laser_spec()
     res = s.resolution_rad
-    w = laser_window(s, sm.LaserConfig(-math.pi / 4, math.pi / 4, 3 * res, 5.0, 0.01, 0, 10.0))
+    w = _window(s, sm.LaserConfig(-math.pi / 4, math.pi / 4, 3 * res, 5.0, 0.01, 0, 10.0))
     assert (w.first, w.last, w.step, w.max_range_m) == (45, 135, 3, 5.0)
+    # SICK units: 100 hundredths of a degree, 10 mm, intensities on, 5 Hz (every 2nd step)
+    w = _window(s, sm.LaserConfig(-math.pi / 2, math.pi / 2, 100.0, 0.0, 10.0, 1, 5.0))
+    assert (w.step, w.resolution_unit, w.range_res_m, w.intensity, w.period_steps) == (
+        1, "centideg", 0.01, True, 2)
     bad = [
-        sm.LaserConfig(-math.pi / 2, math.pi / 2, res, 8.0, 0.01, 1, 10.0),  # intensity
         sm.LaserConfig(-math.pi / 2, math.pi / 2, res / 2, 8.0, 0.01, 0, 10.0),  # finer
         sm.LaserConfig(-math.pi, math.pi / 2, res, 8.0, 0.01, 0, 10.0),  # wider
         sm.LaserConfig(-math.pi / 2, math.pi / 2, res, 9.0, 0.01, 0, 10.0),  # further
-        sm.LaserConfig(-math.pi / 2, math.pi / 2, res, 8.0, 0.05, 0, 10.0),  # range res
+        sm.LaserConfig(-math.pi / 2, math.pi / 2, res, 8.0, 0.0001, 0, 10.0),  # range res
         sm.LaserConfig(-math.pi / 2, math.pi / 2, res, 8.0, 0.01, 0, 75.0),  # rate
+        sm.LaserConfig(-math.pi / 2, math.pi / 2, 25.0, 8.0, 0.01, 0, 10.0),  # 0.25 over 180
         sm.LaserConfig(-math.pi / 2, math.pi / 2 - res, 2 * res, 8.0, 0.01, 0, 10.0),
         sm.LaserConfig(math.nan, math.pi / 2, res, 8.0, 0.01, 0, 10.0),
         sm.LaserConfig(0.1, -0.1, res, 8.0, 0.01, 0, 10.0),
     ]
     for cfg in bad:
         with pytest.raises(ValueError):
-            laser_window(s, cfg)
+            _window(s, cfg)
+
+
+def test_laser_config_off_the_world_readings_is_a_fan_of_its_own() -> None:
+    s = _laser_spec()  # 181 readings, one a degree
+    w = _window(s, sm.LaserConfig(math.radians(-30.1), math.radians(20.0), 25.0, 0.0, 0.0, 0,
+                                  0.0))
+    assert w.fan == pytest.approx((math.radians(-30.1), math.radians(0.25), 201))
+    assert (w.first, w.last, w.step, w.resolution_unit) == (0, 200, 1, "centideg")
+    lo, hi, res, *_ = reported(s, w, 0.1)
+    assert (lo, hi, res) == pytest.approx((math.radians(-30.1), math.radians(19.9), 25.0))
+    # on the world's readings: a window of them, as before (no fan)
+    w = _window(s, sm.LaserConfig(-math.pi / 4, math.pi / 4, 100.0, 0.0, 0.0, 0, 0.0))
+    assert w.fan is None and (w.first, w.last, w.step) == (45, 135, 1)
+    for lo_deg, hi_deg, r in ((-91.0, 0.0, 50.0), (10.0, -10.0, 50.0), (-10.5, 10.0, 30.0),
+                              (-60.5, 60.0, 25.0)):
+        with pytest.raises(ValueError):
+            _window(s, sm.LaserConfig(math.radians(lo_deg), math.radians(hi_deg), r, 0.0, 0.0,
+                                      0, 0.0))
 
 
 def test_player_server_runs_at_real_time_unless_told_or_in_lockstep() -> None:

@@ -34,6 +34,7 @@ class CameraModel(StatelessModel):
 
     def build(self) -> None:
         self.plans: dict[tuple[int, ...], BlobPlan] = {}
+        self._looks = 0  # the `Looks.version` the plans were made with
         self.last: dict[int, tuple[Blob, ...]] = {}
         self.last_rows: dict[int, tuple[BlobRow, ...]] = {}  # what each of `last` was made of
 
@@ -73,6 +74,9 @@ class CameraModel(StatelessModel):
         """The cameras' blob plan and its targets in view, waiting for their occlusion rays."""
         w = self.world
         cam_key = tuple(cams)
+        if self._looks != w.looks.version:  # colours changed: plan anew
+            self.plans.clear()
+            self._looks = w.looks.version
         bplan = self.plans.get(cam_key)
         if bplan is None:
             bplan = self.plans[cam_key] = BlobPlan.build(cam_key, w.arrays)

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, ClassVar
 
 from player_server.sim.battery import Battery
+from player_server.sim.contact import Rect, rects_touch
 from player_server.sim.readings import PowerState
 
 if TYPE_CHECKING:
+    from player_server.sim.devices.state import RobotState
     from player_server.sim.devices.world import DeviceWorld
 
 
@@ -27,9 +30,11 @@ class PowerModel:
 
     def advance(self, dt: float) -> None:
         # the pads switched on (the same for every robot this tick): centre, radius squared,
-        # rate
-        pads = [(c.x, c.y, c.radius_m ** 2, c.rate_w) for c in self.world.spec.chargers
-                if c.name not in self.chargers_off]
+        # rate; the models with a footprint apart
+        on = [c for c in self.world.spec.chargers if c.name not in self.chargers_off]
+        pads = [(c.x, c.y, c.radius_m ** 2, c.rate_w) for c in on if c.size_x_m <= 0.0]
+        models = [((c.x, c.y, c.size_x_m / 2, c.size_y_m / 2, c.yaw), c.rate_w, c.take_w)
+                  for c in on if c.size_x_m > 0.0]
         for st in self.world.robots:
             b = st.battery
             if b is None:
@@ -44,7 +49,10 @@ class PowerModel:
                 if (x - cx) ** 2 + (y - cy) ** 2 <= r2:
                     charge = rate
                     break
-            b.update(dt, b.draw_w(frac), charge)
+            taken = 0.0
+            if models:
+                charge, taken = _contact(st, models, charge)
+            b.update(dt, b.draw_w(frac) + taken, charge)
 
     def power(self, robot: str) -> PowerState:
         st = self.world.device(robot, "power")
@@ -70,3 +78,20 @@ class PowerModel:
 
     def charger_enabled(self, charger: str) -> bool:
         return charger not in self.chargers_off
+
+
+def _contact(st: RobotState, models: list[tuple[Rect, float, float]],
+             charge: float) -> tuple[float, float]:
+    """(watts given, watts taken) by the models whose footprint the robot's body touches:
+    the first giver's rate (unless a pad already gives), every taker's sum."""
+    body = st.spec.body
+    c, s = math.cos(st.yaw), math.sin(st.yaw)
+    rect = (st.x + body.offset_x_m * c, st.y + body.offset_x_m * s, body.length_m / 2,
+            body.width_m / 2, st.yaw)
+    taken = 0.0
+    for footprint, give, take in models:
+        if rects_touch(rect, footprint):
+            if charge <= 0.0 and give > 0.0:
+                charge = give
+            taken += take
+    return charge, taken

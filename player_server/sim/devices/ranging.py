@@ -30,6 +30,9 @@ class RangeModel(StatelessModel):
     def __init__(self, world: DeviceWorld) -> None:
         self.world = world
         self.active: set[RangeKey] = set()
+        # lasers and rangers cast at angles of their own (first, spacing, count; `set_fan`),
+        # kept across rebuilds (a reset): they are the configuration their drivers hold
+        self.fans: dict[RangeKey, tuple[float, float, int]] = {}
 
     def build(self) -> None:
         self.plans: dict[tuple[RangeKey, ...], RangePlan] = {}
@@ -60,8 +63,29 @@ class RangeModel(StatelessModel):
         plan = self.plans.get(keys)
         if plan is None:
             plan = self.plans[keys] = RangePlan.build(keys, self.world.spec.robots,
-                                                       self.world.arrays)
+                                                       self.world.arrays, self.fans)
         return plan
+
+    def set_fan(self, robot: str, kind: str, fan: tuple[float, float, int] | None) -> None:
+        """Cast a laser's or ranger's readings at ``first + i * spacing`` (i < count) robot
+        frame angles about its mount instead of the world file's (None); this tick's
+        readings are made again with it."""
+        if kind not in ("laser", "ranger"):
+            raise ValueError(f"only a laser or ranger casts a fan, not a {kind}")
+        first, spacing, count = fan if fan is not None else (0.0, 1.0, 1)
+        if not (np.isfinite(first) and np.isfinite(spacing) and spacing > 0 and count >= 1):
+            raise ValueError(f"a fan needs finite angles and a count >= 1, not {fan}")
+        key = (self.world.device(robot, kind).index, kind)
+        if self.fans.get(key) == fan:
+            return
+        if fan is None:
+            del self.fans[key]
+        else:
+            self.fans[key] = fan
+        self.plans.clear()
+        self._last_batch = None
+        self.last.pop(key, None)
+        self.world.invalidate()
 
     # -- fast
     def fast_readings(self, plan: RangePlan, hits: np.ndarray) -> dict[RangeKey, np.ndarray]:

@@ -20,6 +20,7 @@ class TrackingModel(StatelessModel):
 
     def build(self) -> None:
         self._colours: dict[str, int] | None = None
+        self._looks = 0  # the `Looks.version` of `_colours`
         # the last pose of each body the overhead camera saw, and what it made of it
         self._seen: dict[str, tuple[BodyPose, TrackedObject]] = {}
 
@@ -38,15 +39,16 @@ class TrackingModel(StatelessModel):
             # only the robots and objects listed near the detector in this tick's grids
             reach = spec.max_range_m + 1e-6
             robots = w.robots
+            ids = w.looks.fiducial_id
             for i in w.tick_arrays.robots_near(sx, sy, reach):
                 other = robots[i]
-                if other is not st and other.spec.fiducial_id > 0:
-                    things.append((other.spec.fiducial_id, other.x, other.y, other.yaw))
+                if other is not st and (fid := ids(other.spec.name)) > 0:
+                    things.append((fid, other.x, other.y, other.yaw))
             objects = w.spec.objects
             for row in w.tick_arrays.objects_near(sx, sy, reach):
                 o = objects[row]
-                if o.fiducial_id > 0 and o.name not in w.hidden:
-                    things.append((o.fiducial_id, *w.tick_arrays.dyn_pose(o.name)))
+                if (fid := ids(o.name)) > 0 and o.name not in w.hidden:
+                    things.append((fid, *w.tick_arrays.dyn_pose(o.name)))
             out = []
             for fid, x, y, yaw in things:
                 wx, wy = x - sx, y - sy
@@ -95,10 +97,12 @@ class TrackingModel(StatelessModel):
         return w.cached("overhead", compute)  # type: ignore[return-value]
 
     def _spec_colours(self) -> dict[str, int]:
-        """Name -> colour of every robot, box, object and marker (fixed by the world)."""
+        """Name -> colour of every robot, box, object and marker (as they look now)."""
         colours = self._colours
-        if colours is None:
-            spec = self.world.spec
+        if colours is None or self._looks != self.world.looks.version:
+            self._looks = self.world.looks.version
+            self._seen.clear()  # what was made with the old colours
+            spec = self.world.looks.applied()
             colours = {r.name: r.colour for r in spec.robots}
             colours.update({b.name: b.colour for b in spec.boxes})
             colours.update({o.name: o.colour for o in spec.objects})

@@ -4,7 +4,8 @@ A model is built with a `DeviceWorld` (the Simulation implements it) and reaches
 only through it: the robots' state (`state.RobotState`: body, pose, drive), the device's
 world-file parameters (``state.spec.devices.<kind>``), the clock (``tick``) and the per-tick
 cache, the bodies' poses and neighbours (`Poses`), the PyBullet client for models that render
-or cast rays themselves, and the few world changes a model may ask for (hiding an object,
+or cast rays themselves, how bodies look (colours and fiducial ids, which the
+simulation interface may change), and the few world changes a model may ask for (hiding an object,
 say). Nothing here imports the simulation, so a model never depends on the world that holds
 it; a test can hand a model any object with these members.
 """
@@ -21,6 +22,7 @@ if TYPE_CHECKING:
     from player_server.sim.bodies import BodyIds
     from player_server.sim.devices.state import RobotState
     from player_server.sim.fastsense import Frame
+    from player_server.sim.looks import Looks
     from player_server.sim.readings import SceneSnapshot
     from player_server.sim.world_arrays import WorldArrays
     from worlds import ObjectSpec, WorldSpec
@@ -69,6 +71,9 @@ class DeviceWorld(Protocol):
     held: set[str]
     """Objects held between a gripper's paddles."""
     target_hidden: np.ndarray | None
+    looks: Looks
+    """Each body's colour and fiducial id in force (``looks.version`` counts changes);
+    ``arrays`` is rebuilt with the colours when one changes."""
 
     @property
     def tick_arrays(self) -> Poses: ...

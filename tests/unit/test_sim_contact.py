@@ -1,0 +1,33 @@
+"""Contact between a robot's body and a charging model's footprint (pure geometry)."""
+
+from __future__ import annotations
+
+import math
+
+from player_server.sim.contact import MARGIN_M, rects_touch
+
+DOCK = (0.0, 0.0, 0.15, 0.3, 0.0)  # 0.3 x 0.6 m, at the origin
+
+
+def test_bodies_touch_when_they_overlap_or_come_within_the_margin() -> None:
+    # a 0.44 m long body facing the dock's +x face, its nose `gap` metres away
+    for gap, touching in ((-0.01, True), (0.0, True), (MARGIN_M - 0.005, True),
+                          (MARGIN_M + 0.005, False), (1.0, False)):
+        body = (0.15 + gap + 0.22, 0.0, 0.22, 0.19, math.pi)
+        assert rects_touch(body, DOCK) is touching, gap
+    # beside the dock's end (y) and diagonally off its corner
+    assert rects_touch((0.0, 0.3 + 0.19 + 0.04, 0.22, 0.19, 0.0), DOCK)
+    assert not rects_touch((0.0, 0.3 + 0.19 + 0.06, 0.22, 0.19, 0.0), DOCK)
+    assert not rects_touch((0.6, 0.75, 0.22, 0.19, 0.0), DOCK)
+
+
+def test_turned_rectangles_use_their_own_axes() -> None:
+    # a body turned 45 degrees whose corner points at the dock's face: its corner reaches
+    # 0.22 * cos 45 + 0.19 * sin 45 = 0.290 m from its centre along x
+    reach = 0.22 * math.cos(math.pi / 4) + 0.19 * math.sin(math.pi / 4)
+    assert rects_touch((0.15 + reach + 0.04, 0.0, 0.22, 0.19, math.pi / 4), DOCK)
+    assert not rects_touch((0.15 + reach + 0.06, 0.0, 0.22, 0.19, math.pi / 4), DOCK)
+    # the dock turned 90 degrees is 0.6 m long in x: a body 0.4 m off its centre touches it
+    turned = (0.0, 0.0, 0.15, 0.3, math.pi / 2)
+    assert rects_touch((0.3 + 0.22 + 0.01, 0.0, 0.22, 0.19, 0.0), turned)
+    assert not rects_touch((0.3 + 0.22 + 0.01, 0.0, 0.22, 0.19, 0.0), DOCK)
