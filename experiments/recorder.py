@@ -147,7 +147,8 @@ class RunRecorder:
         self._channel = ZmqChannel(self._viewer.urls.zmq_url)
         self.live = LiveView(layout_from_world(self.world), self._channel,
                              max_rate_hz=self._live_rate_hz,
-                             trail_points=self._live_trail_points)
+                             trail_points=self._live_trail_points,
+                             lasers=self._live_lasers)
         lasers = tuple(r.name for r in self.world.robots
                        if r.mobile and r.devices.laser is not None)
         self._feed = LiveFeed(
@@ -202,7 +203,7 @@ class RunRecorder:
             live = self.live
             if live is not None:
                 for robot, state in changed.items():
-                    live.set_robot(robot, state.state, state.view_label)
+                    live.set_robot(robot, state.state, state.view_label, state.target_colour)
             recording = self.recording
             if recording is not None:
                 recording.event(e)

@@ -58,7 +58,8 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
     with ViewerProcess(web_port=args.web_port) as viewer:
         channel = ZmqChannel(viewer.urls.zmq_url)
-        view = LiveView(layout, channel, max_rate_hz=args.rate_hz, trail_points=args.trails)
+        view = LiveView(layout, channel, max_rate_hz=args.rate_hz, trail_points=args.trails,
+                        lasers=args.lasers)
         # no team reports states here: a robot on a charging pad shows as charging
         feed = LiveFeed(view, wall_clock=time.monotonic, period_s=1.0 / args.rate_hz,
                         power_robots=powered, scan_robots=lasers, states_from_power=True)

@@ -127,8 +127,8 @@ def test_live_view_mirrors_snapshots_and_states() -> None:
     }
     assert visible[f"{rpath}/body/working"] is True
     assert visible[f"{rpath}/body/idle"] is False
-    labels = [c for c in cmds if c["type"] == "set_object" and c["path"] == f"{rpath}/label"]
-    assert labels and labels[-1]["object"]["textures"][0]["text"] == "sentry-duty t7"
+    infos = [c for c in cmds if c["type"] == "set_object" and c["path"] == f"{rpath}/info"]
+    assert infos and infos[-1]["object"]["object"]["userData"]["task"] == "sentry-duty t7"
 
 
 def test_live_view_never_blocks_the_offering_thread_and_survives_a_dead_viewer() -> None:
@@ -182,7 +182,7 @@ def test_channel_times_out_without_a_viewer() -> None:
         ctx.term()
 
 
-def test_live_scene_tree_has_legend_names_and_clock() -> None:
+def test_live_scene_tree_has_legend_labels_and_clock() -> None:
     """What the viewer holds (meshcat's own scene tree, as any browser would load it)."""
     layout = scene.layout_from_world(load_world(world_path("longterm")))
 
@@ -205,14 +205,14 @@ def test_live_scene_tree_has_legend_names_and_clock() -> None:
             view.stop()
             channel.close()
         cmds = _scene_commands(viewer.urls.zmq_url)
-    texts = {c["path"]: c["object"]["textures"][0]["text"] for c in cmds
-             if c["type"] == "set_object" and c["object"].get("textures")}
-    assert texts[f"{scene.ROOT}/hud/clock"] == "sim 0:12:34"
-    assert [texts[f"{scene.ROOT}/hud/legend/{s}/text"] for s in scene.ROBOT_STATES] == [
-        "idle", "working", "charging", "down"]
-    names = {r.name: texts[f"{scene.robot_path(r.name)}/name"] for r in layout.robots}
-    assert names["p2"] == "p2 64%" and names["p1"] == "p1"
-    assert texts[f"{scene.robot_path('p2')}/label"] == "cleanup: red box"
+    data = {c["path"]: c["object"]["object"]["userData"] for c in cmds
+            if c["type"] == "set_object" and c["object"]["object"].get("userData")}
+    assert data[f"{scene.ROOT}/hud/clock"]["text"] == "sim 0:12:34"
+    legend = [e["label"] for e in data[f"{scene.ROOT}/hud/legend"]["entries"]]
+    assert legend[:4] == ["robot idle", "robot working", "robot charging", "robot down"]
+    infos = {r.name: data[f"{scene.robot_path(r.name)}/info"] for r in layout.robots}
+    assert infos["p2"]["battery"] == 64 and infos["p1"]["battery"] is None
+    assert infos["p2"]["task"] == "cleanup: red box"
 
 
 @pytest.mark.browser
