@@ -326,7 +326,8 @@ var MurdochOverlay = (function () {
       mode: this.replay ? "replay" : "live", t: live.t, clock: this.clock.textContent,
       frames: this.replay ? null : live.frames, robots: live.robots, labels: rects,
       info: infos, legend: this.legend.children.length,
-      playing: this.replay ? !!viewer.animator.playing : null});
+      playing: this.replay ? !!viewer.animator.playing : null,
+      slider: this.replay ? parseFloat(this.slider.value) : null});
   };
 
   function attach(viewer, options) {

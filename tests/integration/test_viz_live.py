@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import base64
+import itertools
 import os
 import re
 import threading
@@ -12,6 +13,7 @@ from pathlib import Path
 import pytest
 import umsgpack
 import zmq
+from sibling import load_sibling
 
 from player_server.viz import scene
 from player_server.viz.live import LiveView
@@ -271,3 +273,181 @@ def test_live_view_in_headless_chromium_shows_the_legend(tmp_path: Path) -> None
     trail = np.array([(scene.TRAIL_COLOUR >> 16) & 0xFF, (scene.TRAIL_COLOUR >> 8) & 0xFF,
                       scene.TRAIL_COLOUR & 0xFF])
     assert int((np.abs(rgb - trail).max(axis=2) <= 12).sum()) > 20, "no trail drawn"
+
+
+_headless = load_sibling(__file__, "headless.py")
+
+
+@pytest.mark.browser
+def test_label_layout_keeps_crowded_labels_apart(tmp_path: Path) -> None:
+    """The overlay's pure layout step, run in the browser: forty robots within a few pixels
+    of each other, and a row of them, get labels that overlap neither each other nor (where
+    there is room) any robot; moments in links parse as simulated seconds."""
+    import json
+
+    from player_server.viz.page import OVERLAY_JS
+
+    crowd = [{"id": f"p{i}", "x": 600 + (i % 7) * 6, "y": 400 + (i // 7) * 5,
+              "width": 100 + (i % 3) * 30, "height": 22 + (i % 2) * 15} for i in range(40)]
+    row = [{"id": f"r{i}", "x": 100 + i * 40, "y": 700, "width": 110, "height": 37}
+           for i in range(12)]
+    page = tmp_path / "layout.html"
+    page.write_text(
+        "<!DOCTYPE html><html><body><pre id=\"murdoch-state\"></pre>"
+        f"<script src=\"{OVERLAY_JS.resolve().as_uri()}\"></script><script>"
+        "var M = MurdochOverlay;"
+        "document.getElementById('murdoch-state').textContent = JSON.stringify({"
+        f"crowd: M.placeLabels({json.dumps(crowd)}), row: M.placeLabels({json.dumps(row)}),"
+        "moments: ['7:40', '1:07:40', '460.5', 'soon', ''].map(M.parseMoment)});"
+        "</script></body></html>", encoding="utf-8")
+    exe = _headless.require_chromium()
+    state = _headless.page_state(exe, page.as_uri(), _headless.Profiles(tmp_path),
+                                 budget_ms=200)
+    assert state["moments"] == [460, 4060, 460.5, None, None]
+    for items, placed in ((crowd, state["crowd"]), (row, state["row"])):
+        rects = {it["id"]: (placed[it["id"]]["left"], placed[it["id"]]["top"], it["width"],
+                            it["height"]) for it in items}
+        assert len(rects) == len(items)
+        assert _headless.overlapping(rects) == []
+    # in the row there is room: no label covers a robot, and each stays near its own
+    for it in row:
+        left, top = state["row"][it["id"]]["left"], state["row"][it["id"]]["top"]
+        for other in row:
+            assert not (left < other["x"] < left + it["width"]
+                        and top < other["y"] < top + it["height"]), (it["id"], other["id"])
+        assert abs(left + it["width"] / 2 - it["x"]) < 200 and abs(top - it["y"]) < 150
+
+
+@pytest.fixture(scope="module")
+def live_run(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """A real ten-minute `murdoch run longterm --meshcat` (paced at ten times real time),
+    with the live view's page state read by headless Chromium every few seconds while it
+    runs; then its run directory (run.mcap, replay.html)."""
+    import queue
+    import signal
+    import subprocess
+    import sys
+
+    exe = _headless.require_chromium()
+    tmp = tmp_path_factory.mktemp("live-run")
+    profiles = _headless.Profiles(tmp)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "murdoch", "run", "longterm", "--until", "10m", "--meshcat",
+         "--seed", "1", "--out", str(tmp / "runs")],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, text=True)
+    lines: queue.Queue[str] = queue.Queue()
+
+    def read() -> None:
+        assert proc.stdout is not None
+        for line in proc.stdout:
+            lines.put(line)
+
+    threading.Thread(target=read, daemon=True).start()
+    seen: list[str] = []
+
+    def wait_for(text: str, timeout_s: float) -> str:
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            try:
+                line = lines.get(timeout=max(0.01, deadline - time.monotonic()))
+            except queue.Empty:
+                break
+            seen.append(line)
+            if text in line:
+                return line
+        raise AssertionError(f"no {text!r} from murdoch run; it said:\n{''.join(seen[-30:])}")
+
+    states: list[dict] = []
+    try:
+        root = Path(wait_for("run directory:", 120).split(":", 1)[1].strip())
+        url = wait_for("meshcat live view:", 120).split(": ", 1)[1].strip()
+        deadline = time.monotonic() + 400
+        for _ in range(40):  # the page's state every few seconds until the run ends
+            if proc.poll() is not None or time.monotonic() > deadline:
+                break
+            state = _headless.page_state(exe, url, profiles, budget_ms=1500)
+            states.append(state)
+            if state["t"] is not None and state["t"] >= 599.0:
+                break
+        wait_for("the live view stays up", 300)  # finished: run.mcap and replay.html written
+        shots = tmp / "live.png"
+        _headless.screenshots(exe, [(url, shots)], profiles, size=(1400, 900), budget_ms=1500)
+    finally:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGINT)  # closes the held view
+            try:
+                proc.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+    return {"root": root, "states": states, "profiles": profiles, "exe": exe}
+
+
+def _recorded(root: Path) -> list[dict]:
+    from experiments.report import recorded_poses
+
+    return list(recorded_poses(root / "run.mcap"))
+
+
+def _assert_matches_recording(state: dict, frames: list[dict], tolerance_m: float) -> None:
+    import math
+
+    for robot, (x, y, _yaw) in state["robots"].items():
+        rx, ry = _headless.pose_at(frames, state["t"], robot)
+        assert math.hypot(x - rx, y - ry) < tolerance_m, (
+            f"{robot} drawn at ({x:.2f}, {y:.2f}) at {state['clock']}; "
+            f"the recording has ({rx:.2f}, {ry:.2f})")
+
+
+@pytest.mark.browser
+@pytest.mark.timeout(900)
+def test_live_view_follows_a_real_run_in_headless_chromium(live_run: dict) -> None:
+    """The page of `murdoch run --meshcat` at several simulated times: its clock runs with the
+    run, every robot is drawn where run.mcap has it at that time (so every robot that drives
+    moves), and no robot's label overlaps another's."""
+    import math
+
+    states = [s for s in live_run["states"] if s["t"] is not None and s["robots"]]
+    assert len(states) >= 2, live_run["states"]
+    frames = _recorded(live_run["root"])
+    times = [s["t"] for s in states]
+    assert times == sorted(times) and times[-1] - times[0] > 120.0, times
+    moved = set()
+    for a, b in itertools.pairwise(states):
+        for robot in a["robots"]:
+            (xa, ya), (xb, yb) = (_headless.pose_at(frames, s["t"], robot) for s in (a, b))
+            if math.hypot(xb - xa, yb - ya) > 0.3:  # it drove: the view shows it moving
+                pa, pb = a["robots"][robot], b["robots"][robot]
+                assert math.hypot(pb[0] - pa[0], pb[1] - pa[1]) > 0.2, (robot, a["t"], b["t"])
+                moved.add(robot)
+    assert moved, "no robot drove in the run"
+    for s in states:
+        assert s["clock"] == scene_clock(s["t"])
+        _assert_matches_recording(s, frames, 0.12)
+        assert set(s["labels"]) == set(s["robots"])
+        assert _headless.overlapping(s["labels"]) == [], s["clock"]
+        if s["t"] > 0:  # the feed runs with the simulation: battery levels from the first step
+            assert all(info["battery"] is not None for info in s["info"].values()), s["info"]
+
+
+@pytest.mark.browser
+@pytest.mark.timeout(900)
+def test_replay_of_the_run_at_two_slider_positions(live_run: dict) -> None:
+    """replay.html of the same run, opened at two moments (``#t=m:ss``, which moves the
+    slider): clock, slider and scene agree with run.mcap at that simulated time."""
+    frames = _recorded(live_run["root"])
+    replay = live_run["root"] / "replay.html"
+    for t in (95, 7 * 60 + 40):
+        url = f"{replay.as_uri()}#t={t // 60}:{t % 60:02d}"
+        state = _headless.page_state(live_run["exe"], url, live_run["profiles"], budget_ms=1500)
+        assert state["t"] == pytest.approx(t, abs=0.05) and state["slider"] == pytest.approx(t)
+        assert state["clock"] == scene_clock(t) and state["playing"] is False
+        _assert_matches_recording(state, frames, 0.1)
+        assert _headless.overlapping(state["labels"]) == []
+        assert all(info["battery"] is not None for info in state["info"].values())
+
+
+def scene_clock(t: float) -> str:
+    from player_server.viz.hud import clock_text
+
+    return clock_text(t)
