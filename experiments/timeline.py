@@ -158,6 +158,11 @@ def target_text(task_kind: str, params: Mapping[str, Any]) -> str:
     colour = colour_name(value) if value is not None else params.get("colour")
     if task_kind == "cleanup":
         return f"{colour} box" if colour else "a box"
+    if task_kind == "watch-box":
+        goal = target_colour({"colour": params.get("goal_colour")})
+        goal_name = colour_name(goal) if goal is not None else params.get("goal_colour")
+        box = f"{colour} box" if colour else "the box"
+        return f"{box} to the {goal_name} marker" if goal_name else box
     if task_kind in ("object-tracking", "monitor-object", "sentry-duty"):
         what = f"{colour} object" if colour else ""
         if "x" in params and "y" in params:

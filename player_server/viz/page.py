@@ -31,7 +31,8 @@ body { margin: 0; font-family: "DejaVu Sans", Arial, sans-serif; }
 .mo-disc { border-radius: 50%; }
 .mo-bar { height: 4px; margin-bottom: 2px; }
 .mo-ring { border: 3px solid #000; border-radius: 50%; background: transparent; }
-.mo-marked { outline: 2px solid #000; outline-offset: 1px; border-radius: 50%; }
+.mo-marked { outline: 2px solid #000; outline-offset: 1px; border-radius: 50%;
+  margin: 0 6px -1px 4px; }
 #murdoch-clock { position: absolute; left: 10px; top: 8px; padding: 3px 10px;
   background: rgba(255,255,255,0.9); border-radius: 4px; font-size: 20px;
   font-variant-numeric: tabular-nums; }

@@ -21,6 +21,7 @@ from player_server.viz.server import ViewerProcess, ViewerUnavailable, ZmqChanne
 from worlds import load_world, world_path
 
 pytestmark = pytest.mark.timeout(120)
+_headless = load_sibling(__file__, "headless.py")
 
 
 def _listening_sockets(pid: int) -> list[tuple[str, str, int]]:
@@ -221,18 +222,10 @@ def test_live_scene_tree_has_legend_labels_and_clock() -> None:
 def test_live_view_in_headless_chromium_shows_the_legend(tmp_path: Path) -> None:
     """A real browser on the live view's page: the screenshot shows every state colour (the
     legend's swatches; no robot is charging or down) and is kept next to the test's files."""
-    import shutil
-    import subprocess
-
     import cv2
     import numpy as np
 
-    exe = next((shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome")
-                if shutil.which(n)), None)
-    if exe is None:
-        if os.environ.get("CI", "").lower() == "true":
-            pytest.fail("headless Chromium is required under CI but was not found")
-        pytest.skip("headless Chromium not installed (apt-get install chromium)")
+    exe = _headless.require_chromium()
     layout = scene.layout_from_world(load_world(world_path("longterm")))
     png = tmp_path / "live.png"
     with ViewerProcess() as viewer:
@@ -250,16 +243,9 @@ def test_live_view_in_headless_chromium_shows_the_legend(tmp_path: Path) -> None
             deadline = time.monotonic() + 20.0
             while view.stats().frames < 3 and time.monotonic() < deadline:
                 time.sleep(0.05)
-            cmd = [exe, "--headless", "--no-sandbox", "--disable-gpu",
-                   "--enable-unsafe-swiftshader", "--disable-quic", "--no-first-run",
-                   "--disable-background-networking", "--disable-component-update",
-                   "--disable-sync", "--disable-extensions",
-                   f"--user-data-dir={tmp_path / 'profile'}", f"--screenshot={png}",
-                   "--window-size=1024,768", "--hide-scrollbars",
-                   "--virtual-time-budget=5000", viewer.urls.web_url]
-            proc = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                  timeout=120)
-            assert proc.returncode == 0
+            _headless.screenshots(exe, [(viewer.urls.web_url, png)],
+                                  _headless.Profiles(tmp_path), budget_ms=5000,
+                                  timeout_s=120)
         finally:
             view.stop()
             channel.close()
@@ -273,9 +259,6 @@ def test_live_view_in_headless_chromium_shows_the_legend(tmp_path: Path) -> None
     trail = np.array([(scene.TRAIL_COLOUR >> 16) & 0xFF, (scene.TRAIL_COLOUR >> 8) & 0xFF,
                       scene.TRAIL_COLOUR & 0xFF])
     assert int((np.abs(rgb - trail).max(axis=2) <= 12).sum()) > 20, "no trail drawn"
-
-
-_headless = load_sibling(__file__, "headless.py")
 
 
 @pytest.mark.browser

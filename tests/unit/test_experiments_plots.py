@@ -133,3 +133,7 @@ def test_targets_are_named_by_colour_name_as_the_task_source_writes_them() -> No
     assert [got[r].view_label for r in ("p1", "p2", "p3")] == [
         "cleanup: orange box", "cleanup: purple box", "cleanup: red box"]  # nearest name
     assert got["p1"].target_colour == 0xFF8000
+    tracker.apply(E(3.0, ev.TASK_INTRODUCED, task="u1", task_kind="watch-box",
+                    params={"colour": "#ff8000", "goal_colour": "#ff00ff"}))
+    watch = tracker.apply(E(3.0, ev.AWARD, task="u1", robot="w"))["w"]
+    assert watch.view_label == "watch-box: orange box to the magenta marker"
