@@ -332,9 +332,13 @@ var MurdochOverlay = (function () {
 
   function attach(viewer, options) {
     var overlay = new Overlay(viewer, options || {});
-    var tick = function () { overlay.refresh(); };
-    setInterval(tick, 100);
-    var frame = function () { tick(); window.requestAnimationFrame(frame); };
+    var last = 0;
+    var tick = function () { last = Date.now(); overlay.refresh(); };
+    setInterval(tick, 100);  // also while the page is hidden (no animation frames then)
+    var frame = function () {
+      if (Date.now() - last >= 33) { tick(); }  // labels follow at up to 30 Hz
+      window.requestAnimationFrame(frame);
+    };
     window.requestAnimationFrame(frame);
     tick();
     return overlay;
