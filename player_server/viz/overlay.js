@@ -283,10 +283,18 @@ var MurdochOverlay = (function () {
     }
     this.clock.textContent = t === null ? "" : clockText(t);
     this.drawLegend(found.legend || (this.replay && this.replay.legend));
+    // the camera as the next render will have it (the viewer renders on animation frames,
+    // which a hidden or headless page may not get between two refreshes)
+    var camera = viewer.camera;
+    if (camera.isPerspectiveCamera && viewer.dom_element &&
+        Math.abs(camera.aspect - viewer.dom_element.offsetWidth / window.innerHeight) > 1e-6) {
+      viewer.set_3d_pane_size();
+    }
+    if (viewer.controls) { viewer.controls.update(); }
+    camera.updateProjectionMatrix();
+    viewer.scene.updateMatrixWorld(true);
     var canvas = viewer.renderer.domElement;
     var w = canvas.clientWidth || window.innerWidth, h = canvas.clientHeight || window.innerHeight;
-    var camera = viewer.camera;
-    viewer.scene.updateMatrixWorld(true);
     var poses = this.poses(found.robots);
     var items = [], infos = {};
     found.robots.forEach(function (r) {
@@ -306,7 +314,7 @@ var MurdochOverlay = (function () {
       }
     });
     var placed = placeLabels(items);
-    var rects = {};
+    var rects = {}, anchors = {};
     Object.keys(this.labels).forEach(function (name) {
       var l = self.labels[name], p = placed[name];
       if (!p) { l.div.style.display = "none"; l.line.setAttribute("visibility", "hidden"); return; }
@@ -315,6 +323,7 @@ var MurdochOverlay = (function () {
       l.div.style.top = p.top + "px";
       var r = l.div.getBoundingClientRect();
       rects[name] = [r.left, r.top, r.width, r.height];
+      anchors[name] = l.anchor;
       var lx = Math.max(r.left, Math.min(l.anchor[0], r.right));
       var ly = Math.max(r.top, Math.min(l.anchor[1], r.bottom));
       l.line.setAttribute("x1", l.anchor[0]); l.line.setAttribute("y1", l.anchor[1]);
@@ -325,6 +334,7 @@ var MurdochOverlay = (function () {
     this.state.textContent = JSON.stringify({
       mode: this.replay ? "replay" : "live", t: live.t, clock: this.clock.textContent,
       frames: this.replay ? null : live.frames, robots: live.robots, labels: rects,
+      anchors: anchors, view: [window.innerWidth, window.innerHeight],
       info: infos, legend: this.legend.children.length,
       playing: this.replay ? !!viewer.animator.playing : null,
       slider: this.replay ? parseFloat(this.slider.value) : null});

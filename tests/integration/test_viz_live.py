@@ -353,8 +353,13 @@ def live_run(tmp_path_factory: pytest.TempPathFactory) -> dict:
             if state["t"] is not None and state["t"] >= 599.0:
                 break
         wait_for("the live view stays up", 300)  # finished: run.mcap and replay.html written
-        shots = tmp / "live.png"
-        _headless.screenshots(exe, [(url, shots)], profiles, size=(1400, 900), budget_ms=1500)
+        # the last frame, held: its page state and a screenshot of it
+        final = _headless.page_state(exe, url, profiles, budget_ms=1500)
+        # a screenshot whose viewport is the one the state was read in (headless Chromium's
+        # --dump-dom page is shorter than its --window-size)
+        width, height = final["view"]
+        _headless.screenshots(exe, [(url, tmp / "live.png")], profiles, size=(width, height),
+                              budget_ms=1500)
     finally:
         if proc.poll() is None:
             proc.send_signal(signal.SIGINT)  # closes the held view
@@ -363,7 +368,8 @@ def live_run(tmp_path_factory: pytest.TempPathFactory) -> dict:
             except subprocess.TimeoutExpired:
                 proc.kill()
                 proc.wait()
-    return {"root": root, "states": states, "profiles": profiles, "exe": exe}
+    return {"root": root, "states": states, "profiles": profiles, "exe": exe, "final": final,
+            "png": tmp / "live.png"}
 
 
 def _recorded(root: Path) -> list[dict]:
@@ -411,6 +417,31 @@ def test_live_view_follows_a_real_run_in_headless_chromium(live_run: dict) -> No
         assert _headless.overlapping(s["labels"]) == [], s["clock"]
         if s["t"] > 0:  # the feed runs with the simulation: battery levels from the first step
             assert all(info["battery"] is not None for info in s["info"].values()), s["info"]
+
+
+@pytest.mark.browser
+@pytest.mark.timeout(900)
+def test_live_labels_point_at_their_robots_in_the_screenshot(live_run: dict) -> None:
+    """Each label's leader line ends on its robot as the browser drew it: around the anchor
+    the page reports, the screenshot shows the colour of that robot's state."""
+    import colorsys
+
+    import cv2
+    import numpy as np
+
+    state = live_run["final"]
+    img = cv2.imread(str(live_run["png"]), cv2.IMREAD_COLOR)
+    assert img is not None and img.shape[:2] == (state["view"][1], state["view"][0])
+    hsv = cv2.cvtColor(img, cv2.COLOR_BGR2HSV_FULL).astype(float)
+    assert set(state["anchors"]) == set(state["robots"])
+    for robot, (x, y) in state["anchors"].items():
+        colour = state["info"][robot]["stateColour"]
+        h0 = colorsys.rgb_to_hsv(*(int(colour[i:i + 2], 16) / 255.0 for i in (1, 3, 5)))[0]
+        win = hsv[max(0, int(y) - 8):int(y) + 9, max(0, int(x) - 8):int(x) + 9]
+        dh = np.abs(win[:, :, 0] / 255.0 - h0)
+        dh = np.minimum(dh, 1.0 - dh)
+        hits = int(((dh < 12 / 360) & (win[:, :, 1] > 0.4 * 255)).sum())
+        assert hits >= 20, f"{robot}'s label points at ({x:.0f}, {y:.0f}), not at the robot"
 
 
 @pytest.mark.browser
