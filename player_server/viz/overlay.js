@@ -345,6 +345,9 @@ var MurdochOverlay = (function () {
     var last = 0;
     var tick = function () { last = Date.now(); overlay.refresh(); };
     setInterval(tick, 100);  // also while the page is hidden (no animation frames then)
+    // at once when the page changes size (after the viewer's own handler has resized the 3-D
+    // view), so that labels never wait for the next tick at the old size
+    window.addEventListener("resize", tick);
     var frame = function () {
       if (Date.now() - last >= 33) { tick(); }  // labels follow at up to 30 Hz
       window.requestAnimationFrame(frame);
