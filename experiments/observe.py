@@ -3,8 +3,7 @@
 `ObservedSim` wraps a `player_server.sim.Simulation` for `PlayerServer` (it is a `Steppable`):
 after each step, on the serving thread that owns the PyBullet client, it runs its samplers
 (each every so many simulated seconds: the run recording, battery events, the boxpush referee)
-and, at most `live_period_s` of wall time apart, hands a snapshot to the live view (one
-assignment under a lock).
+and then the live view's feed, if any (which keeps to its own wall-clock rate).
 
 `JsonlTail` follows a JSON-lines file another process appends to (robot event logs).
 `robot_event_to_run_events` turns a robot's event into run events.
@@ -55,25 +54,15 @@ class ObservedSim:
         self,
         sim: SnapshotSim,
         *,
-        wall_clock: Callable[[], float],
-        live_offer: Callable[[Any], None] | None = None,
-        live_period_s: float = 0.1,
         samplers: tuple[tuple[float, Callable[[Any, float], None]], ...] = (),
-        live_scans: Callable[[dict[str, Any]], None] | None = None,
-        scan_robots: tuple[str, ...] = (),
+        live: Callable[[Any], None] | None = None,
     ) -> None:
-        """`live_scans` (with `scan_robots`) also hands the live view those robots' laser
-        ranges, copied, whenever it gets a snapshot."""
+        """`live(sim)` runs after every step: the live view's feed, which keeps to its own
+        wall-clock rate (`player_server.viz.feed.LiveFeed.after_step`)."""
         self.sim = sim
         # (period in simulation seconds, callback(sim, t)) run on the serving thread
         self._samplers = [(period, fn, [-1.0]) for period, fn in samplers]
-        self._clock = wall_clock
-        self._live = live_offer
-        self._live_period = live_period_s
-        self._next_live_wall = -1.0
-        self._live_scans = live_scans
-        self._scan_robots = scan_robots
-        self.snapshots = 0
+        self._live = live
 
     @property
     def time_s(self) -> float:
@@ -95,14 +84,7 @@ class ObservedSim:
                 due[0] = t + period
                 fn(self.sim, t)
         if self._live is not None:
-            now = self._clock()
-            if now >= self._next_live_wall:
-                self._next_live_wall = now + self._live_period
-                self.snapshots += 1
-                self._live(self.sim.snapshot())
-                if self._live_scans is not None and self._scan_robots:
-                    laser = self.sim.laser  # type: ignore[attr-defined]
-                    self._live_scans({r: laser(r).tolist() for r in self._scan_robots})
+            self._live(self.sim)
 
 
 class JsonlTail:

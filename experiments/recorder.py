@@ -116,6 +116,7 @@ class RunRecorder:
         self._viewer: Any = None
         self._channel: Any = None
         self.live: Any = None
+        self._feed: Any = None
         self.viewer_url: str | None = None
         self._finished = False
         self._lock = threading.Lock()
@@ -137,6 +138,7 @@ class RunRecorder:
         self.display.start()
 
     def _start_viewer(self) -> None:
+        from player_server.viz.feed import LiveFeed
         from player_server.viz.live import LiveView
         from player_server.viz.scene import layout_from_world
         from player_server.viz.server import ViewerProcess, ZmqChannel
@@ -145,11 +147,25 @@ class RunRecorder:
         self._channel = ZmqChannel(self._viewer.urls.zmq_url)
         self.live = LiveView(layout_from_world(self.world), self._channel,
                              max_rate_hz=self._live_rate_hz,
-                             trail_points=self._live_trail_points)
+                             trail_points=self._live_trail_points,
+                             lasers=self._live_lasers)
+        lasers = tuple(r.name for r in self.world.robots
+                       if r.mobile and r.devices.laser is not None)
+        self._feed = LiveFeed(
+            self.live, wall_clock=self._clock, period_s=1.0 / self._live_rate_hz,
+            power_robots=tuple(r.name for r in self.world.robots
+                               if r.devices.power is not None),
+            scan_robots=lasers if self._live_lasers else ())
         self.live.start()
         self.viewer_url = self._viewer.urls.web_url
         self._stream.write(f"meshcat live view: {self.viewer_url}\n")
         self._stream.flush()
+
+    def _feed_live(self, sim: Any) -> None:
+        # bound late: the runner wraps its simulation before `start()` makes the view
+        feed = self._feed
+        if feed is not None:
+            feed.after_step(sim)
 
     def observe(
         self, sim: SnapshotSim, *, battery_period_s: float = 30.0,
@@ -171,15 +187,9 @@ class RunRecorder:
                 self.recording.on_step(s, t)
 
         record = ((0.0, sample_recording),) if self._record else ()
-        lasers = tuple(r.name for r in self.world.robots
-                       if r.mobile and r.devices.laser is not None)
-        scans = self.live.offer_scans if self.live is not None and self._live_lasers else None
         return ObservedSim(
-            sim, wall_clock=self._clock,
-            live_offer=self.live.offer if self.live is not None else None,
-            live_period_s=1.0 / self._live_rate_hz,
-            samplers=((battery_period_s, sample_battery), *samplers, *record),
-            live_scans=scans, scan_robots=lasers if scans is not None else (),
+            sim, samplers=((battery_period_s, sample_battery), *samplers, *record),
+            live=self._feed_live if self._meshcat else None,
         )
 
     # --- while running ---
@@ -193,10 +203,7 @@ class RunRecorder:
             live = self.live
             if live is not None:
                 for robot, state in changed.items():
-                    live.set_robot(robot, state.state, state.view_label)
-                if e["kind"] == ev.BATTERY:
-                    for robot, percent in e["percent"].items():
-                        live.set_battery(str(robot), float(percent))
+                    live.set_robot(robot, state.state, state.view_label, state.target_colour)
             recording = self.recording
             if recording is not None:
                 recording.event(e)
@@ -304,6 +311,6 @@ class RunRecorder:
             except Exception as exc:  # keep stopping the rest; report below
                 errors.append(exc)
         with self._lock:
-            self.live = self._channel = self._viewer = None
+            self.live = self._channel = self._viewer = self._feed = None
         if errors:
             log.error("stopping the live view: %s", errors[0])

@@ -1,14 +1,16 @@
 """``replay.html``: an offline meshcat animation of a run that opens in a browser without a server.
 
-The file holds meshcat's viewer script, the static scene of the world and one animation: the
-pose keyframes of every body (from the ``/tf`` channel of ``run.mcap``, the run's one
-recording), the state of every robot (one coloured body per state, shown in turn) and the
-task kind above a working robot. Keyframes are
+The file holds meshcat's viewer script, the static scene of the world, one animation (the
+pose keyframes of every body, from the ``/tf`` channel of ``run.mcap``, the run's one
+recording, and the state of every robot: one coloured body per state, shown in turn) and the
+page around it (`player_server.viz.page`): each robot's label block (name, battery, task ->
+target) from the run's events, the simulation clock, the legend, a slider in simulated time
+and links to a moment (``replay.html#t=7:40``). Keyframes are
 decimated: a body that stands still keeps only the samples around its moves, and no body keeps
 more than `max_keys_per_body`, so a multi-hour run gives a file of a few megabytes. Playback
 runs `speed` times faster than simulation time (chosen so that the whole run plays in at most
-`max_playback_s`, two minutes by default); the viewer's Animations panel can pause, scrub
-and change the rate.
+`max_playback_s`, two minutes by default); the slider and the play button pause and scrub, the
+viewer's Animations panel changes the rate.
 """
 
 from __future__ import annotations
@@ -16,12 +18,10 @@ from __future__ import annotations
 import base64
 import importlib.util
 import itertools
-import json
 import math
 from collections import defaultdict
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from html import escape
 from pathlib import Path
 from typing import Any
 
@@ -30,7 +30,7 @@ import umsgpack
 from experiments import events as ev
 from experiments import timeline
 from experiments.rundir import write_text_atomic
-from player_server.viz import scene
+from player_server.viz import hud, page, scene
 
 Key = tuple[float, float, float, float]  # t_s, x_m, y_m, yaw_rad
 
@@ -121,7 +121,6 @@ def build_replay_commands(
     *,
     max_keys_per_body: int = 1500,
     max_playback_s: float = 120.0,
-    max_labels: int = 300,
 ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """The meshcat commands of the replay and facts about it (keyframes, duration, speed)."""
     paths = layout.body_paths()
@@ -149,8 +148,6 @@ def build_replay_commands(
 
     robots = [r.name for r in layout.robots]
     intervals = timeline.robot_intervals(evs, robots, end_s=end_s)
-    ids = scene.IdSource("replay-label")
-    label_count = 0
     for robot in robots:
         ivs = intervals.get(robot, [])
         for state in scene.ROBOT_STATES:
@@ -159,20 +156,10 @@ def build_replay_commands(
                 changes.append((round(iv.start_s / speed, 4), iv.state == state))
             clips.append(_clip(f"{scene.robot_path(robot)}/body/{state}",
                                [_visible_track(_dedupe(changes), end_play)]))
-        # one sprite per distinct task kind this robot worked on
-        kinds = sorted({_task_kind(iv.label) for iv in ivs if iv.state == timeline.WORKING})
-        for k, kind in enumerate(kinds):
-            if label_count >= max_labels:
-                break
-            label_count += 1
-            path = f"{scene.robot_path(robot)}/labels/{k}"
-            commands.append(scene.set_object(path, scene.label_object(ids, kind)))
-            commands.append(scene.set_property(path, "visible", False))
-            changes = [(0.0, False)]
-            for iv in ivs:
-                on = iv.state == timeline.WORKING and _task_kind(iv.label) == kind
-                changes.append((round(iv.start_s / speed, 4), on))
-            clips.append(_clip(path, [_visible_track(_dedupe(changes), end_play)]))
+    ids = scene.IdSource("replay-hud")
+    commands.append(hud.legend_command(ids, layout))
+    commands.extend(hud.robot_info_command(ids, hud.robot_info(r)) for r in robots)
+    labels = label_timeline(evs, robots)
     commands.append(
         {
             "type": "set_animation",
@@ -182,12 +169,47 @@ def build_replay_commands(
         }
     )
     info = {"keyframes": total_keys, "bodies": len(raw), "duration_s": end_s, "speed": speed,
-            "labels": label_count}
+            "labels": sum(len(v) for v in labels.values()), "timeline": labels}
     return commands, info
 
 
-def _task_kind(label: str) -> str:
-    return label.split(" ", 1)[0] if label else ""
+def label_timeline(events: Iterable[Mapping[str, Any]], robots: Iterable[str]
+                   ) -> dict[str, list[list[Any]]]:
+    """Each robot's label block over the run, as changes the page looks up by simulated time:
+    [t_s, state, state colour, battery %, "task: target", target colour, marked]."""
+    tracker = timeline.RobotStateTracker()
+    battery: dict[str, int | None] = {}
+    out: dict[str, list[list[Any]]] = {}
+    for name in robots:
+        tracker.add_robot(name)
+        battery[name] = None
+        out[name] = []
+
+    def note(t: float, name: str) -> None:
+        st = tracker.state_of(name)
+        d = hud.robot_info(name, st.state, battery.get(name), st.view_label, st.target_colour)
+        row = [round(t, 3), d["state"], d["stateColour"], d["battery"], d["task"], d["colour"],
+               d["marked"]]
+        rows = out.setdefault(name, [])
+        if rows and rows[-1][1:] == row[1:]:
+            return
+        if rows and rows[-1][0] == row[0]:
+            rows[-1] = row
+        else:
+            rows.append(row)
+
+    for e in events:
+        t = float(e["t"])
+        if e["kind"] == ev.BATTERY:
+            for name, percent in dict(e.get("percent") or {}).items():
+                if name in out:
+                    battery[name] = round(float(percent))
+                    note(t, name)
+            continue
+        for name in tracker.apply(e):
+            if name in out:
+                note(t, name)
+    return out
 
 
 def _dedupe(changes: list[tuple[float, bool]]) -> list[tuple[float, bool]]:
@@ -202,67 +224,19 @@ def _dedupe(changes: list[tuple[float, bool]]) -> list[tuple[float, bool]]:
     return out
 
 
-_PAGE = """<!DOCTYPE html>
-<html>
-<head>
-<meta charset="utf-8">
-<title>{title}</title>
-<style>
-body {{ margin: 0; font-family: sans-serif; }}
-#meshcat-pane {{ width: 100vw; height: 100vh; overflow: hidden; }}
-#replay-info {{ position: absolute; left: 8px; top: 8px; padding: 6px 10px;
-  background: rgba(255,255,255,0.85); border-radius: 4px; font-size: 13px; }}
-#replay-info .sw {{ display: inline-block; width: 10px; height: 10px; margin: 0 3px 0 8px; }}
-</style>
-</head>
-<body>
-<div id="meshcat-pane"></div>
-<div id="replay-info"><b>{title}</b> &nbsp; <span id="replay-clock">t = 0:00:00</span>
-  (x{speed:.0f})<br>{legend}</div>
-<script>
-{viewer_js}
-</script>
-<script>
-var viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
-var replaySpeed = {speed!r};
-function replayCommand(b64) {{
-  var bin = atob(b64);
-  var bytes = new Uint8Array(bin.length);
-  for (var i = 0; i < bin.length; i++) {{ bytes[i] = bin.charCodeAt(i); }}
-  viewer.handle_command_bytearray(bytes);
-}}
-var replayCommands = {commands};
-replayCommands.forEach(replayCommand);
-setInterval(function () {{
-  var a = viewer.animator.actions;
-  var t = a.length ? a[0].time * replaySpeed : 0;
-  var s = Math.floor(t), h = Math.floor(s / 3600), m = Math.floor((s % 3600) / 60);
-  document.getElementById("replay-clock").textContent =
-    "t = " + h + ":" + String(m).padStart(2, "0") + ":" + String(s % 60).padStart(2, "0");
-}}, 250);
-</script>
-</body>
-</html>
-"""
-
-
-def render_html(commands: list[dict[str, Any]], *, title: str, speed: float) -> str:
+def render_html(commands: list[dict[str, Any]], *, title: str, speed: float,
+                duration_s: float = 0.0,
+                labels: Mapping[str, list[list[Any]]] | None = None) -> str:
+    """The self-contained page: meshcat's viewer, the commands, and the overlay (labels,
+    clock, legend, a slider in simulated time, ``#t=7:40`` links)."""
     encoded = [
         base64.b64encode(umsgpack.packb(c, force_float_precision="single")).decode("ascii")
         for c in commands
     ]
-    legend = "".join(
-        f'<span class="sw" style="background:#{colour:06x}"></span>'
-        f"{escape('down' if state == scene.FAILED else state)}"
-        for state, colour in scene.STATE_COLOURS.items()
-    )
-    return _PAGE.format(
-        title=escape(title),
-        speed=speed,
-        legend=legend,
-        viewer_js=_viewer_js_path().read_text(encoding="utf-8"),
-        commands=json.dumps(encoded),
-    )
+    viewer_js = _viewer_js_path().read_text(encoding="utf-8")
+    replay = {"speed": speed, "duration": duration_s, "timeline": dict(labels or {})}
+    return page.page_html(title=title, viewer_script=f"<script>\n{viewer_js}\n</script>",
+                          body_script=page.replay_body_script(encoded, replay))
 
 
 def write_replay(
@@ -279,7 +253,8 @@ def write_replay(
         layout, pose_events, events,
         max_keys_per_body=max_keys_per_body, max_playback_s=max_playback_s,
     )
-    html = render_html(commands, title=title, speed=info["speed"])
+    html = render_html(commands, title=title, speed=info["speed"],
+                       duration_s=info["duration_s"], labels=info["timeline"])
     out = Path(out)
     write_text_atomic(out, html)
     return ReplayInfo(out, len(html.encode("utf-8")), info["keyframes"], info["bodies"],

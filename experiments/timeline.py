@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from experiments import events as ev
+from worlds.colours import colour_name, parse_colour
 
 IDLE = "idle"
 WORKING = "working"
@@ -32,6 +33,7 @@ class RobotState:
     label: str  # "" unless working: "<task kind> <task id>"
     task: str | None = None
     target: str = ""  # what the task is about: "red object", "blue box", "spot (1.0, 2.0)"
+    target_colour: int | None = None  # the colour the target is named by, if any
 
     @property
     def view_label(self) -> str:
@@ -50,6 +52,8 @@ class Interval:
     state: str
     label: str
     task: str | None
+    target: str = ""
+    target_colour: int | None = None
 
 
 @dataclass(slots=True)
@@ -64,6 +68,7 @@ class RobotStateTracker:
     robots: dict[str, _Robot] = field(default_factory=dict)
     task_kinds: dict[str, str] = field(default_factory=dict)
     task_targets: dict[str, str] = field(default_factory=dict)
+    task_target_colours: dict[str, int] = field(default_factory=dict)
 
     def add_robot(self, robot: str) -> None:
         self.robots.setdefault(robot, _Robot())
@@ -76,7 +81,8 @@ class RobotStateTracker:
             return RobotState(CHARGING, "")
         if r.task is not None:
             return RobotState(WORKING, self.label(r.task), r.task,
-                              self.task_targets.get(r.task, ""))
+                              self.task_targets.get(r.task, ""),
+                              self.task_target_colours.get(r.task))
         return RobotState(IDLE, "")
 
     def label(self, task: str) -> str:
@@ -97,6 +103,9 @@ class RobotStateTracker:
                 target = target_text(str(event["task_kind"]), params)
                 if target:
                     self.task_targets[str(event["task"])] = target
+                colour = target_colour(params)
+                if colour is not None:
+                    self.task_target_colours[str(event["task"])] = colour
         elif kind == ev.AWARD:
             task, robot = str(event["task"]), str(event["robot"])
             if "task_kind" in event:
@@ -131,12 +140,29 @@ class RobotStateTracker:
         return released
 
 
+def target_colour(params: Mapping[str, Any]) -> int | None:
+    """The colour a task's target is named by (its ``colour`` parameter), if it has one."""
+    value = params.get("colour")
+    if value is None:
+        return None
+    try:
+        return parse_colour(value)
+    except ValueError:
+        return None
+
+
 def target_text(task_kind: str, params: Mapping[str, Any]) -> str:
     """What a task is about, from its parameters: the object to track or watch, the box to
-    clean up, the spot to guard."""
-    colour = params.get("colour")
+    clean up, the spot to guard; a colour by its name ("cleanup: orange box")."""
+    value = target_colour(params)
+    colour = colour_name(value) if value is not None else params.get("colour")
     if task_kind == "cleanup":
         return f"{colour} box" if colour else "a box"
+    if task_kind == "watch-box":
+        goal = target_colour({"colour": params.get("goal_colour")})
+        goal_name = colour_name(goal) if goal is not None else params.get("goal_colour")
+        box = f"{colour} box" if colour else "the box"
+        return f"{box} to the {goal_name} marker" if goal_name else box
     if task_kind in ("object-tracking", "monitor-object", "sentry-duty"):
         what = f"{colour} object" if colour else ""
         if "x" in params and "y" in params:
@@ -178,10 +204,12 @@ def robot_intervals(
             if state == old:
                 continue
             if t > start:
-                out[name].append(Interval(name, start, t, old.state, old.label, old.task))
+                out[name].append(Interval(name, start, t, old.state, old.label, old.task,
+                                          old.target, old.target_colour))
             current[name] = (t, state)
     stop = last_t if end_s is None else end_s
     for name, (start, state) in current.items():
         if stop > start:
-            out[name].append(Interval(name, start, stop, state.state, state.label, state.task))
+            out[name].append(Interval(name, start, stop, state.state, state.label, state.task,
+                                      state.target, state.target_colour))
     return out

@@ -47,3 +47,16 @@ def parse_colour(value: object) -> int:
 def colour_rgb01(colour: int) -> tuple[float, float, float]:
     """0xRRGGBB -> (r, g, b) in [0, 1]."""
     return ((colour >> 16 & 0xFF) / 255.0, (colour >> 8 & 0xFF) / 255.0, (colour & 0xFF) / 255.0)
+
+
+def colour_name(colour: int) -> str:
+    """The name a person would use for a 0xRRGGBB colour: its own name in `NAMED_COLOURS`, or
+    the name of the nearest named colour (RGB distance)."""
+    for name, value in NAMED_COLOURS.items():
+        if value == colour:
+            return name
+
+    def distance(value: int) -> int:
+        return sum(((colour >> s & 0xFF) - (value >> s & 0xFF)) ** 2 for s in (16, 8, 0))
+
+    return min(NAMED_COLOURS, key=lambda name: distance(NAMED_COLOURS[name]))

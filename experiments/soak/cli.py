@@ -101,12 +101,13 @@ SOAK_EXPERIMENTS = ("longterm",)
               show_default=True, help="Wall seconds between memory samples.")
 @click.option("--no-record", is_flag=True, help="Write no run.mcap (the dead-controller "
               "check then has no poses and is reported as not checked).")
+@click.option("--meshcat", is_flag=True, help="Serve the live 3-D view on 127.0.0.1.")
 def soak(experiment: str, sim_hours: float, seed: int, faults_opt: str, out: Path,
          speedup: float, kills_per_hour: float, kill_down: str, freezes_per_hour: float,
          freeze_for: str, switch_offs: int, charger_outages_per_hour: float,
          charger_outage: str, bursts: int, burst_size: int, loss: float, delay: float,
          task_interval: float, realloc_bound: float | None, memory_slope_limit: float,
-         memory_every: float, no_record: bool) -> None:
+         memory_every: float, no_record: bool, meshcat: bool) -> None:
     """Run EXPERIMENT for --sim-hours under faults and check that nothing was lost."""
     from experiments.run_cli import run_experiment
     from experiments.run_extras import RunExtras
@@ -161,7 +162,7 @@ def soak(experiment: str, sim_hours: float, seed: int, faults_opt: str, out: Pat
     try:
         code = run_experiment(
             experiment=experiment, duration_s=span_s, speedup=speedup, seed=seed,
-            meshcat=False, out=out, world_name=EXPERIMENT_WORLDS[experiment],
+            meshcat=meshcat, out=out, world_name=EXPERIMENT_WORLDS[experiment],
             task_interval_s=task_interval, kills=[], restarts=[], replay=False,
             pin_cpus=True, record=not no_record, extras=extras)
     finally:

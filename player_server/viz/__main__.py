@@ -39,8 +39,9 @@ def main(argv: list[str] | None = None) -> int:
     from player_server.sim import Simulation
     from player_server.sim.demo import WanderDriver
     from player_server.sim.pacing import Pacer
+    from player_server.viz.feed import LiveFeed
     from player_server.viz.live import LiveView
-    from player_server.viz.scene import CHARGING, IDLE, layout_from_world
+    from player_server.viz.scene import layout_from_world
     from player_server.viz.server import ViewerProcess, ZmqChannel
     from worlds import load_world, world_path
 
@@ -49,33 +50,26 @@ def main(argv: list[str] | None = None) -> int:
     sim = Simulation(spec, seed=args.seed)
     driver = WanderDriver(sim, np.random.default_rng(args.seed))
     layout = layout_from_world(spec)
-    robots = [r.name for r in layout.robots]
-    lasers = [shape.robot for shape in layout.lasers]
-    has_power = {r.name: r.devices.power is not None for r in spec.robots}
+    lasers = tuple(shape.robot for shape in layout.lasers) if args.lasers else ()
+    powered = tuple(r.name for r in spec.robots if r.devices.power is not None)
     pacer = Pacer(sim.interval_s, args.speedup, time.monotonic, time.sleep)
     stop = threading.Event()
     # SIGTERM stops like Ctrl-C: the viewer process is stopped on the way out
     signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
     with ViewerProcess(web_port=args.web_port) as viewer:
         channel = ZmqChannel(viewer.urls.zmq_url)
-        view = LiveView(layout, channel, max_rate_hz=args.rate_hz, trail_points=args.trails)
+        view = LiveView(layout, channel, max_rate_hz=args.rate_hz, trail_points=args.trails,
+                        lasers=args.lasers)
+        # no team reports states here: a robot on a charging pad shows as charging
+        feed = LiveFeed(view, wall_clock=time.monotonic, period_s=1.0 / args.rate_hz,
+                        power_robots=powered, scan_robots=lasers, states_from_power=True)
         print(f"meshcat live view: {viewer.urls.web_url}", flush=True)
         view.start()
-        next_offer = 0.0
-        period = 1.0 / args.rate_hz
         try:
             while sim.time_s < args.sim_seconds and not stop.is_set():
                 driver.tick()
                 pacer.wait(sim.tick)
-                now = time.monotonic()
-                if now >= next_offer:
-                    next_offer = now + period
-                    view.offer(sim.snapshot())
-                    if args.lasers:
-                        view.offer_scans({r: sim.laser(r).tolist() for r in lasers})
-                    for r in robots:
-                        charging = has_power[r] and sim.power(r).charging
-                        view.set_robot(r, CHARGING if charging else IDLE)
+                feed.after_step(sim)
         except KeyboardInterrupt:
             pass
         finally:

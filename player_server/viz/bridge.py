@@ -4,7 +4,8 @@ Stock meshcat 0.3.2 (``meshcat.servers.zmqserver``) binds its ZeroMQ socket to t
 given but calls tornado's ``Application.listen(port)`` without an address, so the web viewer
 (port 7000 and up) listens on every interface. Here the tornado application binds its sockets
 on 127.0.0.1 explicitly, both ports may be 0 (the OS picks free ones), and the URLs printed are
-the real ones.
+the real ones. Its page is our own (`player_server.viz.page`): meshcat's viewer with the
+overlay of robot labels, clock and legend.
 
 Run as a process: ``python -m player_server.viz.bridge [--web-port P] [--zmq-port Q]``; it
 prints ``zmq_url=...`` and ``web_url=...`` on two lines, then serves until killed.
@@ -38,7 +39,18 @@ with warnings.catch_warnings():
         ZMQWebSocketBridge,
     )
 
+from player_server.viz.page import live_page_html
+
 LOOPBACK = "127.0.0.1"
+
+
+class LivePageHandler(tornado.web.RequestHandler):
+    """The live view's page (meshcat's viewer with our overlay) in place of meshcat's own."""
+
+    def get(self) -> None:
+        self.set_header("Content-Type", "text/html; charset=utf-8")
+        self.set_header("Cache-Control", "no-store")
+        self.write(live_page_html())
 
 
 class LoopbackApplication(tornado.web.Application):
@@ -70,6 +82,7 @@ class LoopbackBridge(ZMQWebSocketBridge):
     def make_app(self) -> LoopbackApplication:
         return LoopbackApplication(
             [
+                (r"/static/(?:index\.html)?", LivePageHandler),
                 (
                     r"/static/(.*)",
                     StaticFileHandlerNoCache,

@@ -3,10 +3,11 @@
 The simulation never waits for the viewer. Its owner hands over the newest snapshot with
 `LiveView.offer` (one lock and one assignment; older, unsent snapshots are simply replaced) or
 gives the view a `source` callable that the view's own thread polls. Robot states and task
-labels arrive through `set_robot`, battery levels through `set_battery`. The scene carries a
-legend of the robot states, each robot's name (with its battery once known) and the simulation
-clock of the newest snapshot. The view's thread wakes at most `max_rate_hz` times a second,
-sends only what changed, and keeps running (with back-off) while no viewer answers.
+labels arrive through `set_robot`, battery levels through `set_battery`. Besides the bodies,
+the scene carries the data of the page's HTML (`hud`): the legend, each robot's label block
+(name, battery, task -> target) and the simulation clock of the newest snapshot, sent last in
+each frame, after that snapshot's poses. The view's thread wakes at most `max_rate_hz` times
+a second, sends only what changed, and keeps running (with back-off) while no viewer answers.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from player_server.viz import scene
+from player_server.viz import hud, scene
 from player_server.viz.server import ViewerUnavailable
 
 log = logging.getLogger(__name__)
@@ -51,6 +52,8 @@ def body_poses(snapshot: Any) -> dict[str, Pose]:
 class RobotView:
     state: str = scene.IDLE
     label: str = ""
+    target_colour: int | None = None
+    battery: int | None = None  # percent, rounded: what the label shows
 
 
 @dataclass(frozen=True, slots=True)
@@ -76,9 +79,10 @@ class LiveView:
         retry_period_s: float = 1.0,
         trail_points: int = 0,
         trail_step_m: float = 0.1,
+        lasers: bool = False,
     ) -> None:
         """`trail_points` > 0 draws a trail behind each robot: its last that many positions,
-        `trail_step_m` apart."""
+        `trail_step_m` apart; `lasers`: the legend explains laser rays."""
         if max_rate_hz <= 0:
             raise ValueError("max_rate_hz must be positive")
         self._layout = layout
@@ -98,8 +102,8 @@ class LiveView:
         # state of the viewer as last sent; owned by the view's thread
         self._sent_poses: dict[str, Pose] = {}
         self._sent_robots: dict[str, RobotView] = {}
-        self._sent_battery: dict[str, int] = {}
-        self._sent_clock = ""
+        self._sent_clock: float | None = None
+        self._legend_lasers = lasers
         self._scene_sent = False
         self._ids = scene.IdSource("live")
         self._frames = 0
@@ -124,11 +128,14 @@ class LiveView:
             self._latest = snapshot
             self._offered += 1
 
-    def set_robot(self, robot: str, state: str, label: str = "") -> None:
+    def set_robot(self, robot: str, state: str, label: str = "",
+                  target_colour: int | None = None) -> None:
+        """`label`: the task and its target ("cleanup: orange box"); `target_colour`: the
+        colour the target is named by."""
         if state not in scene.STATE_COLOURS:
             raise ValueError(f"unknown robot state {state!r}; expected one of {scene.ROBOT_STATES}")
         with self._lock:
-            self._wanted[robot] = RobotView(state, label)
+            self._wanted[robot] = RobotView(state, label, target_colour)
 
     def offer_scans(self, scans: Mapping[str, Any]) -> None:
         """The newest laser ranges of some robots (drawn as rays; robots without a laser in
@@ -204,20 +211,18 @@ class LiveView:
         commands: list[dict[str, Any]] = []
         if not self._scene_sent:
             commands.extend(scene.static_scene(self._layout, id_prefix="live-scene"))
-            commands.extend(scene.legend_commands(self._ids, self._layout))
-            commands.extend(scene.clock_commands(self._ids, self._layout, 0.0))
-            self._sent_clock = scene.clock_text(0.0)
+            commands.append(hud.legend_command(self._ids, self._layout,
+                                               trails=self._trail_points > 0,
+                                               lasers=self._legend_lasers))
             self._sent_poses.clear()
             self._sent_robots = {r.name: RobotView() for r in self._layout.robots}
-            self._sent_battery.clear()
+            commands.extend(hud.robot_info_command(self._ids, hud.robot_info(r.name))
+                            for r in self._layout.robots)
+            self._sent_clock = None
+        t = getattr(snap, "time_s", None) if snap is not None else None
         if snap is not None:
             commands.extend(self._pose_commands(body_poses(snap)))
-            t = getattr(snap, "time_s", None)
-            if t is not None and scene.clock_text(float(t)) != self._sent_clock:
-                self._sent_clock = scene.clock_text(float(t))
-                commands.extend(scene.clock_commands(self._ids, self._layout, float(t)))
-        commands.extend(self._robot_commands(wanted))
-        commands.extend(self._battery_commands(battery))
+        commands.extend(self._robot_commands(wanted, battery))
         for robot, ranges in scans.items():
             shape = self._lasers.get(robot)
             if shape is not None:
@@ -225,6 +230,12 @@ class LiveView:
         for robot in sorted(self._trails_changed):
             commands.append(scene.trail_command(self._ids, robot, self._trails[robot]))
         self._trails_changed.clear()
+        if t is None and self._sent_clock is None:
+            t = 0.0
+        if t is not None and float(t) != self._sent_clock:
+            # last: the page takes the clock as the end of this snapshot's frame
+            self._sent_clock = float(t)
+            commands.append(hud.clock_command(self._ids, float(t)))
         for cmd in commands:
             self._sink.send(cmd)
         self._scene_sent = True
@@ -254,22 +265,17 @@ class LiveView:
                         self._trails_changed.add(name)
             yield scene.set_transform(path, scene.pose_matrix(x, y, 0.0, yaw))
 
-    def _battery_commands(self, battery: Mapping[str, float]) -> Iterable[dict[str, Any]]:
-        for robot, percent in battery.items():
-            if robot not in self._sent_robots:
+    def _robot_commands(self, wanted: Mapping[str, RobotView],
+                        battery: Mapping[str, float]) -> Iterable[dict[str, Any]]:
+        for robot, old in list(self._sent_robots.items()):
+            view = wanted.get(robot, old)
+            percent = battery.get(robot)
+            shown = round(percent) if percent is not None else old.battery
+            new = RobotView(view.state, view.label, view.target_colour, shown)
+            if new == old:
                 continue
-            shown = round(percent)
-            if self._sent_battery.get(robot) != shown:
-                self._sent_battery[robot] = shown
-                yield from scene.name_change(self._ids, robot, percent)
-
-    def _robot_commands(self, wanted: Mapping[str, RobotView]) -> Iterable[dict[str, Any]]:
-        for robot, view in wanted.items():
-            if robot not in self._sent_robots:
-                continue  # not in this scene
-            old = self._sent_robots[robot]
-            if view.state != old.state:
-                yield from scene.state_change(robot, old.state, view.state)
-            if view.label != old.label:
-                yield from scene.label_change(self._ids, robot, view.label)
-            self._sent_robots[robot] = view
+            if new.state != old.state:
+                yield from scene.state_change(robot, old.state, new.state)
+            self._sent_robots[robot] = new
+            yield hud.robot_info_command(self._ids, hud.robot_info(
+                robot, new.state, new.battery, new.label, new.target_colour))

@@ -12,16 +12,16 @@ Scene tree (all under ``/murdoch``)::
     robots/<name>/body/<state>                                one coloured body per state,
                                                               exactly one visible
     robots/<name>/nose                                        heading marker
-    robots/<name>/name                                        name (and battery, live view)
-    robots/<name>/label                                       task and target (live view)
-    robots/<name>/labels/<k>                                  task labels (replay)
+    robots/<name>/info                                        label data (`hud`)
     robots/<name>/laser                                       laser rays (live view, option)
+    boxes/<name>/ring, objects/<name>/ring                    marker (state-like colours)
     trails/<name>                                             path behind a robot (live, option)
-    hud/clock                                                 simulation clock (live view)
-    hud/legend/<state>, hud/legend/<state>/text               legend of robot states
+    hud/clock, hud/legend                                     clock and legend data (`hud`)
 
-Boxes and objects keep their world colour unless it could be mistaken for a robot state's
-colour (`display_colour`): then the viewer draws a paler version of it.
+Boxes and objects are drawn in their world colour, so that "cleanup: orange box" names what a
+person sees; one whose colour could be mistaken for a robot state's (`needs_marker`) also gets
+a black ring around it on the floor. Labels, the clock and the legend are HTML drawn by the
+page around the view (`player_server.viz.hud`, ``overlay.js``).
 
 Robot states and their colours are fixed here (`STATE_COLOURS`) so that the live view, the
 replay and the tests agree on them.
@@ -74,10 +74,9 @@ TRAIL_HEIGHT_M = 0.03
 ROBOT_HEIGHT_M = 0.24
 LABEL_HEIGHT_M = 1.6
 LABEL_SCALE_M = 3.0
-NAME_HEIGHT_M = 0.55
-NAME_SCALE_M = 2.0
-LEGEND_LABELS = {IDLE: "idle", WORKING: "working", CHARGING: "charging", FAILED: "down"}
-# how far (RGB, 0-255 per channel) a box or object colour stays from every robot state colour
+MARKER_COLOUR = 0x000000  # the ring around a box or object in a robot state's colour
+# how far (RGB, 0-255 per channel) a box or object colour must be from every robot state
+# colour not to be ringed
 STATE_COLOUR_MARGIN = 110.0
 
 
@@ -180,17 +179,31 @@ def colour_distance(a: int, b: int) -> float:
     return math.sqrt((ra - rb) ** 2 + (ga - gb) ** 2 + (ba - bb) ** 2)
 
 
-def display_colour(colour: int) -> int:
-    """The colour a box or object is drawn in: its own, or, when that is close to a robot
-    state's colour, mixed towards white until it is `STATE_COLOUR_MARGIN` away from all."""
-    c = colour
-    for _ in range(8):
-        if min(colour_distance(c, sc) for sc in STATE_COLOURS.values()) >= STATE_COLOUR_MARGIN:
-            return c
-        r, g, b = (c >> 16) & 0xFF, (c >> 8) & 0xFF, c & 0xFF
-        r, g, b = (int(v + (255 - v) * 0.35) for v in (r, g, b))
-        c = (r << 16) | (g << 8) | b
-    return c
+def needs_marker(colour: int) -> bool:
+    """Whether a box or object of this colour could be mistaken for a robot in some state
+    (its colour within `STATE_COLOUR_MARGIN` of a state's): then it is ringed."""
+    return min(colour_distance(colour, sc) for sc in STATE_COLOURS.values()) < (
+        STATE_COLOUR_MARGIN)
+
+
+def ring_triangles(radius_m: float, width_m: float, z_m: float,
+                   segments: int = 32) -> list[float]:
+    """A flat ring (annulus) around the origin as triangle vertices (x, y, z, ...)."""
+    out: list[float] = []
+    r0, r1 = radius_m, radius_m + width_m
+    for k in range(segments):
+        a0, a1 = math.tau * k / segments, math.tau * (k + 1) / segments
+        p = [(r * math.cos(a), r * math.sin(a)) for r, a in ((r0, a0), (r1, a0), (r0, a1),
+                                                               (r1, a1))]
+        for vx, vy in (p[0], p[1], p[2], p[2], p[1], p[3]):
+            out.extend((vx, vy, z_m))
+    return out
+
+
+def marker_ring(ids: IdSource, path: str, radius_m: float) -> Command:
+    obj = vertices_object(ids, ring_triangles(radius_m + 0.06, 0.07, 0.012), "Mesh",
+                          {"type": "MeshBasicMaterial", "color": MARKER_COLOUR, "side": 2})
+    return set_object(f"{path}/ring", obj)
 
 
 def label_object(ids: IdSource, text: str, *, scale_m: float = LABEL_SCALE_M,
@@ -272,8 +285,9 @@ def static_scene(layout: SceneLayout, *, id_prefix: str = "s") -> list[Command]:
         # the box's own matrix lifts it so that its pose frame sits on the floor
         lift = pose_matrix(0.0, 0.0, b.size_z_m / 2, 0.0)
         geom = _box_geometry(b.size_x_m, b.size_y_m, b.size_z_m)
-        colour = display_colour(b.colour)
-        cmds.append(set_object(f"{path}/shape", _mesh(ids, geom, colour, matrix=lift)))
+        cmds.append(set_object(f"{path}/shape", _mesh(ids, geom, b.colour, matrix=lift)))
+        if needs_marker(b.colour):
+            cmds.append(marker_ring(ids, path, math.hypot(b.size_x_m, b.size_y_m) / 2))
         cmds.append(set_transform(path, pose_matrix(b.x_m, b.y_m, 0.0, b.yaw_rad)))
     for group, discs in (("objects", layout.objects), ("markers", layout.markers)):
         for o in discs:
@@ -288,10 +302,11 @@ def _upright_disc(ids: IdSource, path: str, o: Disc) -> list[Command]:
     lift = list(_CYLINDER_UPRIGHT)
     lift[14] = o.height_m / 2
     geom = _cylinder_geometry(o.radius_m, o.height_m)
-    return [
-        set_object(f"{path}/shape", _mesh(ids, geom, display_colour(o.colour), matrix=lift)),
-        set_transform(path, pose_matrix(o.x_m, o.y_m, 0.0, 0.0)),
-    ]
+    cmds = [set_object(f"{path}/shape", _mesh(ids, geom, o.colour, matrix=lift))]
+    if needs_marker(o.colour):
+        cmds.append(marker_ring(ids, path, o.radius_m))
+    cmds.append(set_transform(path, pose_matrix(o.x_m, o.y_m, 0.0, 0.0)))
+    return cmds
 
 
 def robot_commands(ids: IdSource, r: RobotShape) -> list[Command]:
@@ -306,7 +321,6 @@ def robot_commands(ids: IdSource, r: RobotShape) -> list[Command]:
     nose = pose_matrix(r.offset_x_m + r.length_m * 0.3, 0.0, ROBOT_HEIGHT_M + 0.01, 0.0)
     nose_geom = _box_geometry(r.length_m * 0.3, r.width_m * 0.25, 0.02)
     cmds.append(set_object(f"{path}/nose", _mesh(ids, nose_geom, NOSE_COLOUR, matrix=nose)))
-    cmds.extend(name_change(ids, r.name, None))
     cmds.append(set_transform(path, pose_matrix(r.x_m, r.y_m, 0.0, r.yaw_rad)))
     return cmds
 
@@ -320,46 +334,6 @@ def state_change(robot: str, old: str | None, new: str) -> list[Command]:
         set_property(f"{robot_path(robot)}/body/{s}", "visible", False) for s in states if s != new
     ]
     cmds.append(set_property(f"{robot_path(robot)}/body/{new}", "visible", True))
-    return cmds
-
-
-def hud_scale_m(layout: SceneLayout) -> float:
-    """Sprites of the clock and legend grow with the arena, so they stay readable."""
-    return max(2.0, layout.extent_m / 7.0)
-
-
-def clock_text(time_s: float) -> str:
-    s = int(max(0.0, time_s))
-    return f"sim {s // 3600}:{(s % 3600) // 60:02d}:{s % 60:02d}"
-
-
-def clock_commands(ids: IdSource, layout: SceneLayout, time_s: float) -> list[Command]:
-    """The simulation clock, above the north-west corner of the arena."""
-    scale = hud_scale_m(layout) * 1.5
-    path = f"{ROOT}/hud/clock"
-    return [
-        set_object(path, label_object(ids, clock_text(time_s), scale_m=scale, height_m=0.0)),
-        set_transform(path, pose_matrix(layout.x_min_m + scale * 0.5,
-                                        layout.y_max_m + scale * 0.35, 0.5, 0.0)),
-    ]
-
-
-def legend_commands(ids: IdSource, layout: SceneLayout) -> list[Command]:
-    """A swatch of each robot state's colour with its name, in a row south of the arena."""
-    scale = hud_scale_m(layout)
-    cmds: list[Command] = []
-    step = (layout.x_max_m - layout.x_min_m) / len(ROBOT_STATES)
-    y = layout.y_min_m - scale * 0.35
-    for k, state in enumerate(ROBOT_STATES):
-        path = f"{ROOT}/hud/legend/{state}"
-        x = layout.x_min_m + step * (k + 0.2)
-        size = scale * 0.18
-        swatch = _mesh(ids, _box_geometry(size, size, 0.05), STATE_COLOURS[state], lit=False)
-        cmds.append(set_object(f"{path}/swatch", swatch))
-        text = label_object(ids, LEGEND_LABELS[state], scale_m=scale * 0.8, height_m=0.0)
-        cmds.append(set_object(f"{path}/text", text))
-        cmds.append(set_transform(f"{path}/text", pose_matrix(scale * 0.45, 0.0, 0.1, 0.0)))
-        cmds.append(set_transform(path, pose_matrix(x, y, 0.05, 0.0)))
     return cmds
 
 
@@ -444,25 +418,3 @@ def laser_command(ids: IdSource, shape: LaserShape, ranges: Sequence[float]) -> 
                           {"type": "LineBasicMaterial", "color": LASER_COLOUR,
                            "transparent": True, "opacity": 0.8})
     return set_object(f"{robot_path(shape.robot)}/laser", obj)
-
-
-def name_text(robot: str, battery_percent: float | None = None) -> str:
-    if battery_percent is None:
-        return robot
-    return f"{robot} {battery_percent:.0f}%"
-
-
-def name_change(ids: IdSource, robot: str, battery_percent: float | None) -> list[Command]:
-    """The robot's name sprite, with its battery level once one is known."""
-    text = name_text(robot, battery_percent)
-    return [set_object(f"{robot_path(robot)}/name",
-                       label_object(ids, text, scale_m=NAME_SCALE_M, height_m=NAME_HEIGHT_M))]
-
-
-def label_change(ids: IdSource, robot: str, text: str) -> list[Command]:
-    path = f"{robot_path(robot)}/label"
-    if not text:
-        return [delete(path)]
-    return [set_object(path, label_object(ids, text))]
-
-

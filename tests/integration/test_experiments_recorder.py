@@ -57,9 +57,9 @@ def test_recorded_run_with_live_view(tmp_path: Path) -> None:
     )
     sim = Simulation(spec, seed=5)
     try:
+        observed = rec.observe(sim)  # as the runner does: wrapped before the view exists
         rec.start()
         assert rec.viewer_url is not None and rec.viewer_url.startswith("http://127.0.0.1:")
-        observed = rec.observe(sim)
         rec.event(sim.time_s, ev.TASK_INTRODUCED, task="t1", task_kind="goto-goal")
         rec.event(sim.time_s, ev.AWARD, task="t1", robot=robot, latency_s=0.2)
         sim.set_velocity(robot, 0.3, 0.2)
@@ -142,8 +142,8 @@ def test_the_live_view_shows_laser_rays_and_trails_when_asked(tmp_path: Path) ->
     )
     sim = Simulation(spec, seed=5)
     try:
+        observed = rec.observe(sim)  # as the runner does: wrapped before the view exists
         rec.start()
-        observed = rec.observe(sim)
         sim.set_velocity(robot, 0.4, 0.0)
         deadline = time.monotonic() + 60
         while sim.get_pose(robot)[0] < 0.6 and time.monotonic() < deadline:

@@ -4,19 +4,19 @@ from __future__ import annotations
 
 import colorsys
 import math
-import os
-import shutil
-import subprocess
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
+from sibling import load_sibling
 
 from experiments import events as ev
 from experiments.replay import write_replay
 from player_server.viz import scene
 from worlds import load_world, world_path
+
+_headless = load_sibling(__file__, "headless.py")
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -60,44 +60,10 @@ def test_three_hour_replay_stays_a_few_megabytes(tmp_path: Path) -> None:
     assert "MeshCat.Viewer" in html and "<script src=" not in html  # self-contained
 
 
-def _chromium() -> str | None:
-    for name in ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable"):
-        found = shutil.which(name)
-        if found:
-            return found
-    return None
-
-
-def _require_chromium() -> str:
-    exe = _chromium()
-    if exe is None:
-        if os.environ.get("CI", "").lower() == "true":
-            pytest.fail("headless Chromium is required under CI but was not found")
-        pytest.skip("headless Chromium not installed (apt-get install chromium)")
-    return exe
-
-
 def _screenshots(exe: str, jobs: list[tuple[Path, Path]], tmp: Path) -> None:
     """Render each (html, png) pair, in parallel, each with a fresh profile."""
-    procs = []
-    for i, (html, png) in enumerate(jobs):
-        cmd = [
-            exe, "--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
-            "--disable-quic", "--no-first-run", "--disable-background-networking",
-            "--disable-component-update", "--disable-sync", "--disable-extensions",
-            f"--user-data-dir={tmp / f'profile{i}'}", f"--screenshot={png}",
-            "--window-size=1024,768", "--hide-scrollbars", "--virtual-time-budget=500",
-            html.resolve().as_uri(),
-        ]
-        procs.append(subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
-    try:
-        for p in procs:
-            assert p.wait(timeout=90) == 0
-    finally:
-        for p in procs:
-            if p.poll() is None:
-                p.kill()
-                p.wait()
+    _headless.screenshots(exe, [(html.resolve().as_uri(), png) for html, png in jobs],
+                          _headless.Profiles(tmp))
 
 
 def _rgb(colour: int) -> np.ndarray:
@@ -126,7 +92,7 @@ def _load_rgb(png: Path) -> np.ndarray:
 
 @pytest.mark.browser
 def test_replay_renders_the_scene_in_headless_chromium(tmp_path: Path) -> None:
-    exe = _require_chromium()
+    exe = _headless.require_chromium()
     spec = load_world(world_path("longterm"))
     layout = scene.layout_from_world(spec)
     poses, events = _synthetic_run(layout, 1800.0, period_s=5.0)
@@ -149,3 +115,59 @@ def test_replay_renders_the_scene_in_headless_chromium(tmp_path: Path) -> None:
     assert _count_hue(img, idle) < _count_hue(base, idle) - 200
     assert _count_hue(img, working) > _count_hue(base, working) + 200
     assert _count_hue(img, charging) > _count_hue(base, charging) + 200
+
+
+def _crowded_run(layout: scene.SceneLayout, duration_s: float):
+    """Every robot driving from its start into a huddle half a metre across by half time,
+    a cleanup of an orange box for the first robot, battery levels every 30 s."""
+    poses = []
+    robots = layout.robots
+    for k in range(int(duration_s) + 1):
+        t = float(k)
+        a = min(1.0, 2.0 * t / duration_s)
+        bodies = {}
+        for i, r in enumerate(robots):
+            hx, hy = 0.25 * math.cos(i), 0.25 * math.sin(i)
+            bodies[r.name] = (r.x_m + a * (hx - r.x_m), r.y_m + a * (hy - r.y_m), 0.1 * i)
+        poses.append({"t": t, "kind": ev.POSES, "bodies": bodies})
+    first = robots[0].name
+    events = [
+        ev.make_event(1.0, ev.TASK_INTRODUCED, task="t1", task_kind="cleanup",
+                      params={"colour": "#ff8000"}),
+        ev.make_event(2.0, ev.AWARD, task="t1", robot=first),
+        *(ev.make_event(float(t), ev.BATTERY,
+                        percent={r.name: 100.0 - t / 30.0 - i for i, r in enumerate(robots)})
+          for t in range(0, int(duration_s), 30)),
+    ]
+    return poses, events
+
+
+@pytest.mark.browser
+@pytest.mark.parametrize("world", ["longterm", "boxpush"])
+def test_replay_labels_of_a_huddle_never_overlap_and_links_open_at_their_moment(
+        tmp_path: Path, world: str) -> None:
+    exe = _headless.require_chromium()
+    layout = scene.layout_from_world(load_world(world_path(world)))
+    poses, events = _crowded_run(layout, 600.0)
+    info = write_replay(tmp_path / "replay.html", layout, poses, events)
+    profiles = _headless.Profiles(tmp_path)
+    first = layout.robots[0].name
+    for t, huddled in ((100, False), (7 * 60 + 40, True)):
+        url = f"{info.path.resolve().as_uri()}#t={t // 60}:{t % 60:02d}"
+        state = _headless.page_state(exe, url, profiles, budget_ms=1000)
+        assert state["t"] == pytest.approx(t, abs=0.05) and state["slider"] == pytest.approx(t)
+        assert state["clock"] == f"sim 0:{t // 60:02d}:{t % 60:02d}"
+        for name, (x, y, _yaw) in state["robots"].items():
+            want = next(p for p in poses if p["t"] == t)["bodies"][name]
+            assert math.hypot(x - want[0], y - want[1]) < 0.05, (name, t)
+        assert len(state["labels"]) == len(layout.robots)
+        assert _headless.overlapping(state["labels"]) == []
+        me = state["info"][first]
+        assert me["task"] == "cleanup: orange box" and me["colour"] == "#ff8000"
+        assert me["marked"] is True  # orange is also the colour of a working robot
+        assert me["battery"] == round(100.0 - (t // 30 * 30) / 30.0)
+        if huddled:
+            spread = max(math.hypot(x, y) for x, y, _ in state["robots"].values())
+            assert spread < 0.3
+    _headless.screenshots(exe, [(f"{info.path.resolve().as_uri()}#t=7:40",
+                                 tmp_path / f"{world}.png")], profiles, size=(1400, 900))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import base64
+import itertools
 import os
 import re
 import threading
@@ -12,6 +13,7 @@ from pathlib import Path
 import pytest
 import umsgpack
 import zmq
+from sibling import load_sibling
 
 from player_server.viz import scene
 from player_server.viz.live import LiveView
@@ -19,6 +21,7 @@ from player_server.viz.server import ViewerProcess, ViewerUnavailable, ZmqChanne
 from worlds import load_world, world_path
 
 pytestmark = pytest.mark.timeout(120)
+_headless = load_sibling(__file__, "headless.py")
 
 
 def _listening_sockets(pid: int) -> list[tuple[str, str, int]]:
@@ -127,8 +130,8 @@ def test_live_view_mirrors_snapshots_and_states() -> None:
     }
     assert visible[f"{rpath}/body/working"] is True
     assert visible[f"{rpath}/body/idle"] is False
-    labels = [c for c in cmds if c["type"] == "set_object" and c["path"] == f"{rpath}/label"]
-    assert labels and labels[-1]["object"]["textures"][0]["text"] == "sentry-duty t7"
+    infos = [c for c in cmds if c["type"] == "set_object" and c["path"] == f"{rpath}/info"]
+    assert infos and infos[-1]["object"]["object"]["userData"]["task"] == "sentry-duty t7"
 
 
 def test_live_view_never_blocks_the_offering_thread_and_survives_a_dead_viewer() -> None:
@@ -182,7 +185,7 @@ def test_channel_times_out_without_a_viewer() -> None:
         ctx.term()
 
 
-def test_live_scene_tree_has_legend_names_and_clock() -> None:
+def test_live_scene_tree_has_legend_labels_and_clock() -> None:
     """What the viewer holds (meshcat's own scene tree, as any browser would load it)."""
     layout = scene.layout_from_world(load_world(world_path("longterm")))
 
@@ -205,32 +208,24 @@ def test_live_scene_tree_has_legend_names_and_clock() -> None:
             view.stop()
             channel.close()
         cmds = _scene_commands(viewer.urls.zmq_url)
-    texts = {c["path"]: c["object"]["textures"][0]["text"] for c in cmds
-             if c["type"] == "set_object" and c["object"].get("textures")}
-    assert texts[f"{scene.ROOT}/hud/clock"] == "sim 0:12:34"
-    assert [texts[f"{scene.ROOT}/hud/legend/{s}/text"] for s in scene.ROBOT_STATES] == [
-        "idle", "working", "charging", "down"]
-    names = {r.name: texts[f"{scene.robot_path(r.name)}/name"] for r in layout.robots}
-    assert names["p2"] == "p2 64%" and names["p1"] == "p1"
-    assert texts[f"{scene.robot_path('p2')}/label"] == "cleanup: red box"
+    data = {c["path"]: c["object"]["object"]["userData"] for c in cmds
+            if c["type"] == "set_object" and c["object"]["object"].get("userData")}
+    assert data[f"{scene.ROOT}/hud/clock"]["text"] == "sim 0:12:34"
+    legend = [e["label"] for e in data[f"{scene.ROOT}/hud/legend"]["entries"]]
+    assert legend[:4] == ["robot idle", "robot working", "robot charging", "robot down"]
+    infos = {r.name: data[f"{scene.robot_path(r.name)}/info"] for r in layout.robots}
+    assert infos["p2"]["battery"] == 64 and infos["p1"]["battery"] is None
+    assert infos["p2"]["task"] == "cleanup: red box"
 
 
 @pytest.mark.browser
 def test_live_view_in_headless_chromium_shows_the_legend(tmp_path: Path) -> None:
     """A real browser on the live view's page: the screenshot shows every state colour (the
     legend's swatches; no robot is charging or down) and is kept next to the test's files."""
-    import shutil
-    import subprocess
-
     import cv2
     import numpy as np
 
-    exe = next((shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome")
-                if shutil.which(n)), None)
-    if exe is None:
-        if os.environ.get("CI", "").lower() == "true":
-            pytest.fail("headless Chromium is required under CI but was not found")
-        pytest.skip("headless Chromium not installed (apt-get install chromium)")
+    exe = _headless.require_chromium()
     layout = scene.layout_from_world(load_world(world_path("longterm")))
     png = tmp_path / "live.png"
     with ViewerProcess() as viewer:
@@ -248,16 +243,9 @@ def test_live_view_in_headless_chromium_shows_the_legend(tmp_path: Path) -> None
             deadline = time.monotonic() + 20.0
             while view.stats().frames < 3 and time.monotonic() < deadline:
                 time.sleep(0.05)
-            cmd = [exe, "--headless", "--no-sandbox", "--disable-gpu",
-                   "--enable-unsafe-swiftshader", "--disable-quic", "--no-first-run",
-                   "--disable-background-networking", "--disable-component-update",
-                   "--disable-sync", "--disable-extensions",
-                   f"--user-data-dir={tmp_path / 'profile'}", f"--screenshot={png}",
-                   "--window-size=1024,768", "--hide-scrollbars",
-                   "--virtual-time-budget=5000", viewer.urls.web_url]
-            proc = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                  timeout=120)
-            assert proc.returncode == 0
+            _headless.screenshots(exe, [(viewer.urls.web_url, png)],
+                                  _headless.Profiles(tmp_path), budget_ms=5000,
+                                  timeout_s=120)
         finally:
             view.stop()
             channel.close()
@@ -271,3 +259,209 @@ def test_live_view_in_headless_chromium_shows_the_legend(tmp_path: Path) -> None
     trail = np.array([(scene.TRAIL_COLOUR >> 16) & 0xFF, (scene.TRAIL_COLOUR >> 8) & 0xFF,
                       scene.TRAIL_COLOUR & 0xFF])
     assert int((np.abs(rgb - trail).max(axis=2) <= 12).sum()) > 20, "no trail drawn"
+
+
+@pytest.mark.browser
+def test_label_layout_keeps_crowded_labels_apart(tmp_path: Path) -> None:
+    """The overlay's pure layout step, run in the browser: forty robots within a few pixels
+    of each other, and a row of them, get labels that overlap neither each other nor (where
+    there is room) any robot; moments in links parse as simulated seconds."""
+    import json
+
+    from player_server.viz.page import OVERLAY_JS
+
+    crowd = [{"id": f"p{i}", "x": 600 + (i % 7) * 6, "y": 400 + (i // 7) * 5,
+              "width": 100 + (i % 3) * 30, "height": 22 + (i % 2) * 15} for i in range(40)]
+    row = [{"id": f"r{i}", "x": 100 + i * 40, "y": 700, "width": 110, "height": 37}
+           for i in range(12)]
+    page = tmp_path / "layout.html"
+    page.write_text(
+        "<!DOCTYPE html><html><body><pre id=\"murdoch-state\"></pre>"
+        f"<script src=\"{OVERLAY_JS.resolve().as_uri()}\"></script><script>"
+        "var M = MurdochOverlay;"
+        "document.getElementById('murdoch-state').textContent = JSON.stringify({"
+        f"crowd: M.placeLabels({json.dumps(crowd)}), row: M.placeLabels({json.dumps(row)}),"
+        "moments: ['7:40', '1:07:40', '460.5', 'soon', ''].map(M.parseMoment)});"
+        "</script></body></html>", encoding="utf-8")
+    exe = _headless.require_chromium()
+    state = _headless.page_state(exe, page.as_uri(), _headless.Profiles(tmp_path),
+                                 budget_ms=200)
+    assert state["moments"] == [460, 4060, 460.5, None, None]
+    for items, placed in ((crowd, state["crowd"]), (row, state["row"])):
+        rects = {it["id"]: (placed[it["id"]]["left"], placed[it["id"]]["top"], it["width"],
+                            it["height"]) for it in items}
+        assert len(rects) == len(items)
+        assert _headless.overlapping(rects) == []
+    # in the row there is room: no label covers a robot, and each stays near its own
+    for it in row:
+        left, top = state["row"][it["id"]]["left"], state["row"][it["id"]]["top"]
+        for other in row:
+            assert not (left < other["x"] < left + it["width"]
+                        and top < other["y"] < top + it["height"]), (it["id"], other["id"])
+        assert abs(left + it["width"] / 2 - it["x"]) < 200 and abs(top - it["y"]) < 150
+
+
+@pytest.fixture(scope="module")
+def live_run(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """A real ten-minute `murdoch run longterm --meshcat` (paced at ten times real time),
+    with the live view's page state read by headless Chromium every few seconds while it
+    runs; then its run directory (run.mcap, replay.html)."""
+    import queue
+    import signal
+    import subprocess
+    import sys
+
+    exe = _headless.require_chromium()
+    tmp = tmp_path_factory.mktemp("live-run")
+    profiles = _headless.Profiles(tmp)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "murdoch", "run", "longterm", "--until", "10m", "--meshcat",
+         "--seed", "1", "--out", str(tmp / "runs")],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, text=True)
+    lines: queue.Queue[str] = queue.Queue()
+
+    def read() -> None:
+        assert proc.stdout is not None
+        for line in proc.stdout:
+            lines.put(line)
+
+    threading.Thread(target=read, daemon=True).start()
+    seen: list[str] = []
+
+    def wait_for(text: str, timeout_s: float) -> str:
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            try:
+                line = lines.get(timeout=max(0.01, deadline - time.monotonic()))
+            except queue.Empty:
+                break
+            seen.append(line)
+            if text in line:
+                return line
+        raise AssertionError(f"no {text!r} from murdoch run; it said:\n{''.join(seen[-30:])}")
+
+    states: list[dict] = []
+    try:
+        root = Path(wait_for("run directory:", 120).split(":", 1)[1].strip())
+        url = wait_for("meshcat live view:", 120).split(": ", 1)[1].strip()
+        deadline = time.monotonic() + 400
+        for _ in range(40):  # the page's state every few seconds until the run ends
+            if proc.poll() is not None or time.monotonic() > deadline:
+                break
+            state = _headless.page_state(exe, url, profiles, budget_ms=1500)
+            states.append(state)
+            if state["t"] is not None and state["t"] >= 599.0:
+                break
+        wait_for("the live view stays up", 300)  # finished: run.mcap and replay.html written
+        # the last frame, held: its page state and a screenshot of it
+        final = _headless.page_state(exe, url, profiles, budget_ms=1500)
+        # a screenshot whose viewport is the one the state was read in (headless Chromium's
+        # --dump-dom page is shorter than its --window-size)
+        width, height = final["view"]
+        _headless.screenshots(exe, [(url, tmp / "live.png")], profiles, size=(width, height),
+                              budget_ms=1500)
+    finally:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGINT)  # closes the held view
+            try:
+                proc.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+    return {"root": root, "states": states, "profiles": profiles, "exe": exe, "final": final,
+            "png": tmp / "live.png"}
+
+
+def _recorded(root: Path) -> list[dict]:
+    from experiments.report import recorded_poses
+
+    return list(recorded_poses(root / "run.mcap"))
+
+
+def _assert_matches_recording(state: dict, frames: list[dict], tolerance_m: float) -> None:
+    import math
+
+    for robot, (x, y, _yaw) in state["robots"].items():
+        rx, ry = _headless.pose_at(frames, state["t"], robot)
+        assert math.hypot(x - rx, y - ry) < tolerance_m, (
+            f"{robot} drawn at ({x:.2f}, {y:.2f}) at {state['clock']}; "
+            f"the recording has ({rx:.2f}, {ry:.2f})")
+
+
+@pytest.mark.browser
+@pytest.mark.timeout(900)
+def test_live_view_follows_a_real_run_in_headless_chromium(live_run: dict) -> None:
+    """The page of `murdoch run --meshcat` at several simulated times: its clock runs with the
+    run, every robot is drawn where run.mcap has it at that time (so every robot that drives
+    moves), and no robot's label overlaps another's."""
+    import math
+
+    states = [s for s in live_run["states"] if s["t"] is not None and s["robots"]]
+    assert len(states) >= 2, live_run["states"]
+    frames = _recorded(live_run["root"])
+    times = [s["t"] for s in states]
+    assert times == sorted(times) and times[-1] - times[0] > 120.0, times
+    moved = set()
+    for a, b in itertools.pairwise(states):
+        for robot in a["robots"]:
+            (xa, ya), (xb, yb) = (_headless.pose_at(frames, s["t"], robot) for s in (a, b))
+            if math.hypot(xb - xa, yb - ya) > 0.3:  # it drove: the view shows it moving
+                pa, pb = a["robots"][robot], b["robots"][robot]
+                assert math.hypot(pb[0] - pa[0], pb[1] - pa[1]) > 0.2, (robot, a["t"], b["t"])
+                moved.add(robot)
+    assert moved, "no robot drove in the run"
+    for s in states:
+        assert s["clock"] == scene_clock(s["t"])
+        _assert_matches_recording(s, frames, 0.12)
+        assert set(s["labels"]) == set(s["robots"])
+        assert _headless.overlapping(s["labels"]) == [], s["clock"]
+        if s["t"] > 0:  # the feed runs with the simulation: battery levels from the first step
+            assert all(info["battery"] is not None for info in s["info"].values()), s["info"]
+
+
+@pytest.mark.browser
+@pytest.mark.timeout(900)
+def test_live_labels_point_at_their_robots_in_the_screenshot(live_run: dict) -> None:
+    """Each label's leader line ends on its robot as the browser drew it: around the anchor
+    the page reports, the screenshot shows the colour of that robot's state."""
+    import colorsys
+
+    import cv2
+    import numpy as np
+
+    state = live_run["final"]
+    img = cv2.imread(str(live_run["png"]), cv2.IMREAD_COLOR)
+    assert img is not None and img.shape[:2] == (state["view"][1], state["view"][0])
+    hsv = cv2.cvtColor(img, cv2.COLOR_BGR2HSV_FULL).astype(float)
+    assert set(state["anchors"]) == set(state["robots"])
+    for robot, (x, y) in state["anchors"].items():
+        colour = state["info"][robot]["stateColour"]
+        h0 = colorsys.rgb_to_hsv(*(int(colour[i:i + 2], 16) / 255.0 for i in (1, 3, 5)))[0]
+        win = hsv[max(0, int(y) - 8):int(y) + 9, max(0, int(x) - 8):int(x) + 9]
+        dh = np.abs(win[:, :, 0] / 255.0 - h0)
+        dh = np.minimum(dh, 1.0 - dh)
+        hits = int(((dh < 12 / 360) & (win[:, :, 1] > 0.4 * 255)).sum())
+        assert hits >= 20, f"{robot}'s label points at ({x:.0f}, {y:.0f}), not at the robot"
+
+
+@pytest.mark.browser
+@pytest.mark.timeout(900)
+def test_replay_of_the_run_at_two_slider_positions(live_run: dict) -> None:
+    """replay.html of the same run, opened at two moments (``#t=m:ss``, which moves the
+    slider): clock, slider and scene agree with run.mcap at that simulated time."""
+    frames = _recorded(live_run["root"])
+    replay = live_run["root"] / "replay.html"
+    for t in (95, 7 * 60 + 40):
+        url = f"{replay.as_uri()}#t={t // 60}:{t % 60:02d}"
+        state = _headless.page_state(live_run["exe"], url, live_run["profiles"], budget_ms=1500)
+        assert state["t"] == pytest.approx(t, abs=0.05) and state["slider"] == pytest.approx(t)
+        assert state["clock"] == scene_clock(t) and state["playing"] is False
+        _assert_matches_recording(state, frames, 0.1)
+        assert _headless.overlapping(state["labels"]) == []
+        assert all(info["battery"] is not None for info in state["info"].values())
+
+
+def scene_clock(t: float) -> str:
+    from player_server.viz.hud import clock_text
+
+    return clock_text(t)

@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 from experiments.observe import JsonlTail, ObservedSim, robot_event_to_run_events
+from player_server.viz.feed import LiveFeed
 
 
 class CountingSim:
@@ -38,26 +39,75 @@ class CountingSim:
         return ("p1",)
 
 
-def test_samplers_on_simulated_time_live_view_on_wall_time() -> None:
-    sim = CountingSim()
+class RecordingView:
+    """Pure stand-in for the live view: keeps what it is handed."""
+
+    def __init__(self) -> None:
+        self.offered: list[object] = []
+        self.battery: dict[str, float] = {}
+        self.states: dict[str, str] = {}
+        self.scans: list[dict] = []
+
+    def offer(self, snapshot: object) -> None:
+        self.offered.append(snapshot)
+
+    def offer_scans(self, scans: dict) -> None:
+        self.scans.append(dict(scans))
+
+    def set_battery(self, robot: str, percent: float) -> None:
+        self.battery[robot] = percent
+
+    def set_robot(self, robot: str, state: str, label: str = "") -> None:
+        self.states[robot] = state
+
+
+class PoweredSim(CountingSim):
+    class Power:
+        percent = 42.5
+        charging = True
+
+    def power(self, robot: str) -> Power:
+        return self.Power()
+
+    def laser(self, robot: str) -> object:
+        import numpy as np
+
+        return np.array([1.0, 2.0])
+
+
+def test_samplers_on_simulated_time_live_feed_on_wall_time() -> None:
+    sim = PoweredSim()
     wall = [0.0]
-    offered = []
+    view = RecordingView()
     sampled: list[float] = []
-    obs = ObservedSim(sim, wall_clock=lambda: wall[0], live_offer=offered.append,
-                      live_period_s=0.1,
+    feed = LiveFeed(view, wall_clock=lambda: wall[0], period_s=0.1, power_robots=("p1",))
+    obs = ObservedSim(sim, live=feed.after_step,
                       samplers=((1.0, lambda s, t: sampled.append(round(t, 3))),))
     for _ in range(600):  # 60 simulated seconds in 0.6 wall seconds
         obs.step()
         wall[0] += 0.001
     assert len(sampled) == 60 and sampled[:2] == [0.1, 1.1]  # one per simulated second
-    assert 6 <= len(offered) <= 7  # one per 0.1 wall second
-    assert sim.snapshots == len(offered)
+    assert 6 <= len(view.offered) <= 7  # one per 0.1 wall second
+    assert sim.snapshots == len(view.offered) == feed.frames
+    assert view.battery == {"p1": 42.5}
+    assert view.states == {} and view.scans == []  # states come from the team's events
     assert obs.robot_names() == ("p1",)  # the rest of the simulation shows through
+
+
+def test_feed_of_a_world_without_a_team_shows_charging_and_lasers() -> None:
+    sim = PoweredSim()
+    view = RecordingView()
+    feed = LiveFeed(view, wall_clock=lambda: 0.0, power_robots=("p1",), scan_robots=("p1",),
+                    states_from_power=True)
+    feed.after_step(sim)
+    feed.after_step(sim)  # same wall time: nothing more
+    assert view.states == {"p1": "charging"} and view.scans == [{"p1": [1.0, 2.0]}]
+    assert len(view.offered) == 1
 
 
 def test_no_observers_no_snapshots() -> None:
     sim = CountingSim()
-    obs = ObservedSim(sim, wall_clock=lambda: 0.0)
+    obs = ObservedSim(sim)
     for _ in range(100):
         obs.step()
     assert sim.snapshots == 0 and obs.time_s == sim.time_s

@@ -118,3 +118,22 @@ def test_the_live_label_names_the_task_and_its_target() -> None:
     assert got["p2"].view_label == "sentry-duty: red object at spot (1.0, -2.5)"
     assert got["p3"].view_label == "goto-goal t3"
     assert tracker.state_of("p1").label == "cleanup t1"  # plots keep kind and id
+    assert (got["p1"].target_colour, got["p3"].target_colour) == (0x0000FF, None)
+
+
+def test_targets_are_named_by_colour_name_as_the_task_source_writes_them() -> None:
+    tracker = timeline.RobotStateTracker()
+    # the task source hands robots colours as "#rrggbb"; a person reads their names
+    for task, colour in (("t1", "#ff8000"), ("t2", "#8000ff"), ("t3", "#fe0102")):
+        tracker.apply(E(1.0, ev.TASK_INTRODUCED, task=task, task_kind="cleanup",
+                        params={"colour": colour}))
+    got = {}
+    for task, robot in (("t1", "p1"), ("t2", "p2"), ("t3", "p3")):
+        got.update(tracker.apply(E(2.0, ev.AWARD, task=task, robot=robot)))
+    assert [got[r].view_label for r in ("p1", "p2", "p3")] == [
+        "cleanup: orange box", "cleanup: purple box", "cleanup: red box"]  # nearest name
+    assert got["p1"].target_colour == 0xFF8000
+    tracker.apply(E(3.0, ev.TASK_INTRODUCED, task="u1", task_kind="watch-box",
+                    params={"colour": "#ff8000", "goal_colour": "#ff00ff"}))
+    watch = tracker.apply(E(3.0, ev.AWARD, task="u1", robot="w"))["w"]
+    assert watch.view_label == "watch-box: orange box to the magenta marker"

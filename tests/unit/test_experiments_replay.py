@@ -58,8 +58,10 @@ def test_animation_tracks_and_state_visibility() -> None:
     assert list(zip(working["times"], working["values"], strict=True)) == [
         (0.0, False), (10.0, True), (40.0, False), (60.0, False)
     ]
-    label = clips["/murdoch/robots/r1/labels/0"]["tracks"][0]
-    assert label["values"][:3] == [False, True, False]
-    texts = [c["object"]["textures"][0]["text"] for c in cmds
-             if c["type"] == "set_object" and "/labels/" in c["path"]]
-    assert texts == ["cleanup"]
+    # the label block over simulated time: [t, state, colour, battery, task, target, marked]
+    rows = info["timeline"]["r1"]
+    assert [(r[0], r[1], r[4]) for r in rows] == [
+        (100.0, "working", "cleanup t1"), (400.0, "idle", "")]
+    datas = [c["path"] for c in cmds if c["type"] == "set_object"
+             and c["object"]["object"].get("name") == "murdoch-data"]
+    assert datas == ["/murdoch/hud/legend", "/murdoch/robots/r1/info"]

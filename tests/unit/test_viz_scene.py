@@ -7,7 +7,7 @@ import math
 import pytest
 import umsgpack
 
-from player_server.viz import scene
+from player_server.viz import hud, scene
 from player_server.viz.live import LiveView, body_poses
 from worlds import load_world, world_path
 
@@ -62,17 +62,6 @@ def test_state_change_and_labels() -> None:
     assert len(scene.state_change("p1", None, "working")) == len(scene.ROBOT_STATES)
     with pytest.raises(ValueError, match="unknown robot state"):
         scene.state_change("p1", "idle", "dancing")
-    ids = scene.IdSource("x")
-    (label,) = scene.label_change(ids, "p1", "cleanup t3")
-    assert label["object"]["object"]["type"] == "Sprite"
-    assert label["object"]["textures"][0] == {
-        "uuid": label["object"]["materials"][0]["map"],
-        "type": "_text",
-        "text": "cleanup t3",
-        "font_size": 48,
-        "font_face": "sans-serif",
-    }
-    assert scene.label_change(ids, "p1", "") == [scene.delete("/murdoch/robots/p1/label")]
 
 
 class RecordingSink:
@@ -89,9 +78,9 @@ def test_live_view_sends_only_what_changed() -> None:
     sink = RecordingSink()
     view = LiveView(layout, sink)
     first = view.publish_once()
-    hud = scene.IdSource("x")
-    assert first == (len(scene.static_scene(layout)) + len(scene.legend_commands(hud, layout))
-                     + len(scene.clock_commands(hud, layout, 0.0)))
+    # the scene, the legend, every robot's label block and the clock
+    assert first == len(scene.static_scene(layout)) + 1 + len(layout.robots) + 1
+    assert sink.commands[-1]["path"] == f"{scene.ROOT}/hud/clock"
     assert view.publish_once() == 0  # nothing new
     view.offer({robot: (1.0, 1.0, 0.0)})
     view.offer({robot: (1.0, 2.0, 0.0)})  # replaces the unsent one
@@ -104,7 +93,7 @@ def test_live_view_sends_only_what_changed() -> None:
     sink.commands.clear()
     view.publish_once()
     kinds = [(c["type"], c["path"].rsplit("/", 1)[-1]) for c in sink.commands]
-    assert kinds == [("set_property", "idle"), ("set_property", "working"), ("set_object", "label")]
+    assert kinds == [("set_property", "idle"), ("set_property", "working"), ("set_object", "info")]
     view.set_robot("ghost", scene.IDLE)  # not in the scene: ignored
     assert view.publish_once() == 0
     with pytest.raises(ValueError):
@@ -127,23 +116,27 @@ def test_body_poses_accepts_snapshot_shapes() -> None:
     assert body_poses(Snap2()) == {"b": (3.0, 4.0, 0.0)}
 
 
-def test_live_scene_has_a_legend_names_a_clock_and_batteries() -> None:
+def _data(commands: list[dict]) -> dict[str, dict]:
+    return {c["path"]: c["object"]["object"]["userData"] for c in commands
+            if c["type"] == "set_object" and c["object"]["object"].get("name") == hud.DATA_NAME}
+
+
+def test_live_scene_has_a_legend_labels_a_clock_and_batteries() -> None:
     layout = scene.layout_from_world(load_world(world_path("longterm")))
     sink = RecordingSink()
     view = LiveView(layout, sink)
     view.publish_once()
-    objects = {c["path"]: c for c in sink.commands if c["type"] == "set_object"}
-
-    def text(path: str) -> str:
-        return objects[path]["object"]["textures"][0]["text"]
-
-    for state in scene.ROBOT_STATES:
-        assert text(f"{scene.ROOT}/hud/legend/{state}/text") == scene.LEGEND_LABELS[state]
-        swatch = objects[f"{scene.ROOT}/hud/legend/{state}/swatch"]["object"]
-        assert swatch["materials"][0]["color"] == scene.STATE_COLOURS[state]
+    data = _data(sink.commands)
+    labels = [e["label"] for e in data[f"{scene.ROOT}/hud/legend"]["entries"]]
+    assert labels[:4] == ["robot idle", "robot working", "robot charging", "robot down"]
+    for thing in ("heading (front of a robot)", "charging pad", "box", "object (ball, cylinder)",
+                  "obstacle", "wall"):
+        assert thing in labels
     for r in layout.robots:
-        assert text(f"{scene.robot_path(r.name)}/name") == r.name
-    assert text(f"{scene.ROOT}/hud/clock") == "sim 0:00:00"
+        info = data[f"{scene.robot_path(r.name)}/info"]
+        assert (info["name"], info["state"], info["battery"], info["task"]) == (
+            r.name, scene.IDLE, None, "")
+    assert data[f"{scene.ROOT}/hud/clock"]["text"] == "sim 0:00:00"
 
     class Snap:
         time_s = 3725.4
@@ -152,29 +145,34 @@ def test_live_scene_has_a_legend_names_a_clock_and_batteries() -> None:
     sink.commands.clear()
     view.offer(Snap())
     view.set_battery("p1", 83.4)
-    view.set_robot("p1", scene.WORKING, "cleanup: red box")
+    view.set_robot("p1", scene.WORKING, "cleanup: orange box", 0xFF8000)
     view.publish_once()
-    texts = {c["path"]: c["object"]["textures"][0]["text"] for c in sink.commands
-             if c["type"] == "set_object" and c["object"].get("textures")}
-    assert texts[f"{scene.ROOT}/hud/clock"] == "sim 1:02:05"
-    assert texts[f"{scene.robot_path('p1')}/name"] == "p1 83%"
-    assert texts[f"{scene.robot_path('p1')}/label"] == "cleanup: red box"
+    data = _data(sink.commands)
+    assert data[f"{scene.ROOT}/hud/clock"] == {"murdoch": "clock", "t": 3725.4,
+                                               "text": "sim 1:02:05"}
+    assert sink.commands[-1]["path"] == f"{scene.ROOT}/hud/clock"  # the clock closes a frame
+    info = data[f"{scene.robot_path('p1')}/info"]
+    assert (info["battery"], info["task"], info["colour"]) == (83, "cleanup: orange box",
+                                                                "#ff8000")
+    assert info["marked"] is True  # orange is also the working colour
     view.set_battery("p1", 83.2)  # the same when rounded: nothing sent
     view.offer(Snap())
     assert view.publish_once() == 0
 
 
-def test_boxes_and_objects_never_look_like_a_robot_state() -> None:
+def test_things_in_a_robot_state_colour_are_ringed() -> None:
     for world in ("simple", "boxpush", "longterm"):
         layout = scene.layout_from_world(load_world(world_path(world)))
-        for thing in (*layout.boxes, *layout.objects):
-            shown = scene.display_colour(thing.colour)
-            for state, colour in scene.STATE_COLOURS.items():
-                assert scene.colour_distance(shown, colour) >= scene.STATE_COLOUR_MARGIN, (
-                    world, thing.name, state)
-    assert scene.display_colour(0xFFFFFF) == 0xFFFFFF  # far from every state: unchanged
-    green = scene.display_colour(0x1FB84A)  # the charging colour itself gets paler
-    assert green != 0x1FB84A
+        cmds = {c["path"]: c for c in scene.static_scene(layout) if c["type"] == "set_object"}
+        for group, things in (("boxes", layout.boxes), ("objects", layout.objects)):
+            for thing in things:
+                path = f"{scene.ROOT}/{group}/{thing.name}"
+                # drawn in its own colour, so that its colour name finds it
+                assert cmds[f"{path}/shape"]["object"]["materials"][0]["color"] == thing.colour
+                near = min(scene.colour_distance(thing.colour, c)
+                           for c in scene.STATE_COLOURS.values())
+                assert (f"{path}/ring" in cmds) == (near < scene.STATE_COLOUR_MARGIN)
+    assert scene.needs_marker(0xFF8000) and not scene.needs_marker(0xFFFF00)
 
 
 def test_trails_follow_robots_when_asked_for() -> None:
