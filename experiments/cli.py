@@ -49,8 +49,14 @@ class LazyGroup(click.Group):
         entry = SUBCOMMANDS.get(cmd_name)
         if entry is None:
             return super().get_command(ctx, cmd_name)
+        from murdoch.plugin_loading import PluginError
+
         module_name, attr = entry.target.split(":")
-        module = importlib.import_module(module_name)
+        try:
+            module = importlib.import_module(module_name)
+        except PluginError as exc:  # a broken plugin: one line, and nothing starts
+            click.echo(f"murdoch {cmd_name}: {exc}", err=True)
+            ctx.exit(2)
         command = getattr(module, attr)
         if not isinstance(command, click.Command):
             raise TypeError(f"{entry.target} is not a click command")

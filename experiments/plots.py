@@ -316,7 +316,7 @@ def write_plots(
 ) -> list[Path]:
     """Write the PNGs of `PLOT_FILES`, then the run's experiment's own, into `out_dir`;
     returns their paths."""
-    from experiments.plugins import experiment
+    from experiments.registry import experiment
 
     evs = [e for e in evs if e["kind"] != ev.POSES]
     end_s = max((float(e["t"]) for e in evs), default=0.0)

@@ -14,7 +14,7 @@ from collections.abc import Iterable, Mapping
 from typing import Any
 
 from experiments import events as ev
-from experiments.plugins import experiment
+from experiments.registry import experiment
 
 SCHEMA_VERSION = 1
 
