@@ -157,6 +157,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """The robot's options, checked (argparse's usage error and exit on a wrong one)."""
     parser = _parser()
     args = parser.parse_args(argv)
+    if ALLOCATORS.problems:
+        parser.error(ALLOCATORS.problems[0])
     if args.refine and args.allocator not in REFINABLE:
         parser.error(f"--refine is for the consensus allocators ({', '.join(REFINABLE)}), "
                      f"not --allocator {args.allocator}")

@@ -204,7 +204,12 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
         robots_per_process: int | None) -> None:
     """Run EXPERIMENT end to end and leave a run directory behind."""
     from experiments.run_checks import RunSetupError, check_out_dir, effective_speedup
+    from murdoch.plugin import PluginError
 
+    try:
+        ALLOCATORS.check()
+    except PluginError as exc:
+        raise click.UsageError(str(exc)) from None
     if sim_hours is not None and until is not None:
         raise click.UsageError("give --sim-hours or --until, not both")
     if refine and allocator not in REFINABLE:
