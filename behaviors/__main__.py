@@ -165,6 +165,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         say(f"murdoch-robot: {exc}")
         raise SystemExit(2) from None
     args = parser.parse_args(argv)
+    if ALLOCATORS.problems:
+        parser.error(ALLOCATORS.problems[0])
     if args.refine and args.allocator not in REFINABLE:
         parser.error(f"--refine is for the consensus allocators ({', '.join(REFINABLE)}), "
                      f"not --allocator {args.allocator}")

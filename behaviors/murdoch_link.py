@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import random
 import threading
 from collections import deque
@@ -206,6 +207,7 @@ class MurdochLink:
             position=self._position, speed_mps=speed_mps, team=team or (agent.name,),
             on_outcome=self._on_outcome, observer=self._observe,
             backoff=RandomizedBackoff(random.Random(agent.name), base_s=2.0, cap_s=10.0),
+            pose=self._pose, battery=self._battery,
         )
         self.node: TeamMember = self.allocator.robot(transport, self._now, hooks)
 
@@ -233,6 +235,19 @@ class MurdochLink:
         snapshot = getattr(self.agent, "snapshot", None)
         pose = getattr(snapshot(), "pose", None) if snapshot is not None else None
         return (0.0, 0.0) if pose is None else (float(pose.x_m), float(pose.y_m))
+
+    def _pose(self) -> tuple[float, float, float]:
+        """The odometric pose with its heading (the origin before the first reading)."""
+        snapshot = getattr(self.agent, "snapshot", None)
+        pose = getattr(snapshot(), "pose", None) if snapshot is not None else None
+        if pose is None:
+            return (0.0, 0.0, 0.0)
+        return (float(pose.x_m), float(pose.y_m), float(pose.yaw_rad))
+
+    def _battery(self) -> float | None:
+        """The state of charge as a fraction (None: not known)."""
+        percent = float(getattr(self.agent.status(), "battery_percent", math.nan))
+        return None if math.isnan(percent) else percent / 100.0
 
     def _metric(self, announce: Announce) -> float | None:
         return self._score(announce.name, announce.params, announce.task_id)

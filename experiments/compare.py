@@ -382,6 +382,13 @@ def _span(seconds: float) -> str:
 def parse_allocators(text: str, refine: bool = False) -> list[str]:
     """The allocators to compare, in order; with `refine` each consensus allocator is
     followed by its refined form."""
+    from murdoch.allocators import ALLOCATORS
+    from murdoch.plugin import PluginError
+
+    try:
+        ALLOCATORS.check()
+    except PluginError as exc:
+        raise click.UsageError(str(exc)) from None
     names = [a.strip() for a in text.split(",") if a.strip()]
     unknown = [a for a in names if a not in COMPARABLE]
     if not names or unknown:

@@ -155,7 +155,12 @@ def run(ctx: click.Context, experiment: str, sim_hours: float | None, until: str
     """Run EXPERIMENT end to end and leave a run directory behind (an experiment's own
     options are named after it in their help)."""
     from experiments.run_checks import RunSetupError, check_out_dir, effective_speedup
+    from murdoch.plugin import PluginError
 
+    try:
+        ALLOCATORS.check()
+    except PluginError as exc:
+        raise click.UsageError(str(exc)) from None
     if sim_hours is not None and until is not None:
         raise click.UsageError("give --sim-hours or --until, not both")
     if refine and allocator not in REFINABLE:
