@@ -17,7 +17,7 @@ run: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/lint-imports
-	$(BIN)/mypy player_server behaviors murdoch worlds experiments
+	$(BIN)/mypy player_server behaviors murdoch worlds experiments murdoch_api
 
 test: lint
 	$(BIN)/python -m pytest -q --durations=10

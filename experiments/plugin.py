@@ -19,8 +19,9 @@ Experiments and task kinds of other packages are registered through the entry po
 Stable names (kept compatible across minor versions): `Option`, `Supports`, `RunOptions`,
 `Experiment`, `ExperimentBase`, `Referee`, `NoReferee`, `RunHandle`, `Fault`, `Verdict`,
 `PlannedTask`, `TaskKind`, `TaskSite`, `Place`, `default_place`, `OptionError`,
-`PluginError`, `robot_at_time`, `duration`, `fraction`. Everything else in `experiments`
-is internal.
+`PluginError`, `robot_at_time`, `duration`, `fraction`; and the checkers
+`experiments.plugin_check.check_experiment` and `behaviors.task_kinds.check_task_kind`
+(`murdoch_api` re-exports them all). Everything else in `experiments` is internal.
 """
 
 from __future__ import annotations
@@ -124,6 +125,17 @@ class RunOptions:
     task_interval_s: float = 240.0
     allocator: str = "murdoch"
     own: Mapping[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, experiment: Experiment, duration_s: float, seed: int, *,
+           task_interval_s: float = 240.0, allocator: str = "murdoch",
+           **own: Any) -> RunOptions:
+        """The options of a run of `experiment`: its own options at their declared defaults
+        unless given in `own` (by `Option.dest`)."""
+        values = {o.dest: (tuple(o.default or ()) if o.multiple else o.default)
+                  for o in experiment.options}
+        values.update(own)
+        return cls(duration_s, seed, task_interval_s, allocator, values)
 
     def get(self, dest: str, default: Any = None) -> Any:
         """The value of its own option `dest` (`default` if it was not set)."""
@@ -341,3 +353,4 @@ class ExperimentBase:
 def labels(entries: Iterable[tuple[str, float]]) -> list[str]:
     """ROBOT@TIME labels of (robot, t_s) entries, as config.json lists them."""
     return [f"{r}@{t:g}s" for r, t in entries]
+

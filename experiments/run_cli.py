@@ -233,10 +233,9 @@ def run_experiment(
     unknown = sorted(set(given) - {o.dest for o in chosen.options})
     if unknown:
         raise click.UsageError(f"{chosen.name} has no option(s) {', '.join(unknown)}")
-    options = RunOptions(duration_s, seed,
-                         PAPER_INTERVAL_S if task_interval_s is None else task_interval_s,
-                         allocator=allocator,
-                         own={o.dest: given.get(o.dest, o.default) for o in chosen.options})
+    options = RunOptions.of(chosen, duration_s, seed, allocator=allocator,
+                            task_interval_s=(PAPER_INTERVAL_S if task_interval_s is None
+                                             else task_interval_s), **given)
     spec, options = check_run(settings, options)
     if task_interval_s is None:  # the team's own rate (`team_task_interval_s`)
         options = dataclasses.replace(options, task_interval_s=team_task_interval_s(spec))

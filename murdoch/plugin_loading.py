@@ -13,11 +13,11 @@ from collections.abc import Callable, Iterable, Mapping
 from importlib.metadata import EntryPoint, entry_points
 from typing import TypeVar
 
+from murdoch.plugin import PluginError
+
 T = TypeVar("T")
 
-
-class PluginError(ValueError):
-    """A plugin that cannot be used: the message is one line naming it."""
+__all__ = ["PluginError", "describe", "load_group"]
 
 
 def describe(ep: EntryPoint) -> str:

@@ -22,7 +22,7 @@ def test_each_registered_experiment_runs_in_its_own_world(name: str) -> None:
     if True:
         assert plugin.name == name and experiment(name) is plugin
         spec = load_world(world_path(plugin.world))
-        options = plugin.check(spec, RunOptions(duration_s=120.0, seed=3))
+        options = plugin.check(spec, RunOptions.of(plugin, 120.0, 3))
         first = next(plugin.tasks(spec, options))
         assert first is not None and first.t_s < 120.0
         assert plugin.next_steps()
