@@ -12,9 +12,11 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
@@ -113,3 +115,102 @@ def test_a_broken_plugin_is_named_in_one_line_and_nothing_starts(
         assert not any(tmp_path.iterdir())
     finally:
         shutil.rmtree(dist)
+
+
+# -- docs/extending.md, as written -----------------------------------------------------------
+GUIDE = REPO / "docs" / "extending.md"
+_FENCE = re.compile(r"^```(\S*)\s*$")
+_DIRECTIVE = re.compile(r"^<!--\s*(extending|readme)-test:\s*(.*?)\s*-->\s*$")
+
+
+@dataclass(frozen=True)
+class GuideBlock:
+    line: int
+    lang: str
+    text: str
+    directives: tuple[str, ...]
+
+    def target(self) -> tuple[str, str] | None:
+        """('file' or 'append', path) of a block that is a file of the package."""
+        for d in self.directives:
+            verb, _, path = d.partition(" ")
+            if verb in ("file", "append"):
+                return verb, path.strip()
+        return None
+
+    def script(self) -> str | None:
+        """The shell script of an sh block (None: skipped), its replacements made."""
+        if any(d.startswith("skip") for d in self.directives):
+            return None
+        text = self.text
+        for d in self.directives:
+            if d.startswith("replace "):
+                old, sep, new = d[len("replace "):].partition(" => ")
+                assert sep and old in text, f"extending.md line {self.line}: {d!r}"
+                text = text.replace(old, new)
+        return text
+
+
+def guide_blocks(markdown: str) -> list[GuideBlock]:
+    lines = markdown.splitlines()
+    blocks: list[GuideBlock] = []
+    pending: list[str] = []
+    i = 0
+    while i < len(lines):
+        fence, directive = _FENCE.match(lines[i]), _DIRECTIVE.match(lines[i])
+        if directive:
+            pending.append(directive.group(2))
+        elif fence:
+            start, body = i, []
+            i += 1
+            while i < len(lines) and not lines[i].startswith("```"):
+                body.append(lines[i])
+                i += 1
+            blocks.append(GuideBlock(start + 1, fence.group(1), "\n".join(body) + "\n",
+                                     tuple(pending)))
+            pending = []
+        elif lines[i].strip():
+            pending = []
+        i += 1
+    return blocks
+
+
+def test_every_code_block_of_the_guide_is_a_file_or_a_command() -> None:
+    blocks = guide_blocks(GUIDE.read_text(encoding="utf-8"))
+    for b in blocks:
+        if b.lang in ("python", "toml"):
+            assert b.target() is not None, f"extending.md line {b.line}: which file is it?"
+        else:
+            assert b.lang in ("sh", "text"), f"extending.md line {b.line}: {b.lang!r}"
+    assert sum(b.lang == "sh" and b.script() is not None for b in blocks) >= 5
+
+
+def test_the_guide_runs_as_written(plugin_venv: Path, tmp_path: Path) -> None:
+    work = tmp_path / "checkout"
+    work.mkdir()
+    (work / ".venv").symlink_to(plugin_venv)
+    env = _env(plugin_venv)
+    for block in guide_blocks(GUIDE.read_text(encoding="utf-8")):
+        target = block.target()
+        if target is not None:
+            verb, path = target
+            file = work / path
+            file.parent.mkdir(parents=True, exist_ok=True)
+            with file.open("a" if verb == "append" else "w", encoding="utf-8") as f:
+                f.write(block.text)
+            continue
+        script = block.script() if block.lang == "sh" else None
+        if script is None:
+            continue
+        proc = subprocess.run(["bash", "-c", "set -e\n" + script], cwd=work, env=env,
+                              capture_output=True, text=True, timeout=900,
+                              stdin=subprocess.DEVNULL)
+        assert proc.returncode == 0, (
+            f"extending.md block at line {block.line} failed ({proc.returncode}):\n{script}\n"
+            f"--- stdout\n{proc.stdout[-3000:]}\n--- stderr\n{proc.stderr[-3000:]}")
+        assert "Traceback" not in proc.stderr, proc.stderr[-3000:]
+    runs = [p for p in (work / "runs" / "tutorial").iterdir() if p.is_dir()]
+    corners = [p for p in runs if p.name.startswith("corners")]
+    assert corners, runs
+    summary = json.loads((corners[0] / "summary.json").read_text(encoding="utf-8"))
+    assert summary["tasks"]["by_kind"]["visit"].get("completed", 0) >= 1, summary["tasks"]
