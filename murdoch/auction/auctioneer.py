@@ -249,7 +249,8 @@ class Auctioneer:
         winner, score = best_bid(task.bids)
         task.phase = Phase.CONTRACTED
         task.winner = winner
-        task.lease = Lease.grant(winner, now, task.spec)
+        task.lease = Lease.grant(winner, now, task.spec,
+                                 task.lease.renewals if task.lease is not None else 0)
         task.fraction = 0.0
         self._emit(now, "award", task, winner=winner, score=score, bids=len(task.bids))
         award = Award(task.task_id, task.attempt, winner, score, len(task.bids), "")

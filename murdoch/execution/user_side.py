@@ -57,8 +57,10 @@ class Lease:
     renewals: int = 0
 
     @classmethod
-    def grant(cls, winner: str, now: float, spec: TaskSpec) -> Lease:
-        return cls(winner, now, now, now + spec.renew_period_s)
+    def grant(cls, winner: str, now: float, spec: TaskSpec, renewals: int = 0) -> Lease:
+        """A fresh grant; `renewals` numbers the renewals on from an earlier one (MURDOCH
+        counts a task's renewals across its attempts)."""
+        return cls(winner, now, now, now + spec.renew_period_s, renewals)
 
     def check(self, spec: TaskSpec, now: float, who: str | None = None,
               last_heard: float | None = None) -> LeaseStep | None:
