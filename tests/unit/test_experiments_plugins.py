@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 import pytest
 
+from experiments import registry
 from experiments.plugin import NoReferee, RunOptions
 from experiments.plugins.boxpush import BoxpushReferee
 from experiments.registry import experiment, experiments
@@ -25,7 +26,7 @@ def test_each_registered_experiment_runs_in_its_own_world(name: str) -> None:
         options = plugin.check(spec, RunOptions.of(plugin, 120.0, 3))
         first = next(plugin.tasks(spec, options))
         assert first is not None and first.t_s < 120.0
-        assert plugin.next_steps()
+        assert plugin.next_steps() or name not in registry.BUILT_IN
     assert experiment("soak-of-something-else") is None and experiment(None) is None
 
 
