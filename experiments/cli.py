@@ -62,6 +62,17 @@ class LazyGroup(click.Group):
             raise TypeError(f"{entry.target} is not a click command")
         return command
 
+    def invoke(self, ctx: click.Context) -> object:
+        """A plugin found broken while a command runs (e.g. `murdoch report` of a run whose
+        experiment's package is broken) is one line too."""
+        from murdoch.plugin_loading import PluginError
+
+        try:
+            return super().invoke(ctx)
+        except PluginError as exc:
+            click.echo(f"murdoch: {exc}", err=True)
+            ctx.exit(2)
+
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         rows = [(name, SUBCOMMANDS[name].summary) for name in sorted(SUBCOMMANDS)]
         with formatter.section("Commands"):

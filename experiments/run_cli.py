@@ -7,7 +7,9 @@ introduces the experiment's tasks through a MURDOCH node, logs every auction mes
 hears, and writes the run directory through `experiments.recorder.RunRecorder`. Lockstep is
 used when running as fast as possible (speedup 0), so a seeded run repeats.
 
-What differs between experiments comes from their plug-in (`experiments.plugins`); the
+What differs between experiments comes from their plug-in (`experiments.registry`: the
+built-in ones and those of installed packages, each with its own options, offered here
+from their declarations, `experiments.option_params`); the
 processes are described as data (`experiments.supervisor.ProcessSpec`, listed in
 config.json); `run_experiment` puts the pieces together (`experiments.run_parts`).
 """

@@ -223,3 +223,32 @@ def test_supports_says_what_an_experiment_may_be_used_with() -> None:
     assert "longterm" in registry.supporting("soak") and "boxpush" in registry.supporting(
         "compare")
     assert Supports().soak is False and Supports().allocators is None
+
+
+@pytest.mark.parametrize("argv", [
+    ["-m", "murdoch", "run", "longterm", "--until", "1m"],
+    ["-m", "murdoch", "soak", "longterm", "--help"],
+    ["-m", "murdoch", "compare", "longterm", "--help"],
+    ["-m", "behaviors", "--help"],
+])
+def test_a_broken_plugin_stops_every_command_with_one_line(tmp_path: Path,
+                                                           argv: list[str]) -> None:
+    import os
+    import subprocess
+    import sys
+
+    _install(tmp_path, "plugin_cmd", """
+        [murdoch.experiments]
+        odd = plugin_cmd:ODD
+    """, "ODD = object()\n")
+    env = {**os.environ, "PYTHONPATH": str(tmp_path)}
+    out = subprocess.run([sys.executable, *argv], env=env, cwd=tmp_path, capture_output=True,
+                         text=True, timeout=120, check=False)
+    if argv[1] == "behaviors":  # robots load task kinds only: the experiment is not theirs
+        assert out.returncode == 0 and "Traceback" not in out.stderr
+        return
+    assert out.returncode == 2 and "Traceback" not in out.stderr, out.stderr
+    (line,) = out.stderr.strip().splitlines()
+    assert "murdoch.experiments plugin 'odd' = plugin_cmd:ODD (plugin_cmd 0.1)" in line
+    assert "expected an experiment `name`" in line
+    assert not (tmp_path / "runs").exists()
