@@ -252,3 +252,22 @@ def test_a_broken_plugin_stops_every_command_with_one_line(tmp_path: Path,
     assert "murdoch.experiments plugin 'odd' = plugin_cmd:ODD (plugin_cmd 0.1)" in line
     assert "expected an experiment `name`" in line
     assert not (tmp_path / "runs").exists()
+
+
+def test_run_soak_and_compare_offer_every_experiment_that_supports_them() -> None:
+    from experiments.compare import compare
+    from experiments.run_cli import run
+    from experiments.soak.cli import soak
+
+    def choices(command: click.Command) -> list[str]:
+        argument = next(p for p in command.params if p.name == "experiment")
+        assert isinstance(argument.type, click.Choice)
+        return sorted(argument.type.choices)
+
+    every = registry.experiments()
+    assert choices(run) == sorted(every)
+    assert choices(soak) == sorted(registry.supporting("soak"))
+    assert choices(compare) == sorted(registry.supporting("compare"))
+    flags = {o for p in run.params for o in getattr(p, "opts", ())}
+    for e in every.values():
+        assert {o.flag for o in e.options} <= flags, e.name
