@@ -271,3 +271,30 @@ def test_run_soak_and_compare_offer_every_experiment_that_supports_them() -> Non
     flags = {o for p in run.params for o in getattr(p, "opts", ())}
     for e in every.values():
         assert {o.flag for o in e.options} <= flags, e.name
+
+
+def test_a_task_lasts_as_its_kind_says_and_takes_place_where_its_kind_says() -> None:
+    from experiments.run_tasks import task_spec
+
+    # no duration_s among the task's params: the kind's default, not a KeyError
+    tracking = task_spec(PlannedTask(0.0, "object-tracking", {"colour": "#ff0000"}))
+    assert (tracking.duration_s, tracking.timeout_s) == (60.0, 660.0)
+    given = task_spec(PlannedTask(0.0, "object-tracking", {"colour": "#ff0000",
+                                                           "duration_s": 90.0}))
+    assert (given.duration_s, given.timeout_s) == (90.0, 690.0)
+    goto = task_spec(_goto(0.0))  # its duration is its timeout_s parameter
+    assert goto.duration_s == 300.0
+
+    @dataclass(frozen=True)
+    class Site:
+        camera_xy: tuple[float, float] | None = (4.0, -3.0)
+
+        def colour_xy(self, colour: str) -> tuple[float, float] | None:
+            return (1.0, 1.0) if colour == "#00ff00" else None
+
+    kinds = tk.task_kinds()
+    assert kinds["monitor-object"].place({}, Site()) == (4.0, -3.0)
+    assert kinds["monitor-object"].place({}, Site(camera_xy=None)) is None
+    assert kinds["object-tracking"].place({"colour": "#00FF00"}, Site()) == (1.0, 1.0)
+    assert kinds["watch-object-side"].place({"x": 2, "y": 5, "colour": "#00ff00"},
+                                            Site()) == (2.0, 5.0)
