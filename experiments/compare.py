@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import click
 
 from experiments import events as ev
-from experiments.option_params import passthrough_args, passthrough_params
+from experiments.option_params import add_passthrough_params, passthrough_args
 from experiments.registry import experiments, supporting
 from experiments.run_cli import parse_at, parse_duration_s
 from experiments.sweep_longterm import murdoch_command, parse_seeds
@@ -581,4 +581,4 @@ def _why(job: Job, row: Mapping[str, Any], out: Path) -> str:
     return f"{job.label()} (exit {row['exit_code']}, see {out}/{job.label()}/compare.log)"
 
 
-compare.params.extend(passthrough_params(experiments()))
+add_passthrough_params(compare, experiments())

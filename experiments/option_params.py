@@ -12,7 +12,7 @@ from typing import Any
 
 import click
 
-from experiments.plugin import Experiment, Option
+from experiments.plugin import Experiment, Option, PluginError
 from experiments.registry import shared_options
 
 
@@ -47,9 +47,21 @@ def _click_option(option: Option, owners: list[str]) -> click.Option:
                         help=help_text)
 
 
-def click_params(every: Mapping[str, Experiment]) -> list[click.Option]:
-    """A click option for every experiment option of `every` (one per flag)."""
-    return [_click_option(o, owners) for o, owners in shared_options(every).values()]
+def _free(command: click.Command, option: Option, owners: list[str]) -> None:
+    """An experiment's option must not take a flag of the command itself."""
+    taken = {flag for p in command.params for flag in getattr(p, "opts", ())}
+    taken |= {flag for p in command.params for flag in getattr(p, "secondary_opts", ())}
+    if option.flag in taken or option.dest in {p.name for p in command.params}:
+        raise PluginError(f"experiment {owners[0]!r}: option {option.flag} is one of "
+                          f"`murdoch {command.name}`'s own options")
+
+
+def add_params(command: click.Command, every: Mapping[str, Experiment]) -> None:
+    """Add a click option to `command` for every experiment option of `every` (one per flag);
+    a flag the command has itself is a `PluginError` naming the experiment."""
+    for option, owners in shared_options(every).values():
+        _free(command, option, owners)
+        command.params.append(_click_option(option, owners))
 
 
 def own_values(experiment: Experiment, every: Mapping[str, Experiment], values: Mapping[str, Any],
@@ -67,11 +79,12 @@ def own_values(experiment: Experiment, every: Mapping[str, Experiment], values: 
     return {o.dest: values.get(o.dest, o.default) for o in experiment.options}
 
 
-def passthrough_params(every: Mapping[str, Experiment]) -> list[click.Option]:
-    """The experiment options of a command that hands them on to `murdoch run` as text
+def add_passthrough_params(command: click.Command, every: Mapping[str, Experiment]) -> None:
+    """Add the experiment options to a command that hands them on to `murdoch run` as text
     (`murdoch compare`): checked by `passthrough_args`, parsed by each run."""
     out = []
     for option, owners in shared_options(every).values():
+        _free(command, option, owners)
         help_text = f"{', '.join(owners)}: {option.help} (passed to every run)"
         if option.type is bool:
             out.append(click.Option([option.flag, option.dest], is_flag=True, help=help_text))
@@ -79,7 +92,7 @@ def passthrough_params(every: Mapping[str, Experiment]) -> list[click.Option]:
             out.append(click.Option([option.flag, option.dest], default=None,
                                     multiple=option.multiple, metavar=option.metavar,
                                     help=help_text))
-    return out
+    command.params.extend(out)
 
 
 def passthrough_args(experiment: Experiment, every: Mapping[str, Experiment],

@@ -17,15 +17,6 @@ from murdoch.plugin_loading import load_group
 
 GROUP = "murdoch.experiments"
 BUILT_IN = ("longterm", "boxpush")
-RUN_FLAGS = frozenset({
-    "--sim-hours", "--until", "--speedup", "--seed", "--meshcat", "--out", "--world",
-    "--task-interval", "--kill", "--restart", "--metric", "--allocator", "--refine",
-    "--no-replay", "--pipelined", "--no-pipelined", "--robot-nice", "--key", "--pin-cpus",
-    "--no-pin-cpus", "--record-rate", "--no-record", "--trails", "--lasers", "--transport",
-    "--bind", "--place", "--robots-per-process", "--help", "--allocators", "--seeds",
-    "--jobs", "--dask", "--resume", "--faults",
-})
-"""Flags the commands use themselves: no experiment may declare one."""
 
 
 def _built_in() -> dict[str, Experiment]:
@@ -72,8 +63,6 @@ def _check_options(options: object, what: str) -> None:
     for o in options:
         if not o.flag.startswith("--") or len(o.flag) < 3 or " " in o.flag:
             raise PluginError(f"{what}: option {o.flag!r}: expected a flag such as --my-option")
-        if o.flag in RUN_FLAGS:
-            raise PluginError(f"{what}: option {o.flag} is one of the commands' own options")
         if o.flag in seen:
             raise PluginError(f"{what}: option {o.flag} is declared twice")
         if not callable(o.type):

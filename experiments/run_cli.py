@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 import click
 
 from experiments.durations import parse_at, parse_duration_s
-from experiments.option_params import click_params, own_values
+from experiments.option_params import add_params, own_values
 from experiments.registry import experiments
 from experiments.supervisor import RobotProcess, RobotSupervisor
 from experiments.supervisor import start_robot as _start_robot
@@ -246,4 +246,4 @@ def run_experiment(
     return finish(parts, reason)
 
 
-run.params.extend(click_params(experiments()))
+add_params(run, experiments())

@@ -17,7 +17,7 @@ from typing import Any, TypeVar
 import click
 
 from experiments.durations import parse_duration_s
-from experiments.option_params import click_params, own_values
+from experiments.option_params import add_params, own_values
 from experiments.registry import experiments, supporting
 from experiments.soak.faults import (
     FaultFileError,
@@ -179,7 +179,7 @@ def soak(ctx: click.Context, experiment: str, sim_hours: float, seed: int, fault
     sys.exit(0 if code == 0 else 1)
 
 
-soak.params.extend(click_params(experiments()))
+add_params(soak, experiments())
 
 
 @click.command("soak-report")

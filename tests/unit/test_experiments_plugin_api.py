@@ -17,7 +17,7 @@ from behaviors import task_kinds as tk
 from behaviors.task_kinds import check_task_kind
 from behaviors.task_place import default_place
 from experiments import registry
-from experiments.option_params import passthrough_args, passthrough_params
+from experiments.option_params import add_passthrough_params, passthrough_args
 from experiments.plugin import (
     ExperimentBase,
     Option,
@@ -96,7 +96,6 @@ def test_check_experiment_wants_the_same_tasks_from_the_same_seed() -> None:
 def test_a_declaration_that_breaks_the_rules_is_refused_in_one_line() -> None:
     base = {"name": "x", "world": "simple", "task_kinds": ("goto-goal",)}
     cases = {
-        "one of the commands' own options": {"options": (Option("--seed", "clash"),)},
         "declared twice": {"options": (Option("--a", "a"), Option("--a", "again"))},
         "not registered": {"task_kinds": ("teleport",)},
         "expected an experiment `name` without spaces": {"name": "two words"},
@@ -107,6 +106,15 @@ def test_a_declaration_that_breaks_the_rules_is_refused_in_one_line() -> None:
         assert "\n" not in str(info.value)
     with pytest.raises(PluginError, match="`supports` to be a Supports"):
         registry.check_declaration(Scripted("x", "simple", supports=None))  # type: ignore[arg-type]
+
+
+def test_an_option_may_not_take_a_flag_of_the_command() -> None:
+    from experiments.option_params import add_params
+
+    clash = Scripted("clash", "simple", options=(Option("--seed", "clash"),))
+    command = click.Command("run", params=[click.Option(["--seed"], type=int)])
+    with pytest.raises(PluginError, match="option --seed is one of `murdoch run`'s own"):
+        add_params(command, {"clash": clash})
 
 
 def test_two_experiments_may_share_an_option_only_with_the_same_meaning() -> None:
@@ -123,7 +131,8 @@ def test_options_handed_on_are_checked_by_their_type_and_kept_as_text() -> None:
     every = {"a": Scripted("a", "simple", options=(
         Option("--count", "n", type=int, default=2),
         Option("--at", "when", type=lambda t: t.split("@"), multiple=True)))}
-    command = click.Command("c", params=passthrough_params(every))
+    command = click.Command("c")
+    add_passthrough_params(command, every)
     ctx = command.make_context("c", ["--count", "3", "--at", "p1@5"])
     args, parsed = passthrough_args(every["a"], every, ctx.params, ctx)
     assert args == ["--count", "3", "--at", "p1@5"]
