@@ -137,8 +137,7 @@ def test_boxpush_soaks_until_the_box_arrives_and_keeps_every_invariant(
     out = tmp_path / "runs"
     done = subprocess.run(
         [*_murdoch(), "soak", "boxpush", "--sim-hours", "0.5", "--faults", "random",
-         "--kills-per-hour", "20", "--freezes-per-hour", "20", "--out", str(out),
-         "--no-record"],
+         "--kills-per-hour", "20", "--freezes-per-hour", "20", "--out", str(out)],
         capture_output=True, text=True, timeout=1700)
     assert done.returncode == 0, (done.stdout + done.stderr)[-3000:]
     (run_dir,) = out.iterdir()
