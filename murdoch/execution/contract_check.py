@@ -3,7 +3,7 @@
 `run_contract_check(allocator)` builds the allocator's user and four robots on an in-memory
 bus with a fake clock (`murdoch.memory_bus`), runs a script and checks the team-member
 contract (`murdoch.execution`) from the outside, raising `murdoch.plugin.ContractError`
-with the rule broken:
+with the rule broken (`ContractError`):
 
 1. two tasks arrive while every robot is free: each is started within `GRANT_WITHIN_S`;
 2. no robot ever runs two tasks, and no task ever runs on two robots at once;
@@ -35,9 +35,11 @@ PLACES = {"r0": (0.0, 0.0), "r1": (6.0, 0.0), "r2": (0.0, 6.0), "r3": (6.0, 6.0)
 SUBJECTS = frozenset({"mobile", "camera"})
 
 
-def _broken(rule: str, detail: str) -> Exception:
-    from murdoch.plugin import ContractError
+class ContractError(AssertionError):
+    """An allocator broke a rule of the contract; the message names the rule."""
 
+
+def _broken(rule: str, detail: str) -> ContractError:
     return ContractError(f"rule broken: {rule} ({detail})")
 
 
