@@ -166,17 +166,18 @@ def _script(allocator: Allocator) -> list[str]:
     if team.starts(impossible):
         raise _broken("a task goes only to a robot that offers what it needs",
                       f"{impossible} (needs laser) was started")
-    charger = next(r for r, (t, _) in team.running.items() if t == second) \
-        if any(t == second for t, _ in team.running.values()) else None
     third = team.offer(2.0, 4.0)
     team.run(GRANT_WITHIN_S)
-    leaving = charger or next(r for r, (t, _) in sorted(team.running.items()) if t == third)
-    left_task = team.running[leaving][0] if leaving in team.running else None
+    holders = [r for r, (t, _) in team.running.items() if t == third]
+    if not holders:
+        raise _broken("a task is given to a free capable robot",
+                      f"{third} not started within {GRANT_WITHIN_S:g} s")
+    leaving = holders[0]
     team.leave(leaving)
     team.run(GRANT_WITHIN_S + 5.0)
-    if left_task is not None and not [r for _, r in team.starts(left_task) if r != leaving]:
+    if not [r for _, r in team.starts(third) if r != leaving]:
         raise _broken("a task given back (abandoned) is given to another robot",
-                      f"{left_task} not started again after {leaving} left to charge")
+                      f"{third} not started again after {leaving} left to charge")
     team.rejoin(leaving)
     team.run(120.0)
     if team.outcomes(impossible) != ["unachievable"]:
