@@ -293,8 +293,10 @@ def write_csv(rows: Sequence[Mapping[str, Any]], path: Path) -> None:
 
 
 def plot_comparison(rows: Sequence[Mapping[str, Any]], stats: Sequence[Mapping[str, Any]],
-                    path: Path, title: str) -> Path:
-    """One panel per metric: a bar per allocator (mean, ± std) and a dot per run."""
+                    path: Path, title: str, reference: str = "optimal") -> Path:
+    """One panel per metric: a bar per allocator (mean, ± std) and a dot per run; the mean
+    of the `reference` allocator (the exact central assignment), when it ran, as a dashed
+    line across each panel."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -312,6 +314,8 @@ def plot_comparison(rows: Sequence[Mapping[str, Any]], stats: Sequence[Mapping[s
             dots = [r[key] for r in rows if r["allocator"] == s["allocator"]
                     and r[key] is not None]
             ax.scatter([i] * len(dots), dots, s=12, color=colour, zorder=3)
+            if s["allocator"] == reference and mean is not None and len(stats) > 1:
+                ax.axhline(mean, color="black", linestyle="--", linewidth=0.8, zorder=2)
         ax.set_xticks(range(len(names)), names)
         ax.set_title(label, fontsize="medium")
         ax.grid(True, axis="y", alpha=0.3)

@@ -6,7 +6,7 @@ A package registers allocators under the entry-point group `murdoch.allocators`,
 The built-ins are loaded the same way from `BUILTINS`. Loading happens once, on first use;
 a plugin that fails to import, is neither, takes a name already taken or whose name differs
 from its class's is left out and named in one line (`problems`), and `check` raises the
-first as `murdoch.plugin.PluginError`, so that no run starts with a broken plugin around.
+first as `PluginError`, so that no run starts with a broken plugin around.
 """
 
 from __future__ import annotations
@@ -17,6 +17,11 @@ from collections.abc import Iterator, Mapping
 from importlib.metadata import entry_points
 
 from murdoch.allocators.base import Allocator
+from murdoch.execution.central import CentralAllocator, central_allocator
+
+
+class PluginError(Exception):
+    """An allocator plugin that cannot be used; its message is one line naming it."""
 
 GROUP = "murdoch.allocators"
 BUILTINS: tuple[tuple[str, str], ...] = (
@@ -31,8 +36,6 @@ NAME = re.compile(r"[a-z][a-z0-9_-]*\Z")
 
 def load(name: str, value: str) -> Allocator:
     """The allocator `value` ("module:attribute") names; ValueError saying what is wrong."""
-    from murdoch.plugin import CentralAllocator, central_allocator
-
     module_name, _, attr = value.partition(":")
     try:
         found = getattr(importlib.import_module(module_name), attr)
@@ -71,8 +74,6 @@ class Registry(Mapping[str, Allocator]):
 
     def check(self) -> None:
         """Raise `PluginError` with the first problem, if any."""
-        from murdoch.plugin import PluginError
-
         if self.problems:
             raise PluginError(self.problems[0])
 

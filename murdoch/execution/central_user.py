@@ -5,12 +5,15 @@ member holds them, hears the robots' `RobotStatus` (what each offers, where it i
 is busy, its battery), and whenever something changes that could change a decision (a task
 opens, a robot frees up, is found silent, leaves to charge or comes back) hands the decision
 hook (`Decide`, a `murdoch.plugin.CentralAllocator`'s `assign`) a `WorldView` of the open
-tasks and the robots, and grants each task it assigns (`TaskOrder`). From there the
+tasks and the robots, and grants each task it assigns (`TaskOrder`). An open task that is
+not assigned stays open (queued) while some robot of the team offers what it needs, free or
+busy, and the task's patience lasts; the hook is asked again at each change. From there the
 team-member contract (`murdoch.execution`) runs as under the other allocators: the grant
 is renewed every renewal period, the executor's reports keep it alive and end it, a silent
-executor is revoked (`TaskWithdraw`) and the task offered again once it has given up, a
-task nobody is assigned for a whole bid window is retried after the backoff until its
-patience runs out, then it is `unachievable`. Events read as the auctioneer's (announce,
+executor is revoked (`TaskWithdraw`) and the task offered again once it has given up; a
+task that no robot of the team can do for a whole bid window (or still unassigned when its
+patience runs out) is an attempt without executor: retried after the backoff while its
+patience lasts, then `unachievable`. Events read as the auctioneer's (announce,
 close, award, reallocation, retry, outcome).
 
 An assignment the hook returns that names an unknown or taken task, a robot that is not
@@ -204,7 +207,7 @@ class CentralUser:
             if now >= task.wake_at:
                 self._open(task, now)
         elif task.phase == "open":
-            if now - task.opened_at >= task.spec.bid_window_s:
+            if now - task.opened_at >= task.spec.bid_window_s and not self._queued(task, now):
                 self._no_winner(task, now)
         elif task.phase == "granted":
             assert task.lease is not None
@@ -217,6 +220,15 @@ class CentralUser:
                 self._reallocate(task, now, step.reason, step.wait_s)
             else:
                 self._send_order(task)
+
+    def _queued(self, task: _Task, now: float) -> bool:
+        """Whether an open task waits in the queue: some robot in the team offers what it
+        needs (free or busy) and its patience lasts. Otherwise it is an attempt without
+        executor (backoff, then unachievable)."""
+        if task.deadline is not None and now >= task.deadline:
+            return False
+        needs = task.spec.subjects
+        return any(needs <= frozenset(s.subjects) for _, s in self._robots.values())
 
     def _assign(self, now: float) -> None:
         world = self.world(now)

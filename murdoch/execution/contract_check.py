@@ -3,7 +3,7 @@
 `run_contract_check(allocator)` builds the allocator's user and four robots on an in-memory
 bus with a fake clock (`murdoch.memory_bus`), runs a script and checks the team-member
 contract (`murdoch.execution`) from the outside, raising `murdoch.plugin.ContractError`
-with the rule broken:
+with the rule broken (`ContractError`):
 
 1. two tasks arrive while every robot is free: each is started within `GRANT_WITHIN_S`;
 2. no robot ever runs two tasks, and no task ever runs on two robots at once;
@@ -35,9 +35,11 @@ PLACES = {"r0": (0.0, 0.0), "r1": (6.0, 0.0), "r2": (0.0, 6.0), "r3": (6.0, 6.0)
 SUBJECTS = frozenset({"mobile", "camera"})
 
 
-def _broken(rule: str, detail: str) -> Exception:
-    from murdoch.plugin import ContractError
+class ContractError(AssertionError):
+    """An allocator broke a rule of the contract; the message names the rule."""
 
+
+def _broken(rule: str, detail: str) -> ContractError:
     return ContractError(f"rule broken: {rule} ({detail})")
 
 
@@ -164,17 +166,18 @@ def _script(allocator: Allocator) -> list[str]:
     if team.starts(impossible):
         raise _broken("a task goes only to a robot that offers what it needs",
                       f"{impossible} (needs laser) was started")
-    charger = next(r for r, (t, _) in team.running.items() if t == second) \
-        if any(t == second for t, _ in team.running.values()) else None
     third = team.offer(2.0, 4.0)
     team.run(GRANT_WITHIN_S)
-    leaving = charger or next(r for r, (t, _) in sorted(team.running.items()) if t == third)
-    left_task = team.running[leaving][0] if leaving in team.running else None
+    holders = [r for r, (t, _) in team.running.items() if t == third]
+    if not holders:
+        raise _broken("a task is given to a free capable robot",
+                      f"{third} not started within {GRANT_WITHIN_S:g} s")
+    leaving = holders[0]
     team.leave(leaving)
     team.run(GRANT_WITHIN_S + 5.0)
-    if left_task is not None and not [r for _, r in team.starts(left_task) if r != leaving]:
+    if not [r for _, r in team.starts(third) if r != leaving]:
         raise _broken("a task given back (abandoned) is given to another robot",
-                      f"{left_task} not started again after {leaving} left to charge")
+                      f"{third} not started again after {leaving} left to charge")
     team.rejoin(leaving)
     team.run(120.0)
     if team.outcomes(impossible) != ["unachievable"]:
