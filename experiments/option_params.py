@@ -112,7 +112,9 @@ def passthrough_args(experiment: Experiment, every: Mapping[str, Experiment],
             continue
         texts = list(raw or ()) if option.multiple else ([] if raw is None else [raw])
         kind = _Parsed(option)
-        converted = [kind.convert(t, None, ctx) for t in texts]
+        param = next((p for p in ctx.command.params if p.name == option.dest), None) \
+            if ctx is not None else None
+        converted = [kind.convert(t, param, ctx) for t in texts]
         for t in texts:
             args += [option.flag, str(t)]
         parsed[option.dest] = (tuple(converted) if option.multiple

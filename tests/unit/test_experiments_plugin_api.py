@@ -138,8 +138,9 @@ def test_options_handed_on_are_checked_by_their_type_and_kept_as_text() -> None:
     assert args == ["--count", "3", "--at", "p1@5"]
     assert parsed == {"count": 3, "at": (["p1", "5"],)}
     bad = command.make_context("c", ["--count", "three"])
-    with pytest.raises(click.BadParameter, match="three"):
+    with pytest.raises(click.BadParameter, match="three") as info:
         passthrough_args(every["a"], every, bad.params, bad)
+    assert "--count" in info.value.format_message()
 
 
 def test_a_task_kind_must_say_how_long_it_runs() -> None:
