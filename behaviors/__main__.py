@@ -38,11 +38,13 @@ from typing import IO, Any
 from behaviors.battery import BatteryPolicy
 from behaviors.cut import AbortableClient, Cut
 from behaviors.events import TASK_DONE, TASK_FAILED, TASK_STOPPED, Event, EventLog
-from behaviors.library import TASKS, parse_bid_terms
+from behaviors.library import parse_bid_terms
 from behaviors.params import ParamError, parse_assignments
 from behaviors.robot import build_agent
+from behaviors.task_kinds import task_kinds
 from murdoch.allocators import ALLOCATORS, REFINABLE
 from murdoch.allocators import DEFAULT as DEFAULT_ALLOCATOR
+from murdoch.plugin_loading import PluginError
 from player_server.client import (
     PlayerClient,
     PlayerConnectionClosed,
@@ -68,8 +70,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("-h", "--host", default="127.0.0.1", help="server host (default 127.0.0.1)")
     p.add_argument("--name", default="", help="robot name (default robot-PORT)")
     p.add_argument("--world", default="", help="world name or .toml path (chargers, camera)")
-    p.add_argument("--task", default=None, choices=sorted(TASKS), metavar="TASK",
-                   help="task to run at once, one of: " + ", ".join(sorted(TASKS)))
+    kinds = sorted(task_kinds())
+    p.add_argument("--task", default=None, choices=kinds, metavar="TASK",
+                   help="task to run at once, one of: " + ", ".join(kinds))
     p.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
                    help="task parameter (repeatable)")
     p.add_argument("--task-id", default="cli", help="id reported with the task's events")
@@ -154,9 +157,16 @@ def _step_until_stopped(link: Any, stop: threading.Event, max_ticks: int | None,
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    """The robot's options, checked (argparse's usage error and exit on a wrong one)."""
-    parser = _parser()
+    """The robot's options, checked (argparse's usage error and exit on a wrong one; a
+    broken task kind plugin is one line and exit status 2)."""
+    try:
+        parser = _parser()
+    except PluginError as exc:
+        say(f"murdoch-robot: {exc}")
+        raise SystemExit(2) from None
     args = parser.parse_args(argv)
+    if ALLOCATORS.problems:
+        parser.error(ALLOCATORS.problems[0])
     if args.refine and args.allocator not in REFINABLE:
         parser.error(f"--refine is for the consensus allocators ({', '.join(REFINABLE)}), "
                      f"not --allocator {args.allocator}")
@@ -216,7 +226,7 @@ def run_robot(args: argparse.Namespace, stop: threading.Event, *,
 
     if args.exit_when_done:
         def on_event(event: Event) -> None:
-            if event.kind in (TASK_DONE, TASK_FAILED, TASK_STOPPED) and event.task in TASKS:
+            if event.kind in (TASK_DONE, TASK_FAILED, TASK_STOPPED) and event.task in task_kinds():
                 stop.set()
 
         events.add_sink(on_event)

@@ -33,12 +33,13 @@ from behaviors.battery import (
     battery_step,
 )
 from behaviors.events import Event, EventLog
-from behaviors.library import TaskSpec, task_spec
+from behaviors.library import TaskSpec
 from behaviors.params import ParamError
 from behaviors.profile import RobotProfile
 from behaviors.runner import BehaviourFailed, BehaviourRunner, BehaviourStalled
 from behaviors.snapshot import EMPTY, Mark, Snapshot, slot_maker
 from behaviors.task import TaskExecution
+from behaviors.task_kinds import task_kind as task_spec
 
 logger = logging.getLogger(__name__)
 

@@ -51,6 +51,7 @@ from behaviors.plan_parts import search as _search
 from behaviors.profile import OVERHEAD_CAMERA, RobotProfile
 from behaviors.snapshot import Snapshot, wrap_angle
 from behaviors.task import Stage, TaskPlan, TickView, any_of, elapsed, signal, stage_elapsed
+from behaviors.task_place import Place, camera_place, default_place
 
 Params = Mapping[str, object]
 Builder = Callable[[Params, RobotProfile], TaskPlan]
@@ -73,6 +74,11 @@ AIM_RIGHT = 0.8
 
 @dataclass(frozen=True)
 class TaskSpec:
+    """A task kind: its name, the resource subjects a robot needs, its parameters (defaults
+    and required ones), the behaviour composition that executes it on a robot
+    (`build_plan`), the metrics a robot bids with, how long one runs (`duration_param`) and
+    where one takes place (`place`)."""
+
     name: str
     subjects: frozenset[str]
     defaults: Mapping[str, object]
@@ -81,6 +87,18 @@ class TaskSpec:
     metrics: tuple[WeightedMetric, ...]
     description: str = ""
     extra: Mapping[str, Any] = field(default_factory=dict)
+    duration_param: str | None = "duration_s"
+    """The parameter holding how long a task of this kind runs, in simulated seconds (its
+    announcement's duration; the contract times out 600 s after it); None: a task that runs
+    until it is done and is only ever a sub-task."""
+    place: Place = default_place
+    """Where a task of this kind takes place (`behaviors.task_place`)."""
+
+    def duration_s(self, params: Params) -> float:
+        """How long a task with `params` runs (0: the kind names no duration)."""
+        if self.duration_param is None:
+            return 0.0
+        return number(self.resolve(params), self.duration_param)
 
     def resolve(self, params: Params) -> dict[str, object]:
         missing = [k for k in self.required if k not in params]
@@ -250,7 +268,7 @@ def _push_task(name: str, aim: float, description: str) -> TaskSpec:
         name, frozenset({"mobile", "camera"}),
         {"duration_s": 5.0, "speed_mps": 0.2, "lost_s": 20.0, "backoff_s": 3.0,
          "approach_m": 0.8}, ("colour",),
-        _push_builder(name, aim), _push_metrics(aim), description,
+        _push_builder(name, aim), _push_metrics(aim), description, duration_param=None,
     )
 
 
@@ -489,7 +507,7 @@ TASKS: dict[str, TaskSpec] = {
             ("x", "y"), build_goto,
             (WeightedMetric("distance", negative_distance(), 1.0),
              WeightedMetric("battery", battery_fraction, 0.5)),
-            "drive to (x, y) avoiding obstacles with sonar",
+            "drive to (x, y) avoiding obstacles with sonar", duration_param="timeout_s",
         ),
         _push_task("push-left-end", AIM_LEFT,
                    "push the left end of the box (as seen from behind it)"),
@@ -533,6 +551,7 @@ TASKS: dict[str, TaskSpec] = {
             {"duration_s": 60.0, "period_s": 1.0, "colours": ""}, (), build_monitor,
             (WeightedMetric("available", constant(1.0), 1.0),),
             "log positions of coloured objects seen by the overhead camera",
+            place=camera_place,
         ),
         TaskSpec(
             "watch-object-side", frozenset({"mobile", "camera"}),
@@ -551,7 +570,7 @@ RESOURCES: frozenset[str] = frozenset().union(*(t.subjects for t in TASKS.values
 
 INTERNAL_TASKS: dict[str, TaskSpec] = {
     "dock": TaskSpec("dock", frozenset({"mobile"}), {"tolerance_m": 0.1, "timeout_s": 300.0},
-                     ("x", "y"), build_dock, ()),
+                     ("x", "y"), build_dock, (), duration_param="timeout_s"),
     "undock": TaskSpec("undock", frozenset({"mobile"}), {"duration_s": 2.0}, (), build_undock,
                        ()),
 }

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import random
 import threading
 from collections import deque
@@ -30,8 +31,8 @@ from types import MappingProxyType
 from typing import IO, Any, Protocol
 
 from behaviors.events import TASK_DONE, TASK_FAILED, TASK_STOPPED, Event, EventSink
-from behaviors.library import TASKS
 from behaviors.params import ParamError
+from behaviors.task_kinds import task_kinds
 from murdoch.allocators import Assignment, RobotHooks, allocator
 from murdoch.auction.messages import Announce, AuctionEvent, Outcome
 from murdoch.auction.timing import SUB_TASK
@@ -197,14 +198,16 @@ class MurdochLink:
         self._subtasks: dict[str, str] = {}  # task name -> open sub-task id
         self._patience_s = subtask_patience_s
         self._auction_log = auction_log
+        self._kinds = task_kinds()
         events.add_sink(self._on_event)
         self.allocator = allocator(allocator_name, refine=refine)
         hooks = RobotHooks(
             agent.name, frozenset(agent.subjects()), score=self._score,
-            knows=lambda name: name in TASKS, on_start=self._on_start, on_stop=self._on_stop,
+            knows=lambda name: name in self._kinds, on_start=self._on_start, on_stop=self._on_stop,
             position=self._position, speed_mps=speed_mps, team=team or (agent.name,),
             on_outcome=self._on_outcome, observer=self._observe,
             backoff=RandomizedBackoff(random.Random(agent.name), base_s=2.0, cap_s=10.0),
+            pose=self._pose, battery=self._battery,
         )
         self.node: TeamMember = self.allocator.robot(transport, self._now, hooks)
 
@@ -233,6 +236,19 @@ class MurdochLink:
         pose = getattr(snapshot(), "pose", None) if snapshot is not None else None
         return (0.0, 0.0) if pose is None else (float(pose.x_m), float(pose.y_m))
 
+    def _pose(self) -> tuple[float, float, float]:
+        """The odometric pose with its heading (the origin before the first reading)."""
+        snapshot = getattr(self.agent, "snapshot", None)
+        pose = getattr(snapshot(), "pose", None) if snapshot is not None else None
+        if pose is None:
+            return (0.0, 0.0, 0.0)
+        return (float(pose.x_m), float(pose.y_m), float(pose.yaw_rad))
+
+    def _battery(self) -> float | None:
+        """The state of charge as a fraction (None: not known)."""
+        percent = float(getattr(self.agent.status(), "battery_percent", math.nan))
+        return None if math.isnan(percent) else percent / 100.0
+
     def _metric(self, announce: Announce) -> float | None:
         return self._score(announce.name, announce.params, announce.task_id)
 
@@ -242,7 +258,7 @@ class MurdochLink:
         A task the robot does not know, or parameters it refuses, mean no bid; a metric that
         raises on a task it knows is a bug: logged with its traceback and counted
         (`metric_errors`), and the robot does not bid."""
-        if name not in TASKS:
+        if name not in self._kinds:
             return None
         try:
             return self.agent.evaluate(name, dict(params))
@@ -296,13 +312,13 @@ class MurdochLink:
             if parent != self._current:
                 continue
             for name in names:
-                if name in self._subtasks or name not in TASKS:
+                if name in self._subtasks or name not in self._kinds:
                     continue
                 if not self.allocator.sub_tasks:
                     log.warning("%s: cannot offer sub-task %s under %s", parent, name,
                                 self.allocator.name)
                     continue
-                spec = TASKS[name]
+                spec = self._kinds[name]
                 params: dict[str, Any] = {
                     "colour": self._current_params.get("colour", "orange")}
                 if self._heading_rad is not None:

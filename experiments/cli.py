@@ -51,12 +51,29 @@ class LazyGroup(click.Group):
         entry = SUBCOMMANDS.get(cmd_name)
         if entry is None:
             return super().get_command(ctx, cmd_name)
+        from murdoch.plugin_loading import PluginError
+
         module_name, attr = entry.target.split(":")
-        module = importlib.import_module(module_name)
+        try:
+            module = importlib.import_module(module_name)
+        except PluginError as exc:  # a broken plugin: one line, and nothing starts
+            click.echo(f"murdoch {cmd_name}: {exc}", err=True)
+            ctx.exit(2)
         command = getattr(module, attr)
         if not isinstance(command, click.Command):
             raise TypeError(f"{entry.target} is not a click command")
         return command
+
+    def invoke(self, ctx: click.Context) -> object:
+        """A plugin found broken while a command runs (e.g. `murdoch report` of a run whose
+        experiment's package is broken) is one line too."""
+        from murdoch.plugin_loading import PluginError
+
+        try:
+            return super().invoke(ctx)
+        except PluginError as exc:
+            click.echo(f"murdoch: {exc}", err=True)
+            ctx.exit(2)
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         rows = [(name, SUBCOMMANDS[name].summary) for name in sorted(SUBCOMMANDS)]

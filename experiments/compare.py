@@ -40,10 +40,11 @@ from typing import TYPE_CHECKING, Any, Protocol
 import click
 
 from experiments import events as ev
-from experiments.experiment import ALLOCATOR_NAMES
+from experiments.option_params import add_passthrough_params, passthrough_args
+from experiments.registry import experiments, supporting
 from experiments.run_cli import parse_at, parse_duration_s
 from experiments.sweep_longterm import murdoch_command, parse_seeds
-from murdoch.allocators import REFINABLE
+from murdoch.allocators import ALLOCATORS, REFINABLE
 
 if TYPE_CHECKING:
     from murdoch.dask_jobs import Submit
@@ -68,6 +69,8 @@ COLUMNS: tuple[str, ...] = (
 
 REFINED = "+refine"
 """The suffix that names an allocator's refined form (`cbba+refine`)."""
+ALLOCATOR_NAMES: tuple[str, ...] = tuple(ALLOCATORS)
+"""The registered allocators, in the registry's order (MURDOCH first)."""
 COMPARABLE: tuple[str, ...] = (*ALLOCATOR_NAMES, *(a + REFINED for a in REFINABLE))
 JOBS = 2
 """Runs at a time on this machine unless `--jobs` says otherwise."""
@@ -290,8 +293,10 @@ def write_csv(rows: Sequence[Mapping[str, Any]], path: Path) -> None:
 
 
 def plot_comparison(rows: Sequence[Mapping[str, Any]], stats: Sequence[Mapping[str, Any]],
-                    path: Path, title: str) -> Path:
-    """One panel per metric: a bar per allocator (mean, ± std) and a dot per run."""
+                    path: Path, title: str, reference: str = "optimal") -> Path:
+    """One panel per metric: a bar per allocator (mean, ± std) and a dot per run; the mean
+    of the `reference` allocator (the exact central assignment), when it ran, as a dashed
+    line across each panel."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -309,6 +314,8 @@ def plot_comparison(rows: Sequence[Mapping[str, Any]], stats: Sequence[Mapping[s
             dots = [r[key] for r in rows if r["allocator"] == s["allocator"]
                     and r[key] is not None]
             ax.scatter([i] * len(dots), dots, s=12, color=colour, zorder=3)
+            if s["allocator"] == reference and mean is not None and len(stats) > 1:
+                ax.axhline(mean, color="black", linestyle="--", linewidth=0.8, zorder=2)
         ax.set_xticks(range(len(names)), names)
         ax.set_title(label, fontsize="medium")
         ax.grid(True, axis="y", alpha=0.3)
@@ -319,16 +326,16 @@ def plot_comparison(rows: Sequence[Mapping[str, Any]], stats: Sequence[Mapping[s
     return path
 
 
-def _reused_row(job: Job, out: Path, until_s: float, task_interval: float, group_tasks: float,
-               kills: Sequence[str], restarts: Sequence[str],
-               world: str | None) -> dict[str, Any] | None:
+def _reused_row(job: Job, out: Path, until_s: float, task_interval: float,
+               own: tuple[str, Mapping[str, Any]], kills: Sequence[str], restarts: Sequence[str],
+               world: str) -> dict[str, Any] | None:
     """The row of a finished run `--resume` may reuse for this job (None: run it)."""
     from experiments.compare_resume import expected_config, reusable_run
 
     expected = expected_config(
         allocator=job.allocator.removesuffix(REFINED), refine=job.allocator.endswith(REFINED),
         seed=job.seed, until_s=until_s, task_interval_s=task_interval,
-        group_tasks=group_tasks, kills=kills, restarts=restarts, world=world)
+        kills=kills, restarts=restarts, world=world, experiment=own[0], own=own[1])
     run_dir, _why = reusable_run(out / job.label(), expected)
     if run_dir is None:
         return None
@@ -337,11 +344,11 @@ def _reused_row(job: Job, out: Path, until_s: float, task_interval: float, group
 
 
 def run_one(job: Job, *, out: Path, until_s: float, extra: Sequence[str],
-            pin: bool) -> dict[str, Any]:
-    """Run one long-term experiment as its own process; its row."""
+            pin: bool, experiment: str = "longterm") -> dict[str, Any]:
+    """Run the experiment once as its own process; its row."""
     run_out = out / job.label()
     run_out.mkdir(parents=True, exist_ok=True)
-    args = [*murdoch_command(), "run", "longterm", "--until", f"{until_s:g}s",
+    args = [*murdoch_command(), "run", experiment, "--until", f"{until_s:g}s",
             *job.allocator_args(), "--seed", str(job.seed), "--out", str(run_out),
             "--no-replay", *extra]
     if not pin:
@@ -379,6 +386,13 @@ def _span(seconds: float) -> str:
 def parse_allocators(text: str, refine: bool = False) -> list[str]:
     """The allocators to compare, in order; with `refine` each consensus allocator is
     followed by its refined form."""
+    from murdoch.allocators import ALLOCATORS
+    from murdoch.plugin import PluginError
+
+    try:
+        ALLOCATORS.check()
+    except PluginError as exc:
+        raise click.UsageError(str(exc)) from None
     names = [a.strip() for a in text.split(",") if a.strip()]
     unknown = [a for a in names if a not in COMPARABLE]
     if not names or unknown:
@@ -391,22 +405,26 @@ def parse_allocators(text: str, refine: bool = False) -> list[str]:
     return list(dict.fromkeys(names))
 
 
-def _run_options(world: str | None, task_interval: float, group_tasks: float,
+def _run_options(experiment: str, world: str | None, task_interval: float,
+                 own: tuple[list[str], dict[str, Any]],
                  kills: Sequence[str], restarts: Sequence[str], metric_terms: str,
-                 until_s: float) -> list[str]:
-    """The options every run gets alike, checked before anything runs."""
+                 until_s: float) -> tuple[list[str], dict[str, Any]]:
+    """The options every run gets alike, checked before anything runs; with the
+    experiment's own entries of config.json."""
+    from experiments.plugin import RunOptions
     from experiments.run_checks import RunSetupError, check_schedule, load_run_world
 
+    plugin = experiments()[experiment]
     try:
-        spec = load_run_world(world or "longterm")
+        spec = load_run_world(world or plugin.world)
         check_schedule(robots=[r.name for r in spec.robots], duration_s=until_s,
                        kills=[parse_at(k) for k in kills],
-                       restarts=[parse_at(r) for r in restarts], world=world or "longterm")
+                       restarts=[parse_at(r) for r in restarts], world=world or plugin.world)
     except RunSetupError as exc:
         raise click.UsageError(str(exc)) from exc
-    extra = ["--task-interval", f"{task_interval:g}"]
-    if group_tasks:
-        extra += ["--group-tasks", f"{group_tasks:g}"]
+    config = plugin.config(plugin.check(spec, RunOptions(until_s, 0, task_interval,
+                                                         own=own[1])))
+    extra = ["--task-interval", f"{task_interval:g}", *own[0]]
     for k in kills:
         extra += ["--kill", k]
     for r in restarts:
@@ -415,12 +433,12 @@ def _run_options(world: str | None, task_interval: float, group_tasks: float,
         extra += ["--metric", metric_terms]
     if world:
         extra += ["--world", world]
-    return extra
+    return extra, config
 
 
 @click.command("compare")
-@click.argument("experiment", type=click.Choice(["longterm"]))
-@click.option("--allocators", default=",".join(ALLOCATOR_NAMES), show_default=True,
+@click.argument("experiment", type=click.Choice(supporting("compare")))
+@click.option("--allocators", default=None, show_default="every one the experiment supports",
               help="Allocators to compare, comma-separated; cbba+refine, cbga+refine: "
                    "with the robots' improvement phase (murdoch run --refine).")
 @click.option("--refine", is_flag=True,
@@ -438,11 +456,10 @@ def _run_options(world: str | None, task_interval: float, group_tasks: float,
                    "--out on its own filesystem; the rows come back here).")
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path),
               default=Path("runs/compare"), show_default=True)
-@click.option("--world", default=None, help="World name or .toml (default: longterm).")
+@click.option("--world", default=None,
+              help="World name or .toml (default: the experiment's).")
 @click.option("--task-interval", type=float, default=240.0, show_default=True,
               help="Mean simulated seconds between new tasks.")
-@click.option("--group-tasks", "group_tasks", type=click.FloatRange(0.0, 1.0), default=0.0,
-              show_default=True, help="The fraction of tasks that need two robots at once.")
 @click.option("--kill", "kills", multiple=True,
               help="Kill a robot process in every run: ROBOT@TIME ('busy' = one holding a "
                    "task).")
@@ -453,13 +470,19 @@ def _run_options(world: str | None, task_interval: float, group_tasks: float,
 @click.option("--resume", is_flag=True,
               help="Reuse the finished runs under --out made with exactly these options "
                    "(a lockstep run repeats exactly); run only the others.")
-def compare(experiment: str, allocators: str, refine: bool, seeds: str,
+@click.pass_context
+def compare(ctx: click.Context, experiment: str, allocators: str | None, refine: bool,
+            seeds: str,
             sim_hours: float | None,
             until: str | None, jobs: int, out: Path, world: str | None, task_interval: float,
-            group_tasks: float, kills: tuple[str, ...], restarts: tuple[str, ...],
-            metric_terms: str, dask_address: str | None, resume: bool) -> None:
+            kills: tuple[str, ...], restarts: tuple[str, ...],
+            metric_terms: str, dask_address: str | None, resume: bool, **values: Any) -> None:
     """Run EXPERIMENT with each allocator on each seed; CSV, figure and a table."""
-    names = parse_allocators(allocators, refine)
+    names = parse_allocators(allocators or ",".join(_supported(experiment)), refine)
+    unsupported = [n for n in names if n.removesuffix(REFINED) not in _supported(experiment)]
+    if unsupported:
+        raise click.BadParameter(f"{experiment} supports {', '.join(_supported(experiment))};"
+                                 f" found {', '.join(unsupported)}", param_hint="--allocators")
     seed_list = parse_seeds(seeds)
     if sim_hours is not None and until is not None:
         raise click.UsageError("give --sim-hours or --until, not both")
@@ -472,22 +495,24 @@ def compare(experiment: str, allocators: str, refine: bool, seeds: str,
         from experiments.run_cli import _metric_terms
 
         _metric_terms(metric_terms)  # a bad term is refused before anything runs
-    extra = _run_options(world, task_interval, group_tasks, kills, restarts, metric_terms,
-                         until_s)
+    every = experiments()
+    own = passthrough_args(every[experiment], every, values, ctx)
+    extra, config = _run_options(experiment, world, task_interval, own, kills, restarts,
+                                 metric_terms, until_s)
     if dask_address is not None:
         out = out.absolute()  # the same path on every worker (a shared filesystem's)
     place = _where(dask_address, jobs)
     todo = [Job(a, s) for s in seed_list for a in names]
     # several runs on one host would all pin their serving threads to the same CPU
     run = functools.partial(run_one, out=out, until_s=until_s, extra=extra,
-                            pin=jobs == 1 and dask_address is None)
+                            pin=jobs == 1 and dask_address is None, experiment=experiment)
     from murdoch.dask_jobs import DaskUnavailable
 
     reused: list[dict[str, Any]] = []
     if resume and not metric_terms:
         for job in todo:
-            row = _reused_row(job, out, until_s, task_interval, group_tasks, kills, restarts,
-                              world)
+            row = _reused_row(job, out, until_s, task_interval, (experiment, config), kills,
+                              restarts, world or every[experiment].world)
             if row is not None:
                 click.echo(f"  {job.label()}: reused {row['run_dir']}")
                 reused.append(row)
@@ -517,6 +542,13 @@ def compare(experiment: str, allocators: str, refine: bool, seeds: str,
                    + ", ".join(_why(Job(r["allocator"], r["seed"]), r, out) for r in failed),
                    err=True)
         sys.exit(1)
+
+
+def _supported(experiment: str) -> list[str]:
+    """The allocators `experiment` may run with (`Supports`)."""
+    from experiments.run_tasks import supported_allocators
+
+    return supported_allocators(experiments()[experiment])
 
 
 def _where(dask_address: str | None, jobs: int) -> AbstractContextManager[Submit]:
@@ -551,3 +583,6 @@ def _why(job: Job, row: Mapping[str, Any], out: Path) -> str:
     if row["error"] is not None:
         return f"{job.label()} ({row['error']})"
     return f"{job.label()} (exit {row['exit_code']}, see {out}/{job.label()}/compare.log)"
+
+
+add_passthrough_params(compare, experiments())

@@ -23,13 +23,17 @@ COMPARED_KEYS: tuple[str, ...] = (
 
 
 def expected_config(*, allocator: str, refine: bool, seed: int, until_s: float,
-                    task_interval_s: float, group_tasks: float, kills: Sequence[str],
-                    restarts: Sequence[str], world: str | None) -> dict[str, Any]:
-    """What a run of this comparison writes in config.json, in the compared fields."""
-    return {"experiment": "longterm", "allocator": allocator, "refine": refine, "seed": seed,
+                    task_interval_s: float, kills: Sequence[str],
+                    restarts: Sequence[str], world: str | None, experiment: str = "longterm",
+                    own: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """What a run of this comparison writes in config.json, in the compared fields (`own`:
+    the experiment's own entries, `Experiment.config`; `world` None: its default)."""
+    own = dict(own or {})
+    return {"experiment": experiment, "allocator": allocator, "refine": refine, "seed": seed,
             "duration_s": float(until_s), "task_interval_s": float(task_interval_s),
-            "group_task_rate": float(group_tasks), "kills": list(kills),
-            "restarts": list(restarts), "world": world or "longterm", "lockstep": True}
+            "kills": list(kills), "restarts": list(restarts), "world": world or experiment,
+            "lockstep": True, **own,
+            "group_task_rate": float(own.get("group_task_rate", 0.0))}
 
 
 def mismatch(config: Mapping[str, Any], summary: Mapping[str, Any],
@@ -37,7 +41,7 @@ def mismatch(config: Mapping[str, Any], summary: Mapping[str, Any],
     """Why a finished run cannot stand for this comparison's (None: it can)."""
     if summary.get("end_reason", "completed") != "completed":
         return f"it ended {summary.get('end_reason')!r}"
-    for key in COMPARED_KEYS:
+    for key in (*COMPARED_KEYS, *(k for k in expected if k not in COMPARED_KEYS)):
         found, want = config.get(key), expected[key]
         if key == "group_task_rate" and found is None:
             found = 0.0  # (a run without group tasks writes none)

@@ -64,9 +64,10 @@ def summary_lines(s: Mapping[str, Any]) -> list[str]:
 
 def next_steps(experiment: str, run_root: Path) -> list[str]:
     """Commands worth trying after a run of `experiment` (its plug-in's, else longterm's)."""
-    from experiments.plugins import EXPERIMENTS
+    from experiments.registry import experiments
 
-    plugin = EXPERIMENTS.get(experiment, EXPERIMENTS["longterm"])
+    every = experiments()
+    plugin = every.get(experiment, every["longterm"])
     return [f"murdoch report {run_root}            # rebuild summary and plots",
             *plugin.next_steps(),
             "murdoch allocate consensus-small       # CBBA on a bundled scenario"]

@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections import defaultdict
 from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import matplotlib
 
@@ -28,6 +28,9 @@ from matplotlib.ticker import MaxNLocator
 
 from experiments import events as ev
 from experiments import timeline
+
+if TYPE_CHECKING:
+    from experiments.plugin import Experiment
 from experiments.summary import first_awards
 
 STATE_COLOURS = {
@@ -312,12 +315,11 @@ def save(fig: Figure, path: Path) -> Path:
 
 
 def write_plots(
-    evs: Iterable[Mapping[str, Any]], out_dir: Path, robots: Iterable[str] = ()
+    evs: Iterable[Mapping[str, Any]], out_dir: Path, robots: Iterable[str] = (),
+    plugin: Experiment | None = None,
 ) -> list[Path]:
-    """Write the PNGs of `PLOT_FILES`, then the run's experiment's own, into `out_dir`;
-    returns their paths."""
-    from experiments.plugins import experiment
-
+    """Write the PNGs of `PLOT_FILES`, then those of the run's experiment `plugin`, into
+    `out_dir`; returns their paths."""
     evs = [e for e in evs if e["kind"] != ev.POSES]
     end_s = max((float(e["t"]) for e in evs), default=0.0)
     out_dir = Path(out_dir)
@@ -330,8 +332,6 @@ def write_plots(
         strict=True,
     ):
         paths.append(save(fig, out_dir / filename))
-    run_start = next((e for e in evs if e["kind"] == ev.RUN_START), None)
-    plugin = experiment(run_start.get("experiment") if run_start is not None else None)
     if plugin is not None:
         paths += plugin.plots(evs, out_dir)
     return paths

@@ -85,7 +85,11 @@ def build_report(run: rd.RunDir, *, replay: bool = True,
     events = ev.read_events(run.events, stats=stats)
     processes = (ev.read_events(run.processes, stats=ev.ReadStats())
                  if run.processes.is_file() else [])
-    summary = summarize(events, processes)
+    from experiments.registry import experiment
+
+    start = next((e for e in events if e["kind"] == ev.RUN_START), None)
+    plugin = experiment(start.get("experiment") if start is not None else None)
+    summary = summarize(events, processes, plugin)
     summary["events_sha256"] = (hashlib.sha256(run.events.read_bytes()).hexdigest()
                                 if run.events.is_file() else None)
     summary["malformed_event_lines"] = stats.malformed
@@ -104,7 +108,7 @@ def build_report(run: rd.RunDir, *, replay: bool = True,
     problems: list[str] = []
     plots: tuple[Path, ...] = ()
     try:
-        plots = tuple(write_plots(events, run.plots, robots))
+        plots = tuple(write_plots(events, run.plots, robots, plugin))
     except OSError as exc:
         problems.append(f"plots not written to {run.plots}: {exc.strerror or exc}")
     replay_path: Path | None = None

@@ -7,7 +7,9 @@ introduces the experiment's tasks through a MURDOCH node, logs every auction mes
 hears, and writes the run directory through `experiments.recorder.RunRecorder`. Lockstep is
 used when running as fast as possible (speedup 0), so a seeded run repeats.
 
-What differs between experiments comes from their plug-in (`experiments.plugins`); the
+What differs between experiments comes from their plug-in (`experiments.registry`: the
+built-in ones and those of installed packages, each with its own options, offered here
+from their declarations, `experiments.option_params`); the
 processes are described as data (`experiments.supervisor.ProcessSpec`, listed in
 config.json); `run_experiment` puts the pieces together (`experiments.run_parts`).
 """
@@ -15,15 +17,16 @@ config.json); `run_experiment` puts the pieces together (`experiments.run_parts`
 from __future__ import annotations
 
 import dataclasses
-import re
-import socket
 import sys
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
 
-from experiments.plugins import EXPERIMENTS
+from experiments.durations import parse_at, parse_duration_s
+from experiments.option_params import add_params, own_values
+from experiments.registry import experiments
 from experiments.supervisor import RobotProcess, RobotSupervisor
 from experiments.supervisor import start_robot as _start_robot
 from experiments.supervisor import stop_robot as _stop_robot
@@ -32,29 +35,10 @@ from murdoch.allocators import ALLOCATORS, REFINABLE
 if TYPE_CHECKING:
     from experiments.run_extras import RunExtras
 
-__all__ = ["RobotProcess", "RobotSupervisor", "_start_robot", "_stop_robot", "run",
-           "run_experiment"]
+__all__ = ["RobotProcess", "RobotSupervisor", "_start_robot", "_stop_robot", "parse_at",
+           "parse_duration_s", "run", "run_experiment"]
 
-EXPERIMENT_WORLDS = {name: e.world for name, e in EXPERIMENTS.items()}
 DEFAULT_DURATION_S = 600.0
-_DURATION_RE = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*([smh]?)\s*$")
-
-
-def parse_duration_s(text: str) -> float:
-    """'90m', '2h', '45s' or plain seconds."""
-    m = _DURATION_RE.match(text)
-    if not m:
-        raise click.BadParameter(f"expected a duration such as 90m, 2h or 300s, got {text!r}")
-    value, unit = float(m.group(1)), m.group(2) or "s"
-    return value * {"s": 1.0, "m": 60.0, "h": 3600.0}[unit]
-
-
-def parse_at(text: str) -> tuple[str, float]:
-    """'p3@30m' -> ('p3', 1800.0)."""
-    robot, sep, when = text.partition("@")
-    if not sep or not robot:
-        raise click.BadParameter(f"expected ROBOT@TIME such as p3@30m, got {text!r}")
-    return robot, parse_duration_s(when)
 
 
 def parse_place(text: str) -> tuple[str, tuple[str, ...]]:
@@ -71,18 +55,6 @@ def parse_place(text: str) -> tuple[str, tuple[str, ...]]:
         raise click.BadParameter(f"expected ROBOT=COMMAND PREFIX such as 'r2=ip netns exec "
                                  f"robots', got {text!r}", param_hint="--place")
     return robot.strip(), words
-
-
-def free_tcp_port(host: str = "127.0.0.1") -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind((host, 0))
-        return int(s.getsockname()[1])
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 class PerProcess(click.ParamType):
@@ -104,7 +76,7 @@ class PerProcess(click.ParamType):
 
 
 @click.command()
-@click.argument("experiment", type=click.Choice(sorted(EXPERIMENT_WORLDS)))
+@click.argument("experiment", type=click.Choice(sorted(experiments())))
 @click.option("--sim-hours", type=float, default=None, help="Simulated hours to run.")
 @click.option("--until", "until", default=None, show_default="10m",
               help="Simulated duration, e.g. 90m, 2h.")
@@ -124,21 +96,6 @@ class PerProcess(click.ParamType):
               help="Kill a robot process: ROBOT@TIME (ROBOT 'busy' = one holding a task).")
 @click.option("--restart", "restarts", multiple=True,
               help="Start a killed robot again: ROBOT@TIME ('busy' = the last one killed so).")
-@click.option("--switch-off", "switch_offs", multiple=True,
-              help="boxpush: switch a pusher off (process stopped, robot moved out of the "
-                   "way): ROBOT@TIME, e.g. p1@60s.")
-@click.option("--switch-on", "switch_ons", multiple=True,
-              help="boxpush: switch a pusher back on behind the other end of the box: "
-                   "ROBOT@TIME.")
-@click.option("--goal-radius", type=float, default=None,
-              help="boxpush: the box has arrived when its centre is this close to the goal "
-                   "marker (metres, default 2.5).")
-@click.option("--goal-velocity", default=None,
-              help="boxpush: the goal marker moves at VX,VY metres per second from the start "
-                   "(e.g. 0,-0.01), stopping short of the walls.")
-@click.option("--retarget", "retargets", multiple=True,
-              help="boxpush: give the watch task another goal marker of the world at a time: "
-                   "MARKER@TIME, e.g. goal2@60s.")
 @click.option("--metric", "metric_terms", default="",
               help="Terms added to every robot's task metrics: distance (metres to where the "
                    "task is), specialist (fewer spare resources bid higher), comma-separated.")
@@ -170,10 +127,6 @@ class PerProcess(click.ParamType):
 @click.option("--trails", type=click.IntRange(0, 5000), default=0, show_default=True,
               help="--meshcat: draw a trail of each robot's last N positions.")
 @click.option("--lasers", is_flag=True, help="--meshcat: draw the robots' laser rays.")
-@click.option("--group-tasks", "group_tasks", type=click.FloatRange(0.0, 1.0), default=0.0,
-              show_default=True,
-              help="longterm: the fraction of tasks that are group tasks, each needing two "
-                   "robots at once (watch one object from two sides).")
 @click.option("--transport", type=click.Choice(["multicast", "zenoh"]), default="multicast",
               show_default=True,
               help="The team's MURDOCH bus: loopback UDP multicast, or Zenoh with this process "
@@ -191,25 +144,31 @@ class PerProcess(click.ParamType):
                    "own (less memory per robot; no pausing one robot alone); auto: 1 for "
                    "teams of up to 16, else one host per CPU left to the robots (all "
                    "CPUs but the serving thread's), at most 100 robots to a host.")
-def run(experiment: str, sim_hours: float | None, until: str | None, speedup: float | None,
-        seed: int,
+@click.pass_context
+def run(ctx: click.Context, experiment: str, sim_hours: float | None, until: str | None,
+        speedup: float | None, seed: int,
         meshcat: bool, out: Path, world: str | None, task_interval: float | None,
-        kills: tuple[str, ...], restarts: tuple[str, ...], switch_offs: tuple[str, ...],
-        switch_ons: tuple[str, ...], goal_radius: float | None, goal_velocity: str | None,
-        retargets: tuple[str, ...], metric_terms: str, allocator: str, refine: bool,
-        no_replay: bool,
+        kills: tuple[str, ...], restarts: tuple[str, ...], metric_terms: str, allocator: str,
+        refine: bool, no_replay: bool,
         pipelined: bool, robot_nice: int, key: str | None, pin_cpus: bool,
         record_rate: float, no_record: bool, trails: int, lasers: bool,
-        group_tasks: float, transport: str, bind: str, places: tuple[str, ...],
-        robots_per_process: int | None) -> None:
-    """Run EXPERIMENT end to end and leave a run directory behind."""
+        transport: str, bind: str, places: tuple[str, ...],
+        robots_per_process: int | None, **values: Any) -> None:
+    """Run EXPERIMENT end to end and leave a run directory behind (an experiment's own
+    options are named after it in their help)."""
     from experiments.run_checks import RunSetupError, check_out_dir, effective_speedup
+    from murdoch.plugin import PluginError
 
+    try:
+        ALLOCATORS.check()
+    except PluginError as exc:
+        raise click.UsageError(str(exc)) from None
     if sim_hours is not None and until is not None:
         raise click.UsageError("give --sim-hours or --until, not both")
     if refine and allocator not in REFINABLE:
         raise click.UsageError(f"--refine is for the consensus allocators "
                                f"({', '.join(REFINABLE)}), not --allocator {allocator}")
+    every = experiments()
     duration_s = (sim_hours * 3600.0 if sim_hours is not None
                   else parse_duration_s(until) if until is not None else DEFAULT_DURATION_S)
     try:
@@ -217,16 +176,14 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
         code = run_experiment(
             experiment=experiment, duration_s=duration_s,
             speedup=effective_speedup(speedup, meshcat), seed=seed,
-            meshcat=meshcat, out=out, world_name=world or EXPERIMENT_WORLDS[experiment],
+            meshcat=meshcat, out=out, world_name=world or every[experiment].world,
             task_interval_s=task_interval, kills=[parse_at(k) for k in kills],
             restarts=[parse_at(r) for r in restarts], replay=not no_replay,
-            switch_offs=[parse_at(r) for r in switch_offs],
-            switch_ons=[parse_at(r) for r in switch_ons], goal_radius_m=goal_radius,
+            own=own_values(every[experiment], every, values, ctx),
             pipelined=pipelined, robot_nice=robot_nice, pin_cpus=pin_cpus, key=key,
             record=not no_record, record_rate_hz=record_rate, trails=trails, lasers=lasers,
-            goal_plan=_goal_plan(goal_velocity, retargets),
             metric_terms=_metric_terms(metric_terms), allocator=allocator, refine=refine,
-            group_task_rate=group_tasks, transport=transport, bind=bind,
+            transport=transport, bind=bind,
             placements=tuple(parse_place(p) for p in places),
             robots_per_process=robots_per_process,
         )
@@ -234,17 +191,6 @@ def run(experiment: str, sim_hours: float | None, until: str | None, speedup: fl
         click.echo(f"murdoch run: {exc}", err=True)
         sys.exit(exc.exit_code)
     sys.exit(code)
-
-
-def _goal_plan(velocity: str | None, retargets: tuple[str, ...]) -> Any:
-    from experiments import boxpush as bp
-
-    try:
-        v = bp.parse_velocity(velocity) if velocity else (0.0, 0.0)
-    except ValueError as exc:
-        raise click.BadParameter(str(exc), param_hint="--goal-velocity") from exc
-    moves = tuple(sorted((t, m) for m, t in (parse_at(r) for r in retargets)))
-    return bp.GoalPlan(v, moves)
 
 
 def _metric_terms(text: str) -> tuple[str, ...]:
@@ -260,39 +206,44 @@ def _metric_terms(text: str) -> tuple[str, ...]:
 def run_experiment(
     *, experiment: str, duration_s: float, speedup: float, seed: int, meshcat: bool, out: Path,
     world_name: str, task_interval_s: float | None, kills: list[tuple[str, float]],
-    restarts: list[tuple[str, float]], replay: bool,
-    switch_offs: list[tuple[str, float]] | None = None,
-    switch_ons: list[tuple[str, float]] | None = None, goal_radius_m: float | None = None,
+    restarts: list[tuple[str, float]], replay: bool, own: Mapping[str, Any] | None = None,
     pipelined: bool = True, robot_nice: int = 0, pin_cpus: bool = False,
     key: str | None = None, trails: int = 0, lasers: bool = False, record: bool = True,
-    record_rate_hz: float = 2.0, goal_plan: Any = None, metric_terms: tuple[str, ...] = (),
-    extras: RunExtras | None = None, allocator: str = "murdoch", group_task_rate: float = 0.0,
+    record_rate_hz: float = 2.0, metric_terms: tuple[str, ...] = (),
+    extras: RunExtras | None = None, allocator: str = "murdoch",
     transport: str = "multicast", bind: str = "127.0.0.1",
     placements: tuple[tuple[str, tuple[str, ...]], ...] = (), refine: bool = False,
     robots_per_process: int | None = None,
 ) -> int:
-    """Run one experiment end to end; the exit code of `murdoch run`."""
-    from experiments.experiment import RunOptions
+    """Run one experiment end to end; the exit code of `murdoch run`. `own`: the values of
+    the experiment's own options by `Option.dest` (their defaults when not given)."""
+    from experiments.plugin import RunOptions
     from experiments.run_extras import RunExtras
     from experiments.run_parts import RunSettings, assemble, check_run, finish, serve
     from experiments.task_source import PAPER_INTERVAL_S, team_task_interval_s
 
     settings = RunSettings(
-        experiment=EXPERIMENTS[experiment], world_name=world_name, speedup=speedup,
+        experiment=experiments()[experiment], world_name=world_name, speedup=speedup,
         meshcat=meshcat, out=out, kills=tuple(kills), restarts=tuple(restarts), replay=replay,
         pipelined=pipelined, robot_nice=robot_nice, pin_cpus=pin_cpus, key=key,
         trails=trails, lasers=lasers, record=record, record_rate_hz=record_rate_hz,
         metric_terms=metric_terms, extras=extras if extras is not None else RunExtras(),
         transport=transport, bind=bind, placements=placements, refine=refine,
         robots_per_process=robots_per_process)
-    options = RunOptions(duration_s, seed,
-                         PAPER_INTERVAL_S if task_interval_s is None else task_interval_s,
-                         tuple(switch_offs or ()),
-                         tuple(switch_ons or ()), goal_radius_m, goal_plan,
-                         group_task_rate=group_task_rate, allocator=allocator)
+    chosen = settings.experiment
+    given = dict(own or {})
+    unknown = sorted(set(given) - {o.dest for o in chosen.options})
+    if unknown:
+        raise click.UsageError(f"{chosen.name} has no option(s) {', '.join(unknown)}")
+    options = RunOptions.of(chosen, duration_s, seed, allocator=allocator,
+                            task_interval_s=(PAPER_INTERVAL_S if task_interval_s is None
+                                             else task_interval_s), **given)
     spec, options = check_run(settings, options)
     if task_interval_s is None:  # the team's own rate (`team_task_interval_s`)
         options = dataclasses.replace(options, task_interval_s=team_task_interval_s(spec))
     parts = assemble(settings, options, spec)
     reason = serve(parts)
     return finish(parts, reason)
+
+
+add_params(run, experiments())

@@ -14,7 +14,7 @@ once every robot has finished the previous tick and asked for this one). There i
    on; for soak runs also freeze and thaw, switch-off for good, charger off and on, and task
    bursts); a robot started (or continued) here is expected by the lockstep before the next
    tick;
-4. lets the experiment's referee act (`experiments.experiment.Referee`: boxpush's pending
+4. lets the experiment's referee act (`experiments.plugin.Referee`: boxpush's pending
    switch-ons), introduces due tasks, lets the referee act again (boxpush's goal moves and
    goal watch), ends the run when its end is decided;
 5. steps its MURDOCH node (auctions, awards, renewals, reintroduction with backoff).
@@ -32,9 +32,9 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from experiments import events as ev
-from experiments.experiment import Fault, NoReferee, Referee
 from experiments.group_coordinator import GroupCoordinator
 from experiments.observe import JsonlTail, robot_event_to_run_events
+from experiments.plugin import Fault, NoReferee, Referee
 from experiments.task_source import PlannedTask
 
 log = logging.getLogger("murdoch.run")
@@ -43,7 +43,7 @@ PATIENCE_S = 300.0
 DEATH_CHECK_TICKS = 10
 """How often (in ticks) the runner looks for robot processes that died by themselves."""
 
-__all__ = ["Fault", "RobotProcesses", "RunLoop", "RunState"]  # Fault: experiments.experiment
+__all__ = ["Fault", "RobotProcesses", "RunLoop", "RunState"]  # Fault: experiments.plugin
 
 
 class RobotProcesses(Protocol):
@@ -414,6 +414,15 @@ class RunLoop:
                        params=planned.params, source="user")
         self.state.introduced.add(task_id)
         return task_id
+
+    def record(self, t_s: float, kind: str, **fields: Any) -> None:
+        """An event of the experiment's referee (`experiments.plugin.RunHandle`)."""
+        self.rec.event(t_s, kind, **fields)
+
+    def end(self, reason: str) -> None:
+        """The referee ends the run at this tick (`experiments.plugin.RunHandle`)."""
+        if self.state.end_reason is None:
+            self.state.end_reason = reason
 
     # -- the end --------------------------------------------------------------------------------
     def close_open_tasks(self, end_t: float) -> None:

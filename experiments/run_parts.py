@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
-from experiments.experiment import Experiment, Fault, Referee, RunOptions, labels
+from experiments.plugin import Experiment, Fault, Referee, RunOptions, labels
 from experiments.supervisor import BusPlace, RobotSupervisor, robot_process
 
 if TYPE_CHECKING:
@@ -115,17 +115,21 @@ class RunParts:
 def check_run(settings: RunSettings, options: RunOptions) -> tuple[WorldSpec, RunOptions]:
     """The world and the options checked against it (clear errors, nothing started)."""
     from experiments.run_checks import RunSetupError, check_schedule, load_run_world
+    from experiments.run_tasks import check_supports
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     spec = load_run_world(settings.world_name)
+    check_supports(settings.experiment, options.allocator)
     options = settings.experiment.check(spec, options)
     if not any(r.mobile for r in spec.robots):
         raise RunSetupError(f"world {spec.source}: no mobile robot can take part in "
                             f"{settings.experiment.name} (every robot lacks position2d)")
     _check_placement(settings, {r.name for r in spec.robots})
+    own = settings.experiment.faults(options)
     check_schedule(robots=[r.name for r in spec.robots], duration_s=options.duration_s,
                    kills=list(settings.kills), restarts=list(settings.restarts),
-                   switch_offs=list(options.switch_offs), switch_ons=list(options.switch_ons),
+                   switch_offs=[(f.robot, f.t_s) for f in own if f.action == "switch-off"],
+                   switch_ons=[(f.robot, f.t_s) for f in own if f.action == "switch-on"],
                    world=settings.world_name)
     return spec, options
 
@@ -192,46 +196,11 @@ def run_config(settings: RunSettings, options: RunOptions,
     return config
 
 
-def task_spec(planned: Any) -> Any:
-    """The MURDOCH announcement of one planned task of the task source."""
-    from behaviors.library import TASKS
-    from murdoch.auction.timing import USER_TASK
-
-    kind = planned.kind
-    return USER_TASK.task(kind, TASKS[kind].subjects, planned.params,
-                          duration_s=float(planned.params.get("duration_s", 0.0)),
-                          timeout_s=float(planned.params["duration_s"]) + 600.0)
-
-
-def task_place(spec: WorldSpec, sim: Simulation) -> Any:
-    """Where a task is to be done, for allocators that plan paths: the ground-truth position,
-    when the task is introduced, of the object or box of the task's colour (the overhead
-    camera's desk for monitoring; a group task member's own spot, `x` and `y`; the arena's
-    centre when nothing matches)."""
-    bodies = {f"#{o.colour:06x}": o.name for o in spec.objects}
-    bodies.update({f"#{b.colour:06x}": b.name for b in spec.boxes if f"#{b.colour:06x}"
-                   not in bodies})
-    camera = spec.overhead_camera
-
-    def place(name: str, params: Any) -> tuple[float, float]:
-        if name == "monitor-object" and camera is not None:
-            return (float(camera.x), float(camera.y))
-        if "x" in params and "y" in params:
-            return (float(params["x"]), float(params["y"]))
-        body = bodies.get(str(params.get("colour", "")).lower())
-        if body is None:
-            return (0.0, 0.0)
-        x, y, _ = sim.get_pose(body)
-        return (float(x), float(y))
-
-    return place
-
-
 def assemble(settings: RunSettings, options: RunOptions, spec: WorldSpec) -> RunParts:
     """Build every piece of the run (nothing runs yet)."""
+    from experiments.ports import free_tcp_port, free_udp_port
     from experiments.recorder import RunRecorder
     from experiments.run_checks import RunSetupError, describe_os_error
-    from experiments.run_cli import free_tcp_port, free_udp_port
     from player_server.drivers.team_clock import TeamClock, TeamClockDriver
     from player_server.server.affinity import allowed_cpus, pin_current_thread, plan_split
     from player_server.server.assembly import world_endpoints
@@ -347,6 +316,7 @@ def _user(settings: RunSettings, options: RunOptions, spec: WorldSpec, sim: Simu
     Zenoh), its allocator's member (a MURDOCH node by default) and the loop."""
     from experiments.run_checks import RunSetupError
     from experiments.run_loop import RunLoop
+    from experiments.run_tasks import task_place, task_spec
     from experiments.task_source import longterm_tasks
     from murdoch.allocators import UserHooks, allocator
     from murdoch.auth import TeamKey

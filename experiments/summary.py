@@ -11,10 +11,12 @@ from __future__ import annotations
 import statistics
 from collections import Counter, defaultdict
 from collections.abc import Iterable, Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from experiments import events as ev
-from experiments.plugins import experiment
+
+if TYPE_CHECKING:
+    from experiments.plugin import Experiment
 
 SCHEMA_VERSION = 1
 
@@ -185,9 +187,11 @@ def auction_latencies(events: Iterable[Mapping[str, Any]]) -> list[float]:
 
 
 def summarize(events: Iterable[Mapping[str, Any]],
-              process_records: Iterable[Mapping[str, Any]] = ()) -> dict[str, Any]:
+              process_records: Iterable[Mapping[str, Any]] = (),
+              plugin: Experiment | None = None) -> dict[str, Any]:
     """The summary of a run from its events (simulated history) and its processes.jsonl
-    records (wall-clock facts: memory samples and the wall time)."""
+    records (wall-clock facts: memory samples and the wall time), with the sections of the
+    run's experiment `plugin` (boxpush: "goal")."""
     evs = list(events)
     wall_records = list(process_records)
     kinds = Counter(str(e["kind"]) for e in evs)
@@ -234,8 +238,6 @@ def summarize(events: Iterable[Mapping[str, Any]],
     for robot, n in trips_per_robot.items():
         per_robot[robot]["charging_trips"] = n
     problems = terminal_state_problems(evs)
-    # the run's experiment adds its own sections (boxpush: "goal")
-    plugin = experiment(run_start.get("experiment") if run_start else None)
     sections = plugin.summary_sections(evs) if plugin is not None else {}
     summary = {
         "schema": SCHEMA_VERSION,

@@ -18,18 +18,21 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import click
-
 from experiments import boxpush as bp
 from experiments import events as ev
-from experiments.experiment import (
+from experiments.plugin import (
     ExperimentBase,
     Fault,
+    Option,
+    OptionError,
     Referee,
+    RunHandle,
     RunOptions,
     Sampler,
+    Supports,
     Verdict,
     labels,
+    robot_at_time,
 )
 from experiments.task_source import PlannedTask, boxpush_task
 from worlds import WorldSpec
@@ -58,17 +61,54 @@ def _move_marker(sim: Any, marker: str, xy: tuple[float, float]) -> None:
     sim.set_pose(marker, xy[0], xy[1], 0.0)
 
 
+OPTIONS = (
+    Option("--switch-off", "switch a pusher off (process stopped, robot moved out of the "
+           "way): ROBOT@TIME, e.g. p1@60s.", type=robot_at_time, multiple=True,
+           metavar="ROBOT@TIME"),
+    Option("--switch-on", "switch a pusher back on behind the other end of the box: "
+           "ROBOT@TIME.", type=robot_at_time, multiple=True, metavar="ROBOT@TIME"),
+    Option("--goal-radius", "the box has arrived when its centre is this close to the goal "
+           "marker (metres, default 2.5).", type=float),
+    Option("--goal-velocity", "the goal marker moves at VX,VY metres per second from the "
+           "start (e.g. 0,-0.01), stopping short of the walls.", metavar="VX,VY"),
+    Option("--retarget", "give the watch task another goal marker of the world at a time: "
+           "MARKER@TIME, e.g. goal2@60s.", type=robot_at_time, multiple=True,
+           metavar="MARKER@TIME"),
+)
+
+
+def switches(options: RunOptions, which: str) -> tuple[tuple[str, float], ...]:
+    """The (robot, t) entries of --switch-off (`which` 'switch_off') or --switch-on."""
+    return tuple(options.get(which, ()))
+
+
+def goal_plan(options: RunOptions) -> bp.GoalPlan:
+    """The goal's plan as `Boxpush.check` made it (the default plan before)."""
+    plan = options.get("goal_plan")
+    return plan if isinstance(plan, bp.GoalPlan) else bp.GoalPlan()
+
+
 def resolve_switches(spec: WorldSpec, options: RunOptions) -> RunOptions:
     """Switch-offs and -ons with the robots' full names ('p1' -> 'pusher1')."""
     names = [r.name for r in spec.robots]
+    own = dict(options.own)
+    for which in ("switch_off", "switch_on"):
+        try:
+            own[which] = tuple((bp.resolve_robot(r, names), t)
+                               for r, t in switches(options, which))
+        except ValueError as exc:
+            raise OptionError(f"--{which.replace('_', '-')}", str(exc)) from exc
+    return replace(options, own=own)
+
+
+def _goal_plan(options: RunOptions) -> bp.GoalPlan:
+    velocity = options.get("goal_velocity")
     try:
-        return replace(options,
-                       switch_offs=tuple((bp.resolve_robot(r, names), t)
-                                         for r, t in options.switch_offs),
-                       switch_ons=tuple((bp.resolve_robot(r, names), t)
-                                        for r, t in options.switch_ons))
+        v = bp.parse_velocity(velocity) if velocity else (0.0, 0.0)
     except ValueError as exc:
-        raise click.BadParameter(str(exc)) from exc
+        raise OptionError("--goal-velocity", str(exc)) from exc
+    moves = tuple(sorted((t, m) for m, t in options.get("retarget", ())))
+    return bp.GoalPlan(v, moves)
 
 
 class BoxpushReferee:
@@ -79,12 +119,12 @@ class BoxpushReferee:
         self.spec = spec
         self.duration_s = options.duration_s
         self.goal_watch = bp.GoalWatch(bp.box_goal(spec),
-                                       options.goal_radius_m or bp.GOAL_RADIUS_M,
+                                       options.get("goal_radius") or bp.GOAL_RADIUS_M,
                                        tuple(r.name for r in spec.robots if r.mobile))
         self.actions = bp.SimActions()
         self.samplers: tuple[Sampler, ...] = ((0.5, self.goal_watch.sample),
                                               (0.0, self.actions.apply))
-        self.goal_plan: bp.GoalPlan = options.goal_plan or bp.GoalPlan()
+        self.goal_plan: bp.GoalPlan = goal_plan(options)
         self.retargets = sorted(self.goal_plan.retargets)
         self.goal_marker: str | None = self.goal_watch.bg.goal
         self.next_progress_s = 0.0
@@ -105,7 +145,10 @@ class BoxpushReferee:
         assert self._loop is not None, "bind() first"
         return self._loop
 
-    def bind(self, loop: RunLoop) -> None:
+    def bind(self, loop: RunHandle) -> None:
+        from experiments.run_loop import RunLoop
+
+        assert isinstance(loop, RunLoop), "the boxpush referee drives the runner's own loop"
         self._loop = loop
 
     def fault_actions(self) -> Mapping[str, Callable[[str, float], None]]:
@@ -339,31 +382,21 @@ def goal_section(evs: list[Mapping[str, Any]]) -> dict[str, Any]:
 @dataclass(frozen=True)
 class Boxpush(ExperimentBase):
     def check(self, spec: WorldSpec, options: RunOptions) -> RunOptions:
-        from murdoch.allocators import ALLOCATORS
-
-        able = [a.name for a in ALLOCATORS.values() if a.sub_tasks]
-        if options.allocator not in able:
-            raise click.BadParameter(
-                f"boxpush needs robots that auction sub-tasks (the watcher's pushes); "
-                f"expected one of {', '.join(able)}, found {options.allocator}",
-                param_hint="--allocator")
         options = resolve_switches(spec, options)
-        if options.group_task_rate:
-            raise click.UsageError("--group-tasks is for the longterm experiment")
-        plan = options.goal_plan or bp.GoalPlan()
+        plan = _goal_plan(options)
         for _, marker in plan.retargets:
             try:
                 bp.marker_goal(spec, marker)
             except ValueError as exc:
-                raise click.BadParameter(str(exc), param_hint="--retarget") from exc
-        return replace(options, goal_plan=plan)
+                raise OptionError("--retarget", str(exc)) from exc
+        return replace(options, own={**options.own, "goal_plan": plan})
 
     def config(self, options: RunOptions) -> dict[str, Any]:
-        plan = options.goal_plan or bp.GoalPlan()
+        plan = goal_plan(options)
         return {
-            "switch_offs": labels(options.switch_offs),
-            "switch_ons": labels(options.switch_ons),
-            "goal_radius_m": options.goal_radius_m or bp.GOAL_RADIUS_M,
+            "switch_offs": labels(switches(options, "switch_off")),
+            "switch_ons": labels(switches(options, "switch_on")),
+            "goal_radius_m": options.get("goal_radius") or bp.GOAL_RADIUS_M,
             "goal_velocity_mps": list(plan.velocity_mps),
             "retargets": [f"{m}@{t:g}s" for t, m in plan.retargets],
         }
@@ -375,8 +408,8 @@ class Boxpush(ExperimentBase):
         return BoxpushReferee(spec, options)
 
     def faults(self, options: RunOptions) -> list[Fault]:
-        return ([Fault(t, "switch-off", r) for r, t in options.switch_offs]
-                + [Fault(t, "switch-on", r) for r, t in options.switch_ons])
+        return ([Fault(t, "switch-off", r) for r, t in switches(options, "switch_off")]
+                + [Fault(t, "switch-on", r) for r, t in switches(options, "switch_on")])
 
     def summary_sections(self, events: list[Mapping[str, Any]]) -> dict[str, Any]:
         return {"goal": goal_section(events)}
@@ -405,7 +438,12 @@ class Boxpush(ExperimentBase):
         return None
 
 
-BOXPUSH = Boxpush("boxpush", "boxpush", steps=(
-    "murdoch run boxpush --until 10m --switch-off p1@40s --switch-on p1@150s",
-    "murdoch run boxpush --meshcat           # watch it live in the browser",
-))
+BOXPUSH = Boxpush(
+    "boxpush", "boxpush", steps=(
+        "murdoch run boxpush --until 10m --switch-off p1@40s --switch-on p1@150s",
+        "murdoch run boxpush --meshcat           # watch it live in the browser",
+    ),
+    options=OPTIONS,
+    task_kinds=("watch-box",),
+    supports=Supports(soak=True, compare=True, sub_tasks=True),
+)

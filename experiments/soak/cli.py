@@ -16,7 +16,9 @@ from typing import Any, TypeVar
 
 import click
 
-from experiments.run_cli import EXPERIMENT_WORLDS, parse_duration_s
+from experiments.durations import parse_duration_s
+from experiments.option_params import add_params, own_values
+from experiments.registry import experiments, supporting
 from experiments.soak.faults import (
     FaultFileError,
     FaultMix,
@@ -57,12 +59,8 @@ def _rate_and_span(
     return add
 
 
-SOAK_EXPERIMENTS = ("longterm",)
-"""boxpush is one episode that ends when the box arrives: nothing to soak."""
-
-
 @click.command()
-@click.argument("experiment", type=click.Choice(SOAK_EXPERIMENTS))
+@click.argument("experiment", type=click.Choice(supporting("soak")))
 @click.option("--sim-hours", type=click.FloatRange(min=0.01), default=24.0, show_default=True,
               help="Simulated hours to run.")
 @click.option("--seed", type=int, default=1, show_default=True,
@@ -102,13 +100,17 @@ SOAK_EXPERIMENTS = ("longterm",)
 @click.option("--no-record", is_flag=True, help="Write no run.mcap (the dead-controller "
               "check then has no poses and is reported as not checked).")
 @click.option("--meshcat", is_flag=True, help="Serve the live 3-D view on 127.0.0.1.")
-def soak(experiment: str, sim_hours: float, seed: int, faults_opt: str, out: Path,
+@click.pass_context
+def soak(ctx: click.Context, experiment: str, sim_hours: float, seed: int, faults_opt: str,
+         out: Path,
          speedup: float, kills_per_hour: float, kill_down: str, freezes_per_hour: float,
          freeze_for: str, switch_offs: int, charger_outages_per_hour: float,
          charger_outage: str, bursts: int, burst_size: int, loss: float, delay: float,
          task_interval: float, realloc_bound: float | None, memory_slope_limit: float,
-         memory_every: float, no_record: bool, meshcat: bool) -> None:
-    """Run EXPERIMENT for --sim-hours under faults and check that nothing was lost."""
+         memory_every: float, no_record: bool, meshcat: bool, **values: Any) -> None:
+    """Run EXPERIMENT for --sim-hours under faults and check that nothing was lost (an
+    experiment that ends by itself, e.g. boxpush when the box arrives, is soaked until
+    then)."""
     from experiments.run_cli import run_experiment
     from experiments.run_extras import RunExtras
     from experiments.soak.invariants import Limits
@@ -117,7 +119,9 @@ def soak(experiment: str, sim_hours: float, seed: int, faults_opt: str, out: Pat
     from worlds import load_world, world_path
 
     span_s = sim_hours * 3600.0
-    spec = load_world(world_path(EXPERIMENT_WORLDS[experiment]))
+    every = experiments()
+    own = own_values(every[experiment], every, values, ctx)
+    spec = load_world(world_path(every[experiment].world))
     robots = [r.name for r in spec.robots]
     mobile = [r.name for r in spec.robots if r.mobile]
     chargers = [c.name for c in spec.chargers]
@@ -162,8 +166,8 @@ def soak(experiment: str, sim_hours: float, seed: int, faults_opt: str, out: Pat
     try:
         code = run_experiment(
             experiment=experiment, duration_s=span_s, speedup=speedup, seed=seed,
-            meshcat=meshcat, out=out, world_name=EXPERIMENT_WORLDS[experiment],
-            task_interval_s=task_interval, kills=[], restarts=[], replay=False,
+            meshcat=meshcat, out=out, world_name=every[experiment].world,
+            task_interval_s=task_interval, kills=[], restarts=[], replay=False, own=own,
             pin_cpus=True, record=not no_record, extras=extras)
     finally:
         monitor.stop()
@@ -174,6 +178,9 @@ def soak(experiment: str, sim_hours: float, seed: int, faults_opt: str, out: Pat
     if not report["all_held"]:
         sys.exit(INVARIANT_BROKEN)
     sys.exit(0 if code == 0 else 1)
+
+
+add_params(soak, experiments())
 
 
 @click.command("soak-report")

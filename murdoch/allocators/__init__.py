@@ -1,33 +1,36 @@
 """The allocators a team can run, by name: `murdoch-robot --allocator NAME` and
 `murdoch run ... --allocator NAME` take them from here.
 
-Adding one: a module of this package with an `Allocator` (`murdoch.allocators.base`: the
-robot's and the user's `murdoch.member.TeamMember` factories and its message codec) and a
-line in `ALLOCATORS`.
+`ALLOCATORS` is the registry (`murdoch.allocators.registry`): the built-ins (MURDOCH, CBBA,
+CBGA and the `greedy` and `optimal` baselines) and every allocator an installed package
+registers under the entry-point group `murdoch.allocators`. Writing one: `murdoch.plugin`.
 """
 
 from __future__ import annotations
 
 from murdoch.allocators.base import Allocator, Assignment, RobotHooks, UserHooks
-from murdoch.allocators.cbba import CBBA
-from murdoch.allocators.cbga import CBGA
-from murdoch.allocators.murdoch_auctions import MURDOCH
+from murdoch.allocators.registry import Registry
 
-ALLOCATORS: dict[str, Allocator] = {
-    "murdoch": MURDOCH,
-    "cbba": CBBA,
-    "cbga": CBGA,
-}
+ALLOCATORS = Registry()
 DEFAULT = "murdoch"
 
 
-REFINABLE: tuple[str, ...] = tuple(n for n, a in ALLOCATORS.items() if a.refined is not None)
-"""The allocators that take `--refine` (the consensus ones)."""
+def refinable() -> tuple[str, ...]:
+    """The allocators that take `--refine` (the consensus ones)."""
+    return tuple(n for n, a in ALLOCATORS.items() if a.refined is not None)
+
+
+def __getattr__(name: str) -> tuple[str, ...]:
+    if name == "REFINABLE":  # (computed on use: the registry loads on first use)
+        return refinable()
+    raise AttributeError(name)
 
 
 def allocator(name: str, refine: bool = False) -> Allocator:
     """The allocator called `name` (with `refine`, its refined form); ValueError naming the
-    known ones, or those that take `--refine`, otherwise."""
+    known ones, or those that take `--refine`, otherwise; `murdoch.plugin.PluginError` if
+    an installed plugin is broken."""
+    ALLOCATORS.check()
     try:
         found = ALLOCATORS[name]
     except KeyError:
@@ -36,10 +39,10 @@ def allocator(name: str, refine: bool = False) -> Allocator:
     if not refine:
         return found
     if found.refined is None:
-        raise ValueError(f"--refine is for the consensus allocators ({', '.join(REFINABLE)}), "
+        raise ValueError(f"--refine is for the consensus allocators ({', '.join(refinable())}), "
                          f"not {name}")
     return found.refined()
 
 
-__all__ = ["ALLOCATORS", "DEFAULT", "REFINABLE", "Allocator", "Assignment", "RobotHooks",
-           "UserHooks", "allocator"]
+__all__ = ["ALLOCATORS", "DEFAULT", "Allocator", "Assignment", "RobotHooks", "UserHooks",
+           "allocator", "refinable"]

@@ -50,6 +50,11 @@ class RobotHooks:
     on_outcome: Callable[[Outcome], None] | None = None
     observer: Callable[[AuctionEvent], None] | None = None
     backoff: RandomizedBackoff | None = None
+    pose: Callable[[], tuple[float, float, float]] | None = None
+    """Where the robot is and which way it faces (x, y metres, yaw radians); None: the
+    position and yaw 0."""
+    battery: Callable[[], float | None] | None = None
+    """State of charge, a fraction of full (None: unknown)."""
 
 
 @dataclass(frozen=True)

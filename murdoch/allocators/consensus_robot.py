@@ -73,6 +73,7 @@ from murdoch.auction.timing import USER_TASK
 from murdoch.consensus.async_runner import ConsensusChunk
 from murdoch.consensus.cbba import CbbaAgent
 from murdoch.consensus.cbga import CbgaAgent
+from murdoch.execution.executor import EndReports, Execution
 from murdoch.subjects import SubjectSet, subject_set
 from murdoch.transport import Clock, Transport
 
@@ -122,11 +123,8 @@ class ConsensusRobot:
         self._replan = True
         self._executing: TaskOffer | None = None
         self._seat = 0
-        self._started_at = 0.0
-        self._fraction = 0.0
-        self._next_progress = 0.0
-        self._renewed_at = 0.0
-        self._ended: dict[int, TaskReport] = {}
+        self._execution = Execution.start(0.0, ABANDON_AFTER_S, PROGRESS_S)
+        self._ended: EndReports[TaskReport] = EndReports(ENDED_KEPT)
         """The end reports of the latest tasks, sent again while the user still renews."""
         self._claim: tuple[int, float] | None = None
         self._claimed: TaskOffer | None = None
@@ -171,7 +169,7 @@ class ConsensusRobot:
     def progress(self, task_id: str, fraction: float, note: str = "") -> None:
         with self._lock:
             if self.executing == task_id:
-                self._fraction = fraction
+                self._execution.progress(fraction, note)
 
     def complete(self, task_id: str, note: str = "") -> None:
         self._end(task_id, "completed", note)
@@ -190,10 +188,8 @@ class ConsensusRobot:
             self._executing = None
             self._replan = True
             report = TaskReport(ex.task_id, ex.offer, self.hooks.agent_id, status,
-                                self._fraction, reason)
-            self._ended[ex.offer] = report
-            while len(self._ended) > ENDED_KEPT:
-                del self._ended[next(iter(self._ended))]
+                                self._execution.fraction, reason)
+            self._ended.remember(ex.offer, report)
             self._publish(STATE_SUBJECT, report)
 
     # -- the loop
@@ -261,9 +257,9 @@ class ConsensusRobot:
             self._withdraw(msg.offer)
             ex = self._executing
             if ex is not None and ex.offer == msg.offer and msg.robot == self.hooks.agent_id:
-                self._renewed_at = now  # the user repeats its grant: a renewal
+                self._execution.renewed(now)  # the user repeats its grant: a renewal
             elif msg.offer in self._ended and msg.robot == self.hooks.agent_id:
-                self._publish(STATE_SUBJECT, self._ended[msg.offer])  # the report was lost
+                self._publish(STATE_SUBJECT, self._ended.get(msg.offer))  # the report was lost
             elif msg.robot == self.hooks.agent_id:
                 self._granted(msg, now)
             elif self._claim is not None and self._claim[0] == msg.offer and \
@@ -306,10 +302,7 @@ class ConsensusRobot:
             return
         self._executing = offer
         self._seat = seat
-        self._started_at = now
-        self._fraction = 0.0
-        self._next_progress = now + PROGRESS_S
-        self._renewed_at = now
+        self._execution = Execution.start(now, ABANDON_AFTER_S, PROGRESS_S)
         self.counters["grants"] += 1
         place = seats(offer)[seat]
         self._emit(now, "start", offer.task_id, offer=offer.offer,
@@ -336,7 +329,7 @@ class ConsensusRobot:
         offers = [self.offers[o] for o in self.order]
         ex = self._executing
         if ex is not None:
-            left = max(0.0, ex.duration_s - (now - self._started_at))
+            left = max(0.0, ex.duration_s - (now - self._execution.started_at))
             position = (seat_place(ex, seats(ex)[self._seat]) if self.hooks.speed_mps > 0
                         else self.hooks.position())
             available = now + left
@@ -488,22 +481,21 @@ class ConsensusRobot:
 
     def _report_progress(self, now: float) -> None:
         ex = self._executing
-        if ex is not None and now - self._renewed_at > ABANDON_AFTER_S:
+        due = self._execution.tick(now) if ex is not None else None
+        if ex is not None and due == "abandon":
             # the user has not renewed the grant: it may have given the task to another
             self._executing = None
             self._replan = True
-            reason = f"no renewal for {ABANDON_AFTER_S:g} s"
+            reason = self._execution.abandon_reason
             self._emit(now, "stopped", ex.task_id, reason=reason)
             self.hooks.on_stop(Assignment(ex.task_id, ex.name, ex.params), reason)
             report = TaskReport(ex.task_id, ex.offer, self.hooks.agent_id, "abandoned",
-                                self._fraction, reason)
-            self._ended[ex.offer] = report
+                                self._execution.fraction, reason)
+            self._ended.remember(ex.offer, report)
             self._publish(STATE_SUBJECT, report)
-            return
-        if ex is not None and now >= self._next_progress:
-            self._next_progress = now + PROGRESS_S
+        elif ex is not None and due == "progress":
             self._publish(STATE_SUBJECT, TaskReport(ex.task_id, ex.offer, self.hooks.agent_id,
-                                                    "progress", self._fraction))
+                                                    "progress", self._execution.fraction))
 
     def _publish(self, subject: str, message: object) -> None:
         try:

@@ -50,6 +50,15 @@ from murdoch.allocators.team_messages import (
 )
 from murdoch.auction.messages import AuctionEvent, Outcome, TaskSpec
 from murdoch.consensus.async_runner import ConsensusChunk
+from murdoch.execution.user_side import (
+    AT_ONCE_S,
+    Lease,
+    LeaseStep,
+    next_attempt,
+    no_winner,
+    on_report,
+    outcome,
+)
 from murdoch.subjects import SubjectSet
 from murdoch.transport import Clock, Transport
 
@@ -72,9 +81,7 @@ class _Task:
     unwon_since: float = 0.0
     wake_at: float = 0.0
     winner: str | None = None
-    awarded_at: float = 0.0
-    renew_at: float = 0.0
-    last_heard: float = 0.0
+    lease: Lease | None = None
     no_bid_rounds: int = 0
     last_reason: str = ""
     place: tuple[float, float] = (0.0, 0.0)
@@ -205,13 +212,15 @@ class ConsensusUser:
             if task.seats:
                 self._group_report(task, msg, now)
                 return
-            if task.winner != msg.robot:
+            if task.winner != msg.robot or task.lease is None:
                 return
-            task.last_heard = now
-            if msg.status in ("completed", "failed"):
+            task.lease.last_heard = now
+            meaning = on_report(msg.status)
+            if meaning == "end":
                 self._finish(task, now, msg.status, msg.reason or msg.status)
-            elif msg.status == "abandoned":
-                self._reallocate(task, now, f"winner {msg.robot} abandoned: {msg.reason}", 0.0)
+            elif meaning == "reoffer":
+                self._reallocate(task, now, f"winner {msg.robot} {msg.status}: {msg.reason}",
+                                 AT_ONCE_S)
 
     def _winner_seen(self, offer: TaskOffer, now: float) -> bool:
         """Whether some agent heard lately gives the offer a full set of winners."""
@@ -236,23 +245,28 @@ class ConsensusUser:
         elif task.phase == "granted" and task.seats:
             self._group_tick(task, now)
         elif task.phase == "granted":
-            if spec.timeout_s is not None and now - task.awarded_at > spec.timeout_s:
-                self._finish(task, now, "failed", f"not finished within {spec.timeout_s:g} s")
-            elif now - task.last_heard > spec.contract_timeout_s:
-                self._reallocate(task, now, f"winner {task.winner} silent for "
-                                 f"{spec.contract_timeout_s:g} s", spec.abandon_after_s)
-            elif now >= task.renew_at:
-                task.renew_at = now + spec.renew_period_s
+            assert task.lease is not None
+            step = task.lease.check(spec, now)
+            if step is not None and not self._lease_ended(task, step, now):
                 assert task.offer is not None and task.winner is not None
                 self._publish(TEAM_SUBJECT, TaskGrant(task.task_id, task.offer.offer,
                                                       task.winner))
 
+    def _lease_ended(self, task: _Task, step: LeaseStep, now: float) -> bool:
+        """Act on a lease's step; whether it ended the grant (else: renew it)."""
+        if step.kind == "expired":
+            self._finish(task, now, "failed", step.reason)
+        elif step.kind == "silent":
+            self._reallocate(task, now, step.reason, step.wait_s)
+        return step.kind != "renew"
+
     def _offer(self, task: _Task, now: float) -> None:
         spec = task.spec
-        if task.attempt >= spec.max_attempts:
+        gave_up = next_attempt(task.attempt, spec)
+        if gave_up is not None:
             task.winner = None
             task.phase = "waiting"
-            self._finish(task, now, "failed", f"gave up after {task.attempt} attempts")
+            self._finish(task, now, "failed", gave_up)
             return
         task.attempt += 1
         task.phase = "offered"
@@ -277,8 +291,7 @@ class ConsensusUser:
     def _grant(self, task: _Task, claim: TaskClaim, now: float) -> None:
         task.phase = "granted"
         task.winner = claim.robot
-        task.awarded_at = task.last_heard = now
-        task.renew_at = now + task.spec.renew_period_s
+        task.lease = Lease.grant(claim.robot, now, task.spec)
         self._emit(now, "close", task, bids=1)
         self._emit(now, "award", task, winner=claim.robot, score=claim.bid, bids=1)
         self._publish(TEAM_SUBJECT, TaskGrant(task.task_id, claim.offer, claim.robot))
@@ -297,8 +310,7 @@ class ConsensusUser:
         task.winner = next(iter(task.seats))
         task.heard = {r: now for r in task.seats}
         task.done = set()
-        task.awarded_at = task.last_heard = now
-        task.renew_at = now + task.spec.renew_period_s
+        task.lease = Lease.grant(task.winner, now, task.spec)
         self._emit(now, "close", task, bids=len(task.claims))
         for robot, seat in task.seats.items():
             self._emit(now, "award", task, winner=robot, score=bids[robot], bids=len(bids),
@@ -332,34 +344,28 @@ class ConsensusUser:
         spec = task.spec
         silent = sorted(r for r, t in task.heard.items()
                         if r not in task.done and now - t > spec.contract_timeout_s)
-        if spec.timeout_s is not None and now - task.awarded_at > spec.timeout_s:
-            self._finish(task, now, "failed", f"not finished within {spec.timeout_s:g} s")
-        elif silent:
+        assert task.lease is not None
+        step = task.lease.check(spec, now, f"member {silent[0]}" if silent else None,
+                                task.heard[silent[0]] if silent else now)
+        if step is not None and step.kind == "silent":
             task.winner = silent[0]
-            self._reallocate(task, now, f"member {silent[0]} silent for "
-                             f"{spec.contract_timeout_s:g} s", spec.abandon_after_s)
-        elif now >= task.renew_at:
-            task.renew_at = now + spec.renew_period_s
+        if step is not None and not self._lease_ended(task, step, now):
             self._send_seats(task)
 
     def _no_bid(self, task: _Task, now: float) -> None:
         self._emit(now, "close", task, bids=0)
-        reason = "no capable agent bid"
-        if task.attempt > 1 and task.last_reason:
-            reason = f"{task.last_reason}; no capable agent bid on reallocation"
         self._withdraw(task, "no winner")
         task.no_bid_rounds += 1
         backoff = self.hooks.backoff
-        if task.deadline is not None:
-            delay = backoff.delay_s(task.no_bid_rounds)
-            if now + delay <= task.deadline and task.attempt < task.spec.max_attempts:
-                task.phase = "waiting"
-                task.wake_at = now + delay
-                self._emit(now, "retry", task, delay_s=delay, reason=reason)
-                return
-            reason = f"{reason}; retried {task.no_bid_rounds - 1} times until the deadline"
+        verdict = no_winner(now, task.spec, task.attempt, task.no_bid_rounds, task.last_reason,
+                            task.deadline, backoff.delay_s)
+        if verdict.retry_in_s is not None:
+            task.phase = "waiting"
+            task.wake_at = now + verdict.retry_in_s
+            self._emit(now, "retry", task, delay_s=verdict.retry_in_s, reason=verdict.reason)
+            return
         task.winner = None
-        self._finish(task, now, "unachievable", reason)
+        self._finish(task, now, "unachievable", verdict.final_reason)
 
     def _reallocate(self, task: _Task, now: float, reason: str, wait_s: float) -> None:
         self._emit(now, "reallocation", task, winner=task.winner, reason=reason)
@@ -372,12 +378,9 @@ class ConsensusUser:
         self._tasks.pop(task.task_id, None)
         if task.phase in ("offered", "granted"):
             self._withdraw(task, reason)
-        winner = task.winner if status != "unachievable" else None
-        outcome = Outcome(task_id=task.task_id, name=task.spec.name, status=status,
-                          reason=reason, winner=winner, attempts=task.attempt, time_s=now,
-                          parent=task.spec.parent)
-        self.outcomes.append(outcome)
-        self._emit(now, "outcome", task, status=status, reason=reason, winner=winner)
+        ended = outcome(task.task_id, task.spec, status, reason, task.winner, task.attempt, now)
+        self.outcomes.append(ended)
+        self._emit(now, "outcome", task, status=status, reason=reason, winner=ended.winner)
 
     def _publish(self, subject: str, message: object) -> None:
         try:

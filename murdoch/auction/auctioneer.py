@@ -35,6 +35,14 @@ from murdoch.auction.messages import (
     TaskSpec,
     negotiation_subject,
 )
+from murdoch.execution.user_side import (
+    AT_ONCE_S,
+    Lease,
+    next_attempt,
+    no_winner,
+    on_report,
+    outcome,
+)
 from murdoch.subjects import check_subject
 
 log = logging.getLogger(__name__)
@@ -74,10 +82,7 @@ class _Task:
     close_at: float = 0.0
     bids: dict[str, float] = field(default_factory=dict)
     winner: str | None = None
-    awarded_at: float = 0.0
-    last_heard: float = 0.0
-    next_renew_at: float = 0.0
-    renewals: int = 0
+    lease: Lease | None = None
     fraction: float = 0.0
     wake_at: float = 0.0
     no_bid_rounds: int = 0
@@ -123,8 +128,9 @@ class Auctioneer:
         for t in self._tasks.values():
             if t.phase is Phase.BIDDING:
                 times.append(t.close_at)
-            elif t.phase is Phase.CONTRACTED:
-                times.append(min(t.next_renew_at, t.last_heard + t.spec.contract_timeout_s))
+            elif t.phase is Phase.CONTRACTED and t.lease is not None:
+                lease = t.lease
+                times.append(min(lease.renew_at, lease.last_heard + t.spec.contract_timeout_s))
             else:
                 times.append(t.wake_at)
         return min(times) if times else None
@@ -187,9 +193,10 @@ class Auctioneer:
     # -- steps
     def _start_round(self, task: _Task, now: float) -> list[Outgoing]:
         spec = task.spec
-        if task.attempt >= spec.max_attempts:
+        gave_up = next_attempt(task.attempt, spec)
+        if gave_up is not None:
             task.winner = None
-            self._finish(task, now, "failed", f"gave up after {task.attempt} attempts")
+            self._finish(task, now, "failed", gave_up)
             return []
         task.attempt += 1
         task.phase = Phase.BIDDING
@@ -225,61 +232,53 @@ class Auctioneer:
     def _close(self, task: _Task, now: float) -> list[Outgoing]:
         self._emit(now, "close", task, bids=len(task.bids))
         if not task.bids:
-            reason = "no capable agent bid"
-            if task.attempt > 1 and task.last_reason:
-                reason = f"{task.last_reason}; no capable agent bid on reallocation"
-            award = Award(task.task_id, task.attempt, None, None, 0, reason)
-            out = [self._send(task, award)]
             task.no_bid_rounds += 1
             plan = task.retry
-            if plan is not None:
-                delay = plan.delay_s(task.no_bid_rounds)
-                if now + delay <= plan.deadline and task.attempt < task.spec.max_attempts:
-                    task.phase = Phase.WAITING
-                    task.wake_at = now + delay
-                    self._emit(now, "retry", task, delay_s=delay, reason=reason)
-                    return out
-                reason = f"{reason}; retried {task.no_bid_rounds - 1} times until the deadline"
-            self._finish(task, now, "unachievable", reason)
+            verdict = no_winner(now, task.spec, task.attempt, task.no_bid_rounds,
+                                task.last_reason, plan.deadline if plan else None,
+                                plan.delay_s if plan else None)
+            award = Award(task.task_id, task.attempt, None, None, 0, verdict.reason)
+            out = [self._send(task, award)]
+            if verdict.retry_in_s is not None:
+                task.phase = Phase.WAITING
+                task.wake_at = now + verdict.retry_in_s
+                self._emit(now, "retry", task, delay_s=verdict.retry_in_s, reason=verdict.reason)
+                return out
+            self._finish(task, now, "unachievable", verdict.final_reason)
             return out
         winner, score = best_bid(task.bids)
         task.phase = Phase.CONTRACTED
         task.winner = winner
-        task.awarded_at = now
-        task.last_heard = now
-        task.next_renew_at = now + task.spec.renew_period_s
+        task.lease = Lease.grant(winner, now, task.spec,
+                                 task.lease.renewals if task.lease is not None else 0)
         task.fraction = 0.0
         self._emit(now, "award", task, winner=winner, score=score, bids=len(task.bids))
         award = Award(task.task_id, task.attempt, winner, score, len(task.bids), "")
         return [self._send(task, award)]
 
     def _monitor(self, task: _Task, now: float) -> list[Outgoing]:
-        assert task.winner is not None
-        spec = task.spec
-        if spec.timeout_s is not None and now - task.awarded_at > spec.timeout_s:
-            reason = f"not finished within {spec.timeout_s:g} s"
-            out = [self._send(task, Revoke(task.task_id, task.attempt, task.winner, reason))]
-            self._finish(task, now, "failed", reason)
-            return out
-        if now - task.last_heard > spec.contract_timeout_s:
-            reason = f"winner {task.winner} silent for {spec.contract_timeout_s:g} s"
-            out = [self._send(task, Revoke(task.task_id, task.attempt, task.winner, reason))]
-            self._reallocate(task, now, reason, wait_s=spec.abandon_after_s)
-            return out
-        if now >= task.next_renew_at:
-            task.renewals += 1
-            task.next_renew_at = now + spec.renew_period_s
-            self._emit(now, "renew", task, winner=task.winner, n=task.renewals)
-            return [self._send(task, Renew(task.task_id, task.attempt, task.winner, task.renewals))]
-        return []
+        assert task.winner is not None and task.lease is not None
+        step = task.lease.check(task.spec, now)
+        if step is None:
+            return []
+        if step.kind == "renew":
+            self._emit(now, "renew", task, winner=task.winner, n=step.n)
+            return [self._send(task, Renew(task.task_id, task.attempt, task.winner, step.n))]
+        out = [self._send(task, Revoke(task.task_id, task.attempt, task.winner, step.reason))]
+        if step.kind == "expired":
+            self._finish(task, now, "failed", step.reason)
+        else:
+            self._reallocate(task, now, step.reason, wait_s=step.wait_s)
+        return out
 
     def _on_progress(self, task: _Task, progress: Progress, now: float) -> None:
         if (
             task.phase is Phase.CONTRACTED
             and progress.attempt == task.attempt
             and progress.winner == task.winner
+            and task.lease is not None
         ):
-            task.last_heard = now
+            task.lease.last_heard = now
             task.fraction = progress.fraction
             self._emit(now, "progress", task, winner=task.winner, fraction=progress.fraction)
 
@@ -288,13 +287,12 @@ class Auctioneer:
             return []
         if task.phase is Phase.BIDDING:
             return []
-        if report.status in ("completed", "failed"):
-            reason = report.reason or report.status
-            self._finish(task, now, report.status, reason)
-            return []
-        if task.phase is Phase.CONTRACTED:
+        meaning = on_report(report.status)
+        if meaning == "end":
+            self._finish(task, now, report.status, report.reason or report.status)
+        elif meaning == "reoffer" and task.phase is Phase.CONTRACTED:
             reason = f"winner {report.winner} {report.status}: {report.reason}"
-            self._reallocate(task, now, reason, wait_s=0.0)
+            self._reallocate(task, now, reason, wait_s=AT_ONCE_S)
         return []
 
     def _reallocate(self, task: _Task, now: float, reason: str, wait_s: float) -> None:
@@ -305,18 +303,9 @@ class Auctioneer:
 
     def _finish(self, task: _Task, now: float, status: str, reason: str) -> None:
         del self._tasks[task.task_id]
-        outcome = Outcome(
-            task_id=task.task_id,
-            name=task.spec.name,
-            status=status,
-            reason=reason,
-            winner=task.winner if status != "unachievable" else None,
-            attempts=task.attempt,
-            time_s=now,
-            parent=task.spec.parent,
-        )
-        self._outcomes.append(outcome)
-        self._emit(now, "outcome", task, status=status, reason=reason, winner=outcome.winner)
+        ended = outcome(task.task_id, task.spec, status, reason, task.winner, task.attempt, now)
+        self._outcomes.append(ended)
+        self._emit(now, "outcome", task, status=status, reason=reason, winner=ended.winner)
 
     def _send(self, task: _Task, message: Any) -> Outgoing:
         return Outgoing(frozenset({task.negotiation}), message)

@@ -51,6 +51,7 @@ from murdoch.auction.messages import (
     Revoke,
     negotiation_subject,
 )
+from murdoch.execution.executor import EndReports, Execution
 from murdoch.ratelog import RateLimitedLog
 from murdoch.subjects import check_subject
 
@@ -140,10 +141,8 @@ class Bidder:
         self._observer = observer
         self._pending: dict[tuple[str, int], _Pending] = {}
         self._contract: Contract | None = None
-        self._last_renew = 0.0
-        self._fraction = 0.0
-        self._note = ""
-        self._finished: OrderedDict[tuple[str, int], Report] = OrderedDict()
+        self._execution = Execution.start(0.0, 0.0)
+        self._finished: EndReports[Report] = EndReports(finished_memory)
         self._finished_memory = finished_memory
         self._closed: OrderedDict[tuple[str, int], str] = OrderedDict()
         """Rounds of our bids that ended without a contract, with how (last `finished_memory`)."""
@@ -208,8 +207,8 @@ class Bidder:
     def tick(self, now: float) -> list[Outgoing]:
         out: list[Outgoing] = []
         contract = self._contract
-        if contract is not None and now - self._last_renew > contract.announce.abandon_after_s:
-            reason = f"no renewal for {contract.announce.abandon_after_s:g} s"
+        if contract is not None and self._execution.tick(now) == "abandon":
+            reason = self._execution.abandon_reason
             self._stop(contract, now, reason)
             out.append(self._report(contract.announce, "abandoned", reason))
         for key, pending in list(self._pending.items()):
@@ -228,8 +227,7 @@ class Bidder:
     def progress(self, task_id: str, fraction: float, note: str = "") -> None:
         """Record progress; it is sent in answer to the next renewal."""
         if self._contract is not None and self._contract.task_id == task_id:
-            self._fraction = min(1.0, max(0.0, float(fraction)))
-            self._note = note
+            self._execution.progress(fraction, note)
 
     def complete(self, task_id: str, now: float, note: str = "") -> list[Outgoing]:
         return self._finish(task_id, now, "completed", note)
@@ -322,10 +320,9 @@ class Bidder:
         key = (renew.task_id, renew.attempt)
         contract = self._contract
         if contract is not None and (contract.task_id, contract.attempt) == key:
-            self._last_renew = now
-            progress = Progress(
-                renew.task_id, renew.attempt, self.agent_id, self._fraction, self._note
-            )
+            ex = self._execution
+            ex.renewed(now)
+            progress = Progress(renew.task_id, renew.attempt, self.agent_id, ex.fraction, ex.note)
             return [Outgoing(frozenset({contract.announce.negotiation}), progress)]
         finished = self._finished.get(key)
         if finished is not None:
@@ -358,9 +355,7 @@ class Bidder:
         self._pending.pop((announce.task_id, announce.attempt), None)
         contract = Contract(announce, now)
         self._contract = contract
-        self._last_renew = now
-        self._fraction = 0.0
-        self._note = ""
+        self._execution = Execution.start(now, announce.abandon_after_s)
         self._emit(now, "start", announce.task_id, announce.attempt, name=announce.name)
         if self._on_start is not None:
             self._on_start(contract)
@@ -406,9 +401,7 @@ class Bidder:
         self._ratelog.warning(counter, now, f"%s: {counter}: {message}", self.agent_id, *args)
 
     def _remember(self, report: Report) -> None:
-        self._finished[(report.task_id, report.attempt)] = report
-        while len(self._finished) > self._finished_memory:
-            self._finished.popitem(last=False)
+        self._finished.remember((report.task_id, report.attempt), report)
 
     def _emit(self, now: float, kind: str, task_id: str, attempt: int, **detail: Any) -> None:
         if self._observer is not None:

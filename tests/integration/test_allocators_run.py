@@ -23,13 +23,14 @@ import pytest
 from experiments import events as ev
 from experiments.events import read_events
 from experiments.soak.invariants import EventInvariants, Limits
+from murdoch.allocators import ALLOCATORS as REGISTRY
 
 pytestmark = pytest.mark.timeout(900)
 
 ARGS = ["run", "longterm", "--world", "test_lowbattery", "--until", "240s",
         "--task-interval", "20", "--seed", "3", "--kill", "r2@30s", "--restart", "r2@70s",
         "--no-replay", "--no-record"]
-ALLOCATORS = ["murdoch", "cbba", "cbga"]
+ALLOCATORS = list(REGISTRY)
 
 
 def _murdoch() -> list[str]:
@@ -109,10 +110,11 @@ def test_the_same_seed_gives_every_allocator_the_same_tasks_and_faults(
         runs: dict[str, dict[str, Any]]) -> None:
     streams = {a: _stream(runs[a]["events"]) for a in ALLOCATORS}
     assert len(streams["murdoch"]) > 5
-    assert streams["cbba"] == streams["murdoch"] == streams["cbga"]
+    assert all(streams[a] == streams["murdoch"] for a in ALLOCATORS)
 
 
-def test_a_cbba_run_repeats_byte_for_byte(runs: dict[str, dict[str, Any]],
-                                          tmp_path: Path) -> None:
-    again = _run("cbba", tmp_path / "again")
-    assert again["summary"]["events_sha256"] == runs["cbba"]["summary"]["events_sha256"]
+@pytest.mark.parametrize("allocator", ["cbba", "optimal"])
+def test_a_run_repeats_byte_for_byte(runs: dict[str, dict[str, Any]], tmp_path: Path,
+                                     allocator: str) -> None:
+    again = _run(allocator, tmp_path / "again")
+    assert again["summary"]["events_sha256"] == runs[allocator]["summary"]["events_sha256"]

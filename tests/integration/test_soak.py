@@ -127,3 +127,23 @@ def test_a_bad_fault_file_is_named_without_a_traceback(tmp_path: Path) -> None:
     assert str(faults) in done.stderr and "p42" in done.stderr
     assert "Traceback" not in done.stderr
     assert not (tmp_path / "runs").exists()
+
+
+@pytest.mark.timeout(1800)
+def test_boxpush_soaks_until_the_box_arrives_and_keeps_every_invariant(
+        tmp_path: Path) -> None:
+    """An experiment that ends by itself soaks until then: faults dense enough to fall
+    inside the episode act, and nothing is lost."""
+    out = tmp_path / "runs"
+    done = subprocess.run(
+        [*_murdoch(), "soak", "boxpush", "--sim-hours", "0.5", "--faults", "random",
+         "--kills-per-hour", "20", "--freezes-per-hour", "20", "--out", str(out)],
+        capture_output=True, text=True, timeout=1700)
+    assert done.returncode == 0, (done.stdout + done.stderr)[-3000:]
+    (run_dir,) = out.iterdir()
+    report = json.loads((run_dir / SOAK_JSON).read_text())
+    assert report["all_held"]
+    summary = json.loads((run_dir / "summary.json").read_text())
+    assert summary["goal"]["reached"]
+    kinds = {e["kind"] for e in ev.read_events(run_dir / "events.jsonl")}
+    assert kinds & {ev.ROBOT_FAILURE, ev.ROBOT_FREEZE}, "no fault fell inside the episode"

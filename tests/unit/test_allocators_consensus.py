@@ -123,10 +123,10 @@ ALGORITHMS = ["cbba", "cbga"]
 
 
 def test_registry_names_each_allocator() -> None:
-    assert list(ALLOCATORS) == ["murdoch", "cbba", "cbga"]
+    assert {"murdoch", "cbba", "cbga"} <= set(ALLOCATORS)
     assert allocator("cbga").name == "cbga"
     with pytest.raises(ValueError, match="expected one of murdoch, cbba, cbga"):
-        allocator("greedy")
+        allocator("no-such-allocator")
 
 
 def test_state_crosses_the_bus_in_offer_numbers() -> None:

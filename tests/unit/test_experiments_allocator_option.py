@@ -7,16 +7,15 @@ import dataclasses
 from pathlib import Path
 
 import click
-import pytest
 from click.testing import CliRunner
 
-from experiments.experiment import ALLOCATOR_NAMES, RunOptions
-from experiments.plugins import EXPERIMENTS
+from experiments.compare import ALLOCATOR_NAMES
+from experiments.plugin import RunOptions
+from experiments.registry import experiments
 from experiments.run_cli import run
 from experiments.run_extras import RunExtras
 from experiments.run_parts import RunSettings, run_config
 from experiments.supervisor import BusPlace, robot_process
-from worlds import load_world, world_path
 
 
 def _robot(allocator: str) -> list[str]:
@@ -42,7 +41,7 @@ def test_the_option_offers_the_one_list_of_allocators() -> None:
     assert isinstance(option.type, click.Choice)
     assert tuple(option.type.choices) == ALLOCATOR_NAMES
     assert option.default == "murdoch"
-    assert [f.name for f in dataclasses.fields(RunOptions)][-1] == "allocator"
+    assert [f.name for f in dataclasses.fields(RunOptions)][-2:] == ["allocator", "own"]
     assert RunOptions(60.0, 1).allocator == "murdoch"
 
 
@@ -54,7 +53,7 @@ def test_an_unknown_allocator_or_rate_is_refused_naming_the_option() -> None:
 
 
 def _settings() -> RunSettings:
-    return RunSettings(experiment=EXPERIMENTS["longterm"], world_name="longterm", speedup=0.0,
+    return RunSettings(experiment=experiments()["longterm"], world_name="longterm", speedup=0.0,
                        meshcat=False, out=Path("/o"), kills=(), restarts=(), replay=False,
                        pipelined=True, robot_nice=0, pin_cpus=False, key="k", trails=0,
                        lasers=False, record=False, record_rate_hz=2.0, metric_terms=(),
@@ -64,13 +63,12 @@ def _settings() -> RunSettings:
 def test_config_records_the_allocator_and_a_group_task_rate_when_there_is_one() -> None:
     plain = run_config(_settings(), RunOptions(60.0, 1), None)
     assert plain["allocator"] == "murdoch" and "group_task_rate" not in plain
-    mixed = run_config(_settings(), RunOptions(60.0, 1, group_task_rate=0.25,
+    mixed = run_config(_settings(), RunOptions(60.0, 1, own={"group_tasks": 0.25},
                                                allocator="cbga"), None)
     assert mixed["allocator"] == "cbga" and mixed["group_task_rate"] == 0.25
 
 
 def test_group_tasks_are_for_the_longterm_experiment() -> None:
-    boxpush = EXPERIMENTS["boxpush"]
-    spec = load_world(world_path(boxpush.world))
-    with pytest.raises(click.UsageError, match="--group-tasks"):
-        boxpush.check(spec, RunOptions(60.0, 1, group_task_rate=0.5))
+    result = CliRunner().invoke(run, ["boxpush", "--group-tasks", "0.5"])
+    assert result.exit_code == 2
+    assert "--group-tasks is an option of longterm, not of boxpush" in result.output

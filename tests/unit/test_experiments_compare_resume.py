@@ -8,10 +8,11 @@ from pathlib import Path
 from experiments.compare_resume import expected_config, mismatch, reusable_run
 
 
-def _expected(**over: object) -> dict[str, object]:
+def _expected(group_tasks: float = 0.2, **over: object) -> dict[str, object]:
     base: dict[str, object] = dict(allocator="cbga", refine=False, seed=3, until_s=600.0,
-                                   task_interval_s=240.0, group_tasks=0.2,
-                                   kills=["busy@2m"], restarts=["busy@4m"], world=None)
+                                   task_interval_s=240.0, kills=["busy@2m"],
+                                   restarts=["busy@4m"], world=None,
+                                   own={"group_task_rate": group_tasks} if group_tasks else {})
     base.update(over)
     return expected_config(**base)  # type: ignore[arg-type]
 

@@ -7,33 +7,32 @@ from pathlib import Path
 import click
 import pytest
 
-from experiments import boxpush as bp
-from experiments.experiment import NoReferee, RunOptions
-from experiments.plugins import EXPERIMENTS, experiment
+from experiments import registry
+from experiments.plugin import NoReferee, RunOptions
 from experiments.plugins.boxpush import BoxpushReferee
+from experiments.registry import experiment, experiments
 from experiments.supervisor import BusPlace, ProcessSpec, robot_process
 from worlds import load_world, world_path
 
+EXPERIMENTS = experiments()
 
-def test_each_registered_experiment_runs_in_its_own_world() -> None:
-    assert set(EXPERIMENTS) == {"longterm", "boxpush"}
-    for name, plugin in EXPERIMENTS.items():
+
+@pytest.mark.parametrize("name", sorted(EXPERIMENTS))
+def test_each_registered_experiment_runs_in_its_own_world(name: str) -> None:
+    plugin = EXPERIMENTS[name]
+    if True:
         assert plugin.name == name and experiment(name) is plugin
         spec = load_world(world_path(plugin.world))
-        options = plugin.check(spec, RunOptions(duration_s=120.0, seed=3))
+        options = plugin.check(spec, RunOptions.of(plugin, 120.0, 3))
         first = next(plugin.tasks(spec, options))
         assert first is not None and first.t_s < 120.0
-        assert plugin.next_steps()
+        assert plugin.next_steps() or name not in registry.BUILT_IN
     assert experiment("soak-of-something-else") is None and experiment(None) is None
 
 
-def test_longterm_refuses_the_boxpush_options() -> None:
+def test_longterm_adds_nothing_of_its_own_without_group_tasks() -> None:
     plugin = EXPERIMENTS["longterm"]
     spec = load_world(world_path("longterm"))
-    with pytest.raises(click.UsageError, match="for the boxpush experiment"):
-        plugin.check(spec, RunOptions(60.0, 1, switch_offs=(("p1", 10.0),)))
-    with pytest.raises(click.UsageError, match="for the boxpush experiment"):
-        plugin.check(spec, RunOptions(60.0, 1, goal_plan=bp.GoalPlan((0.0, -0.01))))
     assert isinstance(plugin.referee(spec, RunOptions(60.0, 1)), NoReferee)
     assert plugin.config(RunOptions(60.0, 1)) == {} and plugin.faults(RunOptions(60.0, 1)) == []
 
@@ -41,9 +40,9 @@ def test_longterm_refuses_the_boxpush_options() -> None:
 def test_boxpush_resolves_its_robots_and_schedules_their_switches() -> None:
     plugin = EXPERIMENTS["boxpush"]
     spec = load_world(world_path("boxpush"))
-    options = plugin.check(spec, RunOptions(90.0, 2, switch_offs=(("p1", 30.0),),
-                                            switch_ons=(("p1", 60.0),)))
-    assert options.switch_offs == (("pusher1", 30.0),)
+    options = plugin.check(spec, RunOptions(90.0, 2, own={"switch_off": (("p1", 30.0),),
+                                                          "switch_on": (("p1", 60.0),)}))
+    assert options.own["switch_off"] == (("pusher1", 30.0),)
     assert [(f.action, f.robot, f.t_s) for f in plugin.faults(options)] == [
         ("switch-off", "pusher1", 30.0), ("switch-on", "pusher1", 60.0)]
     config = plugin.config(options)
@@ -53,10 +52,9 @@ def test_boxpush_resolves_its_robots_and_schedules_their_switches() -> None:
     assert set(referee.fault_actions()) == {"switch-off", "switch-on"}
     assert len(referee.samplers) == 2
     with pytest.raises(click.BadParameter, match="no robot"):
-        plugin.check(spec, RunOptions(90.0, 2, switch_offs=(("nobody", 30.0),)))
+        plugin.check(spec, RunOptions(90.0, 2, own={"switch_off": (("nobody", 30.0),)}))
     with pytest.raises(click.BadParameter, match="no marker"):
-        plugin.check(spec, RunOptions(90.0, 2, goal_plan=bp.GoalPlan(
-            retargets=((20.0, "nowhere"),))))
+        plugin.check(spec, RunOptions(90.0, 2, own={"retarget": (("nowhere", 20.0),)}))
 
 
 def test_the_goal_section_and_verdict_come_from_the_boxpush_plugin() -> None:
@@ -104,7 +102,11 @@ def test_a_robot_placed_elsewhere_is_launched_through_its_prefix_and_joins_over_
     assert "--zenoh-allow-remote" in rest and "--mcast-port" not in rest
     assert spec.as_dict()["launch"] == ["ip", "netns", "exec", "robots"]
 def test_boxpush_refuses_an_allocator_whose_robots_offer_no_sub_tasks() -> None:
-    spec = load_world(world_path("boxpush"))
-    with pytest.raises(click.BadParameter, match="expected one of murdoch, found cbga"):
-        EXPERIMENTS["boxpush"].check(spec, RunOptions(60.0, 1, allocator="cbga"))
-    assert EXPERIMENTS["boxpush"].check(spec, RunOptions(60.0, 1)).allocator == "murdoch"
+    from experiments.run_tasks import check_supports, supported_allocators
+
+    boxpush = EXPERIMENTS["boxpush"]
+    able = supported_allocators(boxpush)
+    assert "murdoch" in able and "cbga" not in able
+    with pytest.raises(click.BadParameter, match=r"sub-tasks.*found cbga"):
+        check_supports(boxpush, "cbga")
+    check_supports(boxpush, "murdoch")

@@ -12,8 +12,8 @@ from click.testing import CliRunner
 
 from behaviors.__main__ import main as robot_main
 from experiments.compare import Job, parse_allocators
-from experiments.experiment import RunOptions
-from experiments.plugins import EXPERIMENTS
+from experiments.plugin import RunOptions
+from experiments.registry import experiments
 from experiments.run_cli import run
 from experiments.run_extras import RunExtras
 from experiments.run_parts import RunSettings, run_config
@@ -52,7 +52,7 @@ def test_murdoch_run_refuses_refine_with_murdoch() -> None:
 
 
 def _settings(refine: bool) -> RunSettings:
-    return RunSettings(experiment=EXPERIMENTS["longterm"], world_name="longterm", speedup=0.0,
+    return RunSettings(experiment=experiments()["longterm"], world_name="longterm", speedup=0.0,
                        meshcat=False, out=Path("/o"), kills=(), restarts=(), replay=False,
                        pipelined=True, robot_nice=0, pin_cpus=False, key="k", trails=0,
                        lasers=False, record=False, record_rate_hz=2.0, metric_terms=(),

@@ -11,6 +11,7 @@ from experiments import events as ev
 from experiments import timeline
 from experiments.plots import PLOT_FILES, write_plots
 from experiments.progress import ProgressDisplay, ProgressTracker, format_line
+from experiments.registry import experiment
 from experiments.summary import summarize, terminal_state_problems
 
 E = ev.make_event
@@ -142,7 +143,8 @@ def test_pushes_per_end_per_pusher_before_alone_and_after() -> None:
     evs += [E(20.0, ev.ROBOT_SWITCH_OFF, robot="pusher1"),
             E(60.0, ev.ROBOT_SWITCH_ON, robot="pusher1", x=0.0, y=0.0),
             E(61.0, ev.BOX_PROGRESS, distance_m=4.0), E(62.0, ev.BOX_PROGRESS, distance_m=3.5)]
-    goal = summarize(sorted(evs, key=lambda e: e["t"]))["goal"]
+    goal = summarize(sorted(evs, key=lambda e: e["t"]), (),
+                     experiment("boxpush"))["goal"]
     assert goal["pushes"]["phases"] == {
         "before": {"pusher1": {"left": 2}, "pusher2": {"right": 1}},
         "alone": {"pusher2": {"left": 1, "right": 1}},

@@ -19,8 +19,8 @@ from behaviors.host_control import (
     parse_command,
     parse_status,
 )
-from experiments.experiment import Fault
-from experiments.plugins import EXPERIMENTS
+from experiments.plugin import Fault
+from experiments.registry import experiments
 from experiments.robot_hosts import group_robots, robots_per_process
 from experiments.run_checks import RunSetupError
 from experiments.run_cli import run
@@ -91,7 +91,7 @@ def test_a_host_tells_what_it_cannot_do_and_goes_on() -> None:
 
 def _settings(**kw: object) -> RunSettings:
     base: dict[str, object] = dict(
-        experiment=EXPERIMENTS["longterm"], world_name="longterm", speedup=0.0, meshcat=False,
+        experiment=experiments()["longterm"], world_name="longterm", speedup=0.0, meshcat=False,
         out=Path("/o"), kills=(), restarts=(), replay=False, pipelined=True, robot_nice=0,
         pin_cpus=False, key="k", trails=0, lasers=False, record=False, record_rate_hz=2.0,
         metric_terms=(), extras=RunExtras())
