@@ -345,13 +345,23 @@ class ServerCore(PlayerRequests):
         """The DATA of the session's live devices, read now (they lead the round)."""
         out = []
         t = self._sim_time_s()
+        payloads = self._payloads
         for key, driver in s.subs.items():
             if not driver.live:
                 continue
             try:
                 for subtype, body in driver.data():
-                    out.append(encode_message(key[0], key[1], _DATA, subtype, body,
-                                              timestamp=t, robot=s.endpoint.port))
+                    # the same body as last time (a team clock table no count changed in):
+                    # its bytes are re-used, only the header is new
+                    pk = ((id(driver), key[0], key[1]), subtype)
+                    known = payloads.get(pk)
+                    if known is not None and known[0] is body:
+                        payload = known[1]
+                    else:
+                        payload = encode_payload(body)
+                        payloads[pk] = (body, payload)
+                    out.append(encode_with_payload(key[0], key[1], _DATA, subtype, payload,
+                                                   timestamp=t, robot=s.endpoint.port))
             except Exception:
                 log.exception("driver %s failed to produce data", driver.driver_name)
         return b"".join(out)
@@ -379,9 +389,23 @@ class ServerCore(PlayerRequests):
         built = s.built
         if built is not None and built[0] == version:
             return built[1]
-        rules = s.rules
-        wires = [wire for dkey, wire in self._round_items(s)
-                 if not rules or self._rule(s, dkey) != c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE]
+        reads = s.reads
+        if reads is None:
+            reads = s.reads = tuple(
+                (key, driver) for key, driver in s.subs.items()
+                if not driver.live and not (s.rules and self._device_ignored(s, key)))
+        device_data = self._device_data
+        ep = s.endpoint
+        wires: list[bytes] = []
+        if s.rules:
+            ignore = c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE
+            for key, driver in reads:
+                wires.extend(wire for dkey, wire in device_data(ep, key, driver, version)
+                             if self._rule(s, dkey) != ignore)
+        else:
+            for key, driver in reads:
+                for _dkey, wire in device_data(ep, key, driver, version):
+                    wires.append(wire)
         # the DATA (encoded once per tick and device, shared by every client) and the
         # SYNCH leave as one queue entry, i.e. in the same write as what precedes them
         data = None

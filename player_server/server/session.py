@@ -97,12 +97,15 @@ class Session:
     ignored: dict[tuple[int, int], bool] = field(default_factory=dict)
     # the last round built: (data version, its bytes with the SYNCH, or None when empty)
     built: tuple[tuple[float, int], bytes | None] | None = None
+    # the devices a PULL round reads, in order: subscribed, neither live nor declined
+    reads: tuple[tuple[tuple[int, int], Driver], ...] | None = None
 
     def forget_plan(self) -> None:
         """Subscriptions or rules changed: what was worked out from them no longer holds."""
         self.rule_of.clear()
         self.ignored.clear()
         self.built = None
+        self.reads = None
 
     @property
     def wants_input(self) -> bool:
