@@ -39,21 +39,28 @@ class Avoid:
         if not self.name:
             object.__setattr__(self, "name", f"avoid-obstacles-with-{self.device}")
 
-    def decide(self, snapshot: Snapshot, now: float) -> Proposal:
+    def _nearest(self, snapshot: Snapshot, now: float) -> tuple[Any, float]:
+        """(the scan, the nearest range in the front sectors); inf when there is no fresh
+        scan."""
         scan = snapshot.sonar if self.device == "sonar" else snapshot.laser
         front_half = self.front_half_angle_rad
         assert front_half is not None  # set in __post_init__
         if scan is None or not scan.ranges_m or now - scan.time_s > self.max_age_s:
-            return INACTIVE
+            return scan, math.inf
         # Sectors: a blind cone straight ahead (e.g. the box being pushed) is ignored.
         ignore_half = self.ignore_half_angle_rad
         left = scan.min_in_sector(ignore_half, front_half)
         right = scan.min_in_sector(-front_half, -ignore_half)
-        if ignore_half <= 0.0:
-            front = min(left, right)
-        else:
-            front = math.inf
-        nearest = min(left, right, front)
+        return scan, min(left, right)
+
+    def inputs_key(self, snapshot: Snapshot, now: float) -> bool | None:
+        """False while nothing is closer than `safe_range_m` ahead (or there is no fresh
+        scan): the proposal is then INACTIVE whatever the ranges (see `runner`); None:
+        decide."""
+        return False if not self._nearest(snapshot, now)[1] < self.safe_range_m else None
+
+    def decide(self, snapshot: Snapshot, now: float) -> Proposal:
+        scan, nearest = self._nearest(snapshot, now)
         safe = self.safe_range_m
         if not nearest < safe:
             return INACTIVE

@@ -74,6 +74,14 @@ class VisualServoToColour(ForwardSpeedLimit):
     weight: float = 0.7
     name: str = "visual-servo-to-colour"
 
+    def inputs_key(self, snapshot: Snapshot, now: float) -> object:
+        """What `decide` looks at: the freshest largest blob of the colour (see `runner`)."""
+        view = snapshot.camera
+        blob = seen(view, now, self.max_age_s, self.colour)
+        if blob is None or view is None:
+            return 0
+        return (blob, view.width_px, view.fov_rad)
+
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
         view = snapshot.camera
         blob = seen(view, now, self.max_age_s, self.colour)

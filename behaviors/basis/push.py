@@ -24,6 +24,14 @@ class PushWithBumpers(ReversibleSpeedLimit):
     name: str = "push-with-bumpers"
     max_turn_radps: float = 0.0
 
+    def inputs_key(self, snapshot: Snapshot, now: float) -> int:
+        """0 no fresh front contact, 1 in contact, 2 in contact and stalled (see `runner`)."""
+        bumpers = snapshot.bumpers
+        if bumpers is None or now - bumpers.time_s > self.max_age_s or not bumpers.front_pressed:
+            return 0
+        odo = snapshot.odometry
+        return 2 if odo is not None and odo.stall and now - odo.time_s <= self.max_age_s else 1
+
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
         bumpers = snapshot.bumpers
         if bumpers is None or now - bumpers.time_s > self.max_age_s or not bumpers.front_pressed:

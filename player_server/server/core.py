@@ -49,8 +49,6 @@ from player_server.protocol.codec import (
     Decoder,
     Undecodable,
     encode_message,
-    encode_payload,
-    encode_with_payload,
 )
 from player_server.protocol.constants import Interface, MsgType
 from player_server.protocol.errors import EncodeError, FrameError
@@ -58,6 +56,7 @@ from player_server.protocol.header import Message
 from player_server.server.endpoint import Endpoint
 from player_server.server.log_limit import LogLimiter
 from player_server.server.out_queue import DataKey, OutQueue
+from player_server.server.payloads import PayloadCache
 from player_server.server.player_requests import PlayerRequests
 from player_server.server.session import CoreConfig, CoreCounters, Session
 from player_server.server.watchdog import CommandWatchdog
@@ -88,8 +87,7 @@ class ServerCore(PlayerRequests):
         self.sessions: dict[int, Session] = {}
         self.round_seq = 0
         self._cache: dict[tuple[int, int, int], tuple[Any, list[tuple[DataKey, bytes]]]] = {}
-        # the last body of each device's DATA subtype and its encoded bytes (see _device_data)
-        self._payloads: dict[tuple[tuple[int, int, int], int], tuple[Any, bytes]] = {}
+        self._payloads = PayloadCache()
         #: bumped whenever a driver handles a request or command (state may have changed)
         self._mutations = 0
         self.participants_seen = 0
@@ -306,22 +304,12 @@ class ServerCore(PlayerRequests):
         if hit is not None and hit[0] == version:
             return hit[1]
         out: list[tuple[DataKey, bytes]] = []
-        payloads = self._payloads
+        wire = self._payloads.wire
         try:
-            items = driver.data()
             t = version[0]
-            for subtype, body in items:
-                # a driver hands back the same body object while its reading is unchanged
-                # (a robot standing still): its bytes are re-used, only the header is new
-                pk = (ck, subtype)
-                known = payloads.get(pk)
-                if known is not None and known[0] is body:
-                    payload = known[1]
-                else:
-                    payload = encode_payload(body)
-                    payloads[pk] = (body, payload)
-                out.append(((key[0], key[1], _DATA, subtype), encode_with_payload(
-                    key[0], key[1], _DATA, subtype, payload, timestamp=t, robot=ep.port)))
+            for subtype, body in driver.data():
+                out.append(((key[0], key[1], _DATA, subtype),
+                            wire(ck, key[0], key[1], subtype, body, t, ep.port)))
         except Exception as exc:  # contained to this device: the others still send theirs
             self.counters.driver_errors += 1
             self.limiter.log("driver data", logging.ERROR, "driver %s failed to produce data: %r",
@@ -343,15 +331,15 @@ class ServerCore(PlayerRequests):
 
     def _live_bytes(self, s: Session) -> bytes:
         """The DATA of the session's live devices, read now (they lead the round)."""
-        out = []
+        out: list[bytes] = []
         t = self._sim_time_s()
+        wire = self._payloads.wire
         for key, driver in s.subs.items():
             if not driver.live:
                 continue
             try:
-                for subtype, body in driver.data():
-                    out.append(encode_message(key[0], key[1], _DATA, subtype, body,
-                                              timestamp=t, robot=s.endpoint.port))
+                out.extend(wire(driver, key[0], key[1], subtype, body, t, s.endpoint.port)
+                           for subtype, body in driver.data())
             except Exception:
                 log.exception("driver %s failed to produce data", driver.driver_name)
         return b"".join(out)
@@ -379,9 +367,19 @@ class ServerCore(PlayerRequests):
         built = s.built
         if built is not None and built[0] == version:
             return built[1]
-        rules = s.rules
-        wires = [wire for dkey, wire in self._round_items(s)
-                 if not rules or self._rule(s, dkey) != c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE]
+        reads = s.round_reads(self._device_ignored)
+        device_data = self._device_data
+        ep = s.endpoint
+        wires: list[bytes] = []
+        if s.rules:
+            ignore = c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE
+            for key, driver in reads:
+                wires.extend(wire for dkey, wire in device_data(ep, key, driver, version)
+                             if self._rule(s, dkey) != ignore)
+        else:
+            for key, driver in reads:
+                for _dkey, wire in device_data(ep, key, driver, version):
+                    wires.append(wire)
         # the DATA (encoded once per tick and device, shared by every client) and the
         # SYNCH leave as one queue entry, i.e. in the same write as what precedes them
         data = None

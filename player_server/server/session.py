@@ -3,6 +3,7 @@ connection (subscriptions, data mode, replace rules, queue, round state) and the
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from player_server.drivers.base import Driver
@@ -97,12 +98,24 @@ class Session:
     ignored: dict[tuple[int, int], bool] = field(default_factory=dict)
     # the last round built: (data version, its bytes with the SYNCH, or None when empty)
     built: tuple[tuple[float, int], bytes | None] | None = None
+    # the devices a PULL round reads, in order: subscribed, neither live nor declined
+    reads: tuple[tuple[tuple[int, int], Driver], ...] | None = None
 
     def forget_plan(self) -> None:
         """Subscriptions or rules changed: what was worked out from them no longer holds."""
         self.rule_of.clear()
         self.ignored.clear()
         self.built = None
+        self.reads = None
+
+    def round_reads(self, ignored: Callable[[Session, tuple[int, int]], bool],
+                    ) -> tuple[tuple[tuple[int, int], Driver], ...]:
+        """The devices a PULL round reads, in order: subscribed, neither live (read when
+        the round goes out) nor declined by the client's rules (``ignored``)."""
+        if self.reads is None:
+            self.reads = tuple((key, d) for key, d in self.subs.items()
+                               if not d.live and not (self.rules and ignored(self, key)))
+        return self.reads
 
     @property
     def wants_input(self) -> bool:

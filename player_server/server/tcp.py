@@ -4,9 +4,12 @@ The only module of the server that touches sockets. Every accepted connection be
 ``Session`` of the core; bytes read are handed to ``core.receive`` and queued output is
 written with as few ``send`` calls as possible (whole messages, TCP_NODELAY).
 
-Every receive is followed by TCP_QUICKACK (Linux): a client that leaves Nagle's algorithm on
-(as libplayerc does) and sends a command, which gets no reply, then a request would
-otherwise wait for the server's delayed ACK (~40 ms) before the request leaves it.
+A receive that sends nothing back at once (a command) is followed by TCP_QUICKACK (Linux):
+a client that leaves Nagle's algorithm on (as libplayerc does) and sends a command, which
+gets no reply, then a request would otherwise wait for the server's delayed ACK (~40 ms)
+before the request leaves it. A reply sent at once carries the ACK itself, and so does a
+PULL round that a REQ DATA left pending (the client waits for it anyway): neither needs
+that system call.
 
 Against hostile clients: at most ``max_connections`` at once (more are closed at accept); a
 client whose input exceeds its per-turn budget is not read again until the core has worked
@@ -285,38 +288,42 @@ class TcpFrontEnd:
         if not n:
             self._drop(conn, "closed by peer")
             return
-        if _QUICKACK is not None:
-            # acknowledge now, not after the delayed-ACK timer: a Nagle client's next
-            # message waits for this ACK
-            with contextlib.suppress(OSError):
-                conn.sock.setsockopt(socket.IPPROTO_TCP, _QUICKACK, 1)
         self.core.receive(conn.session, view[:n])
         if conn.session.closing is not None:
             self._drop(conn, conn.session.closing, abort=True)
-        elif not conn.session.round_pending:
-            self._write(conn)  # replies leave at once; a pending round joins its ACK later
+            return
+        if conn.session.round_pending:
+            return  # its ACK leaves with the round, and the client waits for that anyway
+        if not self._write(conn) and _QUICKACK is not None:  # replies leave at once
+            # nothing went back to carry the TCP ACK: acknowledge now, not after the
+            # delayed-ACK timer (a Nagle client's next message waits for this ACK)
+            with contextlib.suppress(OSError):
+                conn.sock.setsockopt(socket.IPPROTO_TCP, _QUICKACK, 1)
 
     def _round_ready(self, session: Session) -> None:
         conn = self._by_session.get(session.id)
         if conn is not None and not conn.out and session.closing is None:
             self._write(conn)
 
-    def _write(self, conn: _Conn) -> None:
+    def _write(self, conn: _Conn) -> bool:
+        """Send what the connection has queued, without blocking; True if bytes left."""
+        sent = False
         while True:
             if not conn.out:
                 if not self.core.has_output(conn.session):
-                    return
+                    return sent
                 conn.out = memoryview(self.core.take_output(conn.session))
             try:
                 n = conn.sock.send(conn.out)
             except (BlockingIOError, InterruptedError):
-                return
+                return sent
             except OSError as exc:
                 self._drop(conn, f"write error: {exc}")
-                return
+                return sent
+            sent = sent or n > 0
             conn.out = conn.out[n:]
             if conn.out:
-                return
+                return sent
 
     def _update_interest(self, conn: _Conn) -> None:
         if conn.sock.fileno() < 0:

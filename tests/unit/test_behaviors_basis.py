@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import random
 
 from behaviors import basis
 from behaviors.basis.boxwatch import find_face
@@ -54,6 +55,40 @@ def test_avoid_ignores_blind_cone() -> None:
     ranges[90] = 0.2  # straight ahead only
     b = basis.AvoidWithLaser(ignore_half_angle_rad=math.radians(10))
     assert not b.decide(Snapshot(T, laser=laser(ranges)), T).active
+
+
+def test_avoid_inputs_key_is_false_exactly_when_it_would_stay_inactive() -> None:
+    rng = random.Random(7)
+    for case in range(300):
+        b = basis.AvoidWithLaser(safe_range_m=0.5,
+                                 ignore_half_angle_rad=math.radians(10) if case % 2 else 0.0)
+        ranges = [rng.choice((5.0, rng.uniform(0.1, 1.0))) for _ in range(181)]
+        age = rng.choice((0.0, 0.0, 1.0))  # a stale scan is ignored
+        snap = Snapshot(T + age, laser=laser(ranges))
+        key = b.inputs_key(snap, T + age)
+        p = b.decide(snap, T + age)
+        assert (key is False) == (not p.active), (case, key, p)
+        assert key in (False, None)
+    assert basis.AvoidWithLaser().inputs_key(Snapshot(T), T) is False  # no scan at all
+
+
+def test_equal_inputs_keys_give_equal_proposals() -> None:
+    """A behaviour's inputs_key, where it has one, stands for everything decide reads."""
+    rng = random.Random(11)
+    behaviours = (basis.VisualServoToColour(RED, aim_fraction=0.2, stop_range_m=1.0),
+                  basis.KeepDistanceToColour(RED, 1.5), basis.PushWithBumpers())
+    for b in behaviours:
+        seen_keys: dict[object, object] = {}
+        for _ in range(400):
+            t = T + rng.choice((0.0, 1.0))  # scenes taken at T, one of them stale at T + 1
+            left = rng.randrange(-20, 150)
+            blobs = (blob(left, left + rng.randrange(1, 60), rng.choice((0.5, 1.0, 2.5))),
+                     ) if rng.random() < 0.7 else ()
+            snap = Snapshot(T, camera=view(*blobs), odometry=odo(stall=rng.random() < 0.3),
+                            bumpers=Bumpers(tuple(rng.random() < 0.3 for _ in range(3)), T))
+            key = b.inputs_key(snap, t)
+            p = b.decide(snap, t)
+            assert seen_keys.setdefault(key, p) == p, (b.name, key)
 
 
 def test_servo_to_location_turns_towards_goal_and_stops_there() -> None:
