@@ -109,3 +109,13 @@ def test_a_bad_fault_file_is_named_without_a_traceback(tmp_path: Path) -> None:
     assert str(faults) in done.stderr and "p42" in done.stderr
     assert "Traceback" not in done.stderr
     assert not (tmp_path / "runs").exists()
+
+
+def test_an_unknown_world_is_named_without_a_traceback(tmp_path: Path) -> None:
+    done = subprocess.run([*_murdoch(), "soak", "longterm", "--world", "atlantis",
+                           "--out", str(tmp_path / "runs")], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 2
+    assert "--world" in done.stderr and "atlantis" in done.stderr
+    assert "Traceback" not in done.stderr
+    assert not (tmp_path / "runs").exists()
