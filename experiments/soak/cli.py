@@ -65,6 +65,8 @@ def _rate_and_span(
               help="Simulated hours to run.")
 @click.option("--seed", type=int, default=1, show_default=True,
               help="Fixes the world, the tasks and the fault schedule.")
+@click.option("--world", "world_name", default=None,
+              help="World name or .toml (default: the experiment's).")
 @click.option("--faults", "faults_opt", default="random", show_default=True,
               help="random (drawn from the seed), none, or a JSON file of faults.")
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("runs"),
@@ -101,8 +103,8 @@ def _rate_and_span(
               "check then has no poses and is reported as not checked).")
 @click.option("--meshcat", is_flag=True, help="Serve the live 3-D view on 127.0.0.1.")
 @click.pass_context
-def soak(ctx: click.Context, experiment: str, sim_hours: float, seed: int, faults_opt: str,
-         out: Path,
+def soak(ctx: click.Context, experiment: str, sim_hours: float, seed: int,
+         world_name: str | None, faults_opt: str, out: Path,
          speedup: float, kills_per_hour: float, kill_down: str, freezes_per_hour: float,
          freeze_for: str, switch_offs: int, charger_outages_per_hour: float,
          charger_outage: str, bursts: int, burst_size: int, loss: float, delay: float,
@@ -116,12 +118,16 @@ def soak(ctx: click.Context, experiment: str, sim_hours: float, seed: int, fault
     from experiments.soak.invariants import Limits
     from experiments.soak.monitor import SoakMonitor
     from experiments.soak.report import build_report, print_report
-    from worlds import load_world, world_path
+    from worlds import WorldError, load_world, world_path
 
     span_s = sim_hours * 3600.0
     every = experiments()
     own = own_values(every[experiment], every, values, ctx)
-    spec = load_world(world_path(every[experiment].world))
+    world_name = world_name or every[experiment].world
+    try:
+        spec = load_world(world_path(world_name))
+    except (FileNotFoundError, WorldError) as exc:
+        raise click.BadParameter(str(exc), param_hint="--world") from exc
     robots = [r.name for r in spec.robots]
     mobile = [r.name for r in spec.robots if r.mobile]
     chargers = [c.name for c in spec.chargers]
@@ -166,7 +172,7 @@ def soak(ctx: click.Context, experiment: str, sim_hours: float, seed: int, fault
     try:
         code = run_experiment(
             experiment=experiment, duration_s=span_s, speedup=speedup, seed=seed,
-            meshcat=meshcat, out=out, world_name=every[experiment].world,
+            meshcat=meshcat, out=out, world_name=world_name,
             task_interval_s=task_interval, kills=[], restarts=[], replay=False, own=own,
             pin_cpus=True, record=not no_record, extras=extras)
     finally:

@@ -108,6 +108,48 @@ def _every_footprint(skip: int, zi: float, ox: float, oy: float, dx: float, dy: 
     return b
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _ray(o: complex, d: complex, z: float, limit: float, room: np.ndarray
+         ) -> tuple[float, float, float, float, float]:
+    """A ray's origin and direction as (ox, oy, dx, dy), and how far it may go: its limit, or
+    the arena's wall if nearer and the ray is no higher than the wall."""
+    ox = o.real
+    oy = o.imag
+    dx = d.real
+    dy = d.imag
+    b = limit
+    if room.shape[0] == 3 and z <= room[2]:
+        w = _wall(ox, oy, dx, dy, room[0], room[1])
+        if w < b:
+            b = w
+    return ox, oy, dx, dy, b
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _slab(o: float, d: float, lo: float, hi: float, t_in: float, t_out: float
+          ) -> tuple[float, float]:
+    """(t_in, t_out) narrowed to where a ray along one axis (origin o, direction d) lies
+    between lo and hi; t_out -1 if it never does."""
+    if d != 0.0:
+        ta = (lo - o) / d
+        tb = (hi - o) / d
+        return max(t_in, min(ta, tb)), min(t_out, max(ta, tb))
+    if o < lo or o > hi:
+        return t_in, -1.0
+    return t_in, t_out
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _axis_step(o: float, d: float, lo: float, cell: float, at: int) -> tuple[int, float, float]:
+    """Along one axis, for a ray in cell `at` (cells of side `cell` from `lo`): the cell step
+    (-1, 0, 1), the ray parameter at the next cell boundary, and between boundaries."""
+    if d > 0.0:
+        return 1, (lo + (at + 1) * cell - o) / d, cell / d
+    if d < 0.0:
+        return -1, (lo + at * cell - o) / d, -cell / d
+    return 0, np.inf, np.inf
+
+
 @njit(cache=True, error_model="numpy", nogil=True)
 def cast_rays(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarray,
               own: np.ndarray, centre: np.ndarray, head_conj: np.ndarray, half: np.ndarray,
@@ -122,20 +164,10 @@ def cast_rays(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarray,
     """
     n = o.shape[0]
     n_rect = head_conj.shape[0]
-    has_room = room.shape[0] == 3
     best = np.empty(n)
     for i in range(n):
-        ox = o[i].real
-        oy = o[i].imag
-        dx = d[i].real
-        dy = d[i].imag
-        zi = z[i]
-        b = limit[i]
-        if has_room and zi <= room[2]:
-            w = _wall(ox, oy, dx, dy, room[0], room[1])
-            if w < b:
-                b = w
-        best[i] = _every_footprint(own[i], zi, ox, oy, dx, dy, b, n_rect, centre, head_conj,
+        ox, oy, dx, dy, b = _ray(o[i], d[i], z[i], limit[i], room)
+        best[i] = _every_footprint(own[i], z[i], ox, oy, dx, dy, b, n_rect, centre, head_conj,
                                    half, radius, top)
     return best
 
@@ -151,7 +183,6 @@ def cast_rays_grid(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarra
     n = o.shape[0]
     k = centre.shape[0]
     n_rect = head_conj.shape[0]
-    has_room = room.shape[0] == 3
     x0 = gp[0]
     y0 = gp[1]
     cell = gp[2]
@@ -162,16 +193,8 @@ def cast_rays_grid(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarra
     mark = np.full(k, -1, np.int64)  # the last ray that tested each footprint
     best = np.empty(n)
     for i in range(n):
-        ox = o[i].real
-        oy = o[i].imag
-        dx = d[i].real
-        dy = d[i].imag
+        ox, oy, dx, dy, b = _ray(o[i], d[i], z[i], limit[i], room)
         zi = z[i]
-        b = limit[i]
-        if has_room and zi <= room[2]:
-            w = _wall(ox, oy, dx, dy, room[0], room[1])
-            if w < b:
-                b = w
         skip = own[i]
         if not (math.isfinite(ox) and math.isfinite(oy) and math.isfinite(dx)
                 and math.isfinite(dy)) or (dx == 0.0 and dy == 0.0):
@@ -180,50 +203,16 @@ def cast_rays_grid(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarra
                                        half, radius, top)
             continue
         # The part of the ray inside the grid's box.
-        t_in = 0.0
-        t_out = b
-        if dx != 0.0:
-            ta = (x0 - ox) / dx
-            tb = (x1 - ox) / dx
-            t_in = max(t_in, min(ta, tb))
-            t_out = min(t_out, max(ta, tb))
-        elif ox < x0 or ox > x1:
-            t_out = -1.0
-        if dy != 0.0:
-            ta = (y0 - oy) / dy
-            tb = (y1 - oy) / dy
-            t_in = max(t_in, min(ta, tb))
-            t_out = min(t_out, max(ta, tb))
-        elif oy < y0 or oy > y1:
-            t_out = -1.0
+        t_in, t_out = _slab(ox, dx, x0, x1, 0.0, b)
+        t_in, t_out = _slab(oy, dy, y0, y1, t_in, t_out)
         if t_in > t_out:
             best[i] = b
             continue
         ix = grid_index.cell_of(ox + dx * t_in, x0, cell, nx)
         iy = grid_index.cell_of(oy + dy * t_in, y0, cell, ny)
         # Amanatides-Woo traversal: the ray parameter at the next x and y cell boundary.
-        step_x = 0
-        t_max_x = np.inf
-        t_dx = np.inf
-        if dx > 0.0:
-            step_x = 1
-            t_max_x = (x0 + (ix + 1) * cell - ox) / dx
-            t_dx = cell / dx
-        elif dx < 0.0:
-            step_x = -1
-            t_max_x = (x0 + ix * cell - ox) / dx
-            t_dx = -cell / dx
-        step_y = 0
-        t_max_y = np.inf
-        t_dy = np.inf
-        if dy > 0.0:
-            step_y = 1
-            t_max_y = (y0 + (iy + 1) * cell - oy) / dy
-            t_dy = cell / dy
-        elif dy < 0.0:
-            step_y = -1
-            t_max_y = (y0 + iy * cell - oy) / dy
-            t_dy = -cell / dy
+        step_x, t_max_x, t_dx = _axis_step(ox, dx, x0, cell, ix)
+        step_y, t_max_y, t_dy = _axis_step(oy, dy, y0, cell, iy)
         while True:
             c = iy * nx + ix
             for j in range(start[c], start[c + 1]):

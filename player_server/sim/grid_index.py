@@ -125,15 +125,24 @@ def _span(lo: float, hi: float, origin: float, cell: float, n: int) -> tuple[int
 
 
 @njit(cache=True)
+def _cells_of(x: float, y: float, r: float, x0: float, y0: float, cell: float, nx: int,
+              ny: int) -> tuple[int, int, int, int]:
+    """The first and last column and row of the cells a thing at (x, y) of radius r touches;
+    an empty range (0, -1) for a thing with no finite place."""
+    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(r)):
+        return 0, -1, 0, -1
+    ax, bx = _span(x - r, x + r, x0, cell, nx)
+    ay, by = _span(y - r, y + r, y0, cell, ny)
+    return ax, bx, ay, by
+
+
+@njit(cache=True)
 def _fill(cx: np.ndarray, cy: np.ndarray, radius: np.ndarray, x0: float, y0: float,
           cell: float, nx: int, ny: int) -> tuple[np.ndarray, np.ndarray]:
     k = cx.shape[0]
     count = np.zeros(nx * ny + 1, np.int64)
     for f in range(k):
-        if not (math.isfinite(cx[f]) and math.isfinite(cy[f]) and math.isfinite(radius[f])):
-            continue
-        ax, bx = _span(cx[f] - radius[f], cx[f] + radius[f], x0, cell, nx)
-        ay, by = _span(cy[f] - radius[f], cy[f] + radius[f], y0, cell, ny)
+        ax, bx, ay, by = _cells_of(cx[f], cy[f], radius[f], x0, y0, cell, nx, ny)
         for iy in range(ay, by + 1):
             for ix in range(ax, bx + 1):
                 count[iy * nx + ix + 1] += 1
@@ -141,10 +150,7 @@ def _fill(cx: np.ndarray, cy: np.ndarray, radius: np.ndarray, x0: float, y0: flo
     fill = start[:-1].copy()
     items = np.empty(start[-1], np.int64)
     for f in range(k):
-        if not (math.isfinite(cx[f]) and math.isfinite(cy[f]) and math.isfinite(radius[f])):
-            continue
-        ax, bx = _span(cx[f] - radius[f], cx[f] + radius[f], x0, cell, nx)
-        ay, by = _span(cy[f] - radius[f], cy[f] + radius[f], y0, cell, ny)
+        ax, bx, ay, by = _cells_of(cx[f], cy[f], radius[f], x0, y0, cell, nx, ny)
         for iy in range(ay, by + 1):
             for ix in range(ax, bx + 1):
                 c = iy * nx + ix

@@ -1,77 +1,59 @@
-"""`murdoch soak`: two simulated hours of `longterm` under dense random faults keep every
-invariant, and a broken invariant makes the command exit non-zero."""
+"""`murdoch soak`: fifteen simulated minutes of `longterm` in the small low-battery world
+under dense random faults keep every invariant, and a broken invariant makes the command exit
+non-zero.
+
+The faults are drawn from the seed as in any soak, at rates that put every kind (kill and
+restart, freeze and thaw, a switch-off, a charger outage, a burst) into the first ten
+minutes; the robots' tiny batteries send them to charge within the first minute and a half;
+memory is sampled every half wall second, so the five minutes after the warm-up (600 s)
+hold enough samples to judge. The two-hour soak of the six-robot world is opt-in:
+`tests/soak/test_longterm_soak.py`."""
 
 from __future__ import annotations
 
 import json
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 from typing import Any
 
 import pytest
+from soak_checks import check_soak_run, murdoch_command
 
 from experiments import events as ev
-from experiments.soak.report import PLOT_FILES, SOAK_JSON, SOAK_MD
+from experiments.soak.report import SOAK_JSON
 
-INVARIANTS = ("terminal_states", "exclusive_execution", "reallocation_bound", "charging",
-              "dead_controller_still", "memory_flat")
+_murdoch = murdoch_command
 
 
-def _murdoch() -> list[str]:
-    exe = Path(sys.executable).parent / "murdoch"
-    return [str(exe)] if exe.exists() else [sys.executable, "-m", "experiments.cli"]
+SHORT_SOAK = ["--sim-hours", "0.25", "--seed", "11", "--world", "test_lowbattery",
+              "--faults", "random", "--task-interval", "20",
+              "--kills-per-hour", "20", "--kill-down", "20s-40s", "--freezes-per-hour", "20",
+              "--freeze-for", "5s-20s", "--charger-outages-per-hour", "12",
+              "--charger-outage", "1m-2m", "--burst-size", "15", "--memory-every", "0.5",
+              # as in the two-hour soak: a short window cannot tell slow growth from warming
+              # up (memory is judged from 600 s, the warm-up, to the end)
+              "--memory-slope-limit", "30"]
+"""Seed 11 draws, inside the 120-600 s fault window: a freeze, kills, a charger outage, a
+switch-off and a burst (checked below from config.json, so a change in the draw shows)."""
 
 
 @pytest.fixture(scope="module")
 def soak_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str, int]:
     out = tmp_path_factory.mktemp("soak") / "runs"
-    done = subprocess.run(
-        [*_murdoch(), "soak", "longterm", "--sim-hours", "2", "--seed", "4",
-         "--faults", "random", "--out", str(out), "--task-interval", "120",
-         "--kills-per-hour", "4", "--kill-down", "30s-2m", "--freezes-per-hour", "4",
-         "--freeze-for", "5s-40s", "--charger-outages-per-hour", "3",
-         "--charger-outage", "3m-6m", "--burst-size", "15", "--memory-every", "2",
-         # an hour's window cannot tell slow growth from warming up: the day-long soak
-         # keeps the default limit of 2 MiB per simulated hour
-         "--memory-slope-limit", "30"],
-        capture_output=True, text=True, timeout=3000)
+    done = subprocess.run([*_murdoch(), "soak", "longterm", *SHORT_SOAK, "--out", str(out)],
+                          capture_output=True, text=True, timeout=1500)
     (run_dir,) = out.iterdir()
     return run_dir, done.stdout + done.stderr, done.returncode
 
 
-@pytest.mark.timeout(3600)
-def test_two_hours_under_random_faults_keep_every_invariant(
+@pytest.mark.timeout(1800)
+def test_minutes_under_random_faults_keep_every_invariant(
         soak_run: tuple[Path, str, int]) -> None:
-    run_dir, output, code = soak_run
-    assert code == 0, output[-3000:]
-    report = json.loads((run_dir / SOAK_JSON).read_text())
-    for name in INVARIANTS:
-        verdict = report["invariants"][name]
-        assert verdict["checked"] and verdict["held"], (name, verdict)
-    assert report["all_held"]
-    assert "drive commands inside dead spans" in report["invariants"]["dead_controller_still"][
-        "note"]
-    # every kind of fault was injected, and some took a task from its holder
-    config = json.loads((run_dir / "config.json").read_text())
-    actions = {f["action"] for f in config["faults"]}
-    assert {"kill", "restart", "freeze", "thaw", "retire", "charger-off", "charger-on",
-            "burst"} <= actions
-    injected = report["faults_injected"]
-    for kind in ("robot_failure:killed", "robot_freeze", "robot_thaw", "robot_switch_off",
-                 "charger_off", "charger_on", "task_burst"):
-        assert injected.get(kind, 0) >= 1, (kind, injected)
-    assert report["reallocation_latency_s"]["count"] >= 1
-    assert report["reallocation_latency_s"]["max"] <= report["limits"]["realloc_bound_s"]
-    assert report["tasks_total"]["introduced"] >= 15 + 10
-    assert report["messages_per_hour"][0] > 0 and report["bytes_per_hour"][0] > 0
-    assert report["memory"]["runner"]["slope_mib_per_h"] is not None
-    for plot in PLOT_FILES:
-        assert (run_dir / "plots" / plot).stat().st_size > 1000, plot
-    md = (run_dir / SOAK_MD).read_text()
-    assert "| reallocation_bound" in md and "held" in md
-    assert "all invariants held" in output
+    check_soak_run(*soak_run, burst_size=15)
+    # the tiny batteries sent a robot to charge
+    events = ev.read_events(soak_run[0] / "events.jsonl")
+    assert any(e["kind"] == ev.CHARGE_START for e in events)
 
 
 @pytest.mark.timeout(600)
@@ -147,3 +129,13 @@ def test_boxpush_soaks_until_the_box_arrives_and_keeps_every_invariant(
     assert summary["goal"]["reached"]
     kinds = {e["kind"] for e in ev.read_events(run_dir / "events.jsonl")}
     assert kinds & {ev.ROBOT_FAILURE, ev.ROBOT_FREEZE}, "no fault fell inside the episode"
+
+
+def test_an_unknown_world_is_named_without_a_traceback(tmp_path: Path) -> None:
+    done = subprocess.run([*_murdoch(), "soak", "longterm", "--world", "atlantis",
+                           "--out", str(tmp_path / "runs")], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 2
+    assert "--world" in done.stderr and "atlantis" in done.stderr
+    assert "Traceback" not in done.stderr
+    assert not (tmp_path / "runs").exists()
