@@ -350,7 +350,9 @@ class BoxpushReferee:
         self.round += 1
         old = loop.main_task
         if old is not None and old not in loop.state.finished:
-            loop.node.cancel(old, "round over: box at the goal")
+            why = self.round_over_why
+            loop.node.cancel(old, "round over: " + ("box at the goal" if why == "reached"
+                                                    else why))
         self.actions.put(self._reset_stage)
         params = dict(loop.task_params)
         if self.goal_marker is not None and self.goal_marker != self.goal_watch.bg.goal:
