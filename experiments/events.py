@@ -59,6 +59,9 @@ BOX_PROGRESS = "box_progress"
 """boxpush: the box's ground-truth distance to the goal, once per simulated second."""
 GOAL_MOVED = "goal_moved"
 """boxpush: the goal marker moved (a moving goal, or a new goal for the watch task)."""
+BOX_ROUND = "box_round"
+"""boxpush: the box reached the goal and a new round began (the box and the robots back at
+their start, the watch task introduced again)."""
 ROBOT_FREEZE = "robot_freeze"
 """(soak) a robot's process was stopped; it no longer holds the lockstep clock."""
 ROBOT_THAW = "robot_thaw"
@@ -112,6 +115,7 @@ REQUIRED_FIELDS: dict[str, tuple[str, ...]] = {
     NO_BID: ("task", "attempt"),
     BOX_PROGRESS: ("distance_m",),
     GOAL_MOVED: ("x", "y"),
+    BOX_ROUND: ("round", "task"),
     ROBOT_FREEZE: ("robot",),
     ROBOT_THAW: ("robot",),
     CHARGER_OFF: ("charger",),

@@ -113,6 +113,10 @@ class Supports:
     """The allocators its robots may use (None: every registered one)."""
     sub_tasks: bool = False
     """Its robots auction sub-tasks: only allocators that offer them."""
+    soak_options: tuple[tuple[str, Any], ...] = ()
+    """(`Option.dest`, value) pairs `murdoch soak` uses for its own options not given on the
+    command line (e.g. an experiment that ends by itself asked to start over until the
+    soak's span ends)."""
 
 
 @dataclass(frozen=True)

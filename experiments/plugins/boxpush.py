@@ -5,7 +5,10 @@ watcher auctions the pushes. The referee (`BoxpushReferee`) watches the box's gr
 distance to the goal and ends the run when it has arrived (or cannot), switches pushers off
 and on (`--switch-off`, `--switch-on`: moved out of the way, placed back behind the other end
 of the box), moves the goal (`--goal-velocity`) and re-targets the watch task
-(`--retarget`). Its summary section is ``goal``; its plot the box's distance to the goal.
+(`--retarget`). With `--rounds` (0 under `murdoch soak`) the run goes on after the box
+arrives: the round is recorded (`box_round`), the box and the robots go back to their start
+poses and the watch task is introduced again, until the rounds or the run's span are used up.
+Its summary section is ``goal``; its plot the box's distance to the goal.
 """
 
 from __future__ import annotations
@@ -74,6 +77,9 @@ OPTIONS = (
     Option("--retarget", "give the watch task another goal marker of the world at a time: "
            "MARKER@TIME, e.g. goal2@60s.", type=robot_at_time, multiple=True,
            metavar="MARKER@TIME"),
+    Option("--rounds", "push the box to the goal N times: each time it arrives, the box and "
+           "the robots go back to their start and the watch task is introduced again; 0 = "
+           "until the run's span ends (default 1; murdoch soak: 0).", type=int, metavar="N"),
 )
 
 
@@ -99,6 +105,11 @@ def resolve_switches(spec: WorldSpec, options: RunOptions) -> RunOptions:
         except ValueError as exc:
             raise OptionError(f"--{which.replace('_', '-')}", str(exc)) from exc
     return replace(options, own=own)
+
+
+def rounds(options: RunOptions) -> int:
+    """How many times the box is to reach the goal (0: until the run's span ends)."""
+    return int(options.get("rounds", 1))
 
 
 def _goal_plan(options: RunOptions) -> bp.GoalPlan:
@@ -129,6 +140,11 @@ class BoxpushReferee:
         self.goal_marker: str | None = self.goal_watch.bg.goal
         self.next_progress_s = 0.0
         self.end_after_s: float | None = None
+        self.rounds = rounds(options)
+        self.round = 1
+        self.arrivals = 0
+        self.next_round_s: float | None = None
+        self.round_over_why = ""
         self.switched_off: dict[str, float] = {}
         # which end each pusher pushes now and pushed before; switch-ons waiting
         self.task_kind: dict[str, str] = {}
@@ -284,23 +300,87 @@ class BoxpushReferee:
                            box=[round(bx, 3), round(by, 3), round(yaw, 3)],
                            goal=[round(gw.goal_xy[0], 3), round(gw.goal_xy[1], 3)])
         st = loop.state
+        if self.next_round_s is not None:
+            if now >= self.next_round_s - 1e-9:
+                self._next_round(now)
+            return
+        more = self.rounds == 0 or self.round < self.rounds
+        main = loop.main_task
         if st.goal_outcome is None:
             if gw.reached_at_s is not None:
-                st.goal_outcome = "reached"
+                if more:
+                    # not the last round: the next one starts once the last reports are in
+                    self._round_over(now, "reached")
+                else:
+                    st.goal_outcome = "reached"
+                self.arrivals += 1
                 loop.rec.event(gw.reached_at_s, ev.GOAL_REACHED, box=gw.bg.box,
                                distance_m=round(gw.distance_m, 3), radius_m=gw.radius_m)
                 log.info("goal reached at %.1f s simulated: box %.2f m from the goal",
                          gw.reached_at_s, gw.distance_m)
-            elif loop.main_task is not None and loop.main_task in st.unachievable:
+            elif more and main is not None and (main in st.unachievable or main in st.finished):
+                # the watch task ended without the box (e.g. a pusher gone for good): the
+                # round is over all the same
+                self._round_over(now, st.unachievable.get(main, "the watch task ended"))
+            elif main is not None and main in st.unachievable:
                 st.goal_outcome = "unachievable"
-                why = st.unachievable[loop.main_task]
-                loop.rec.event(now, ev.GOAL_UNACHIEVABLE, task=loop.main_task, reason=why)
+                why = st.unachievable[main]
+                loop.rec.event(now, ev.GOAL_UNACHIEVABLE, task=main, reason=why)
+        if self.next_round_s is not None:
+            return
         if loop.main_task in st.finished or st.goal_outcome is not None:
             # the box reached the goal (or could not): let the last reports arrive, then stop
             if self.end_after_s is None:
                 self.end_after_s = now + BOXPUSH_LINGER_S
             if now >= self.end_after_s - 1e-9:
                 st.end_reason = "completed"
+
+    # -- rounds
+    def _round_over(self, now: float, why: str) -> None:
+        self.next_round_s = now + BOXPUSH_LINGER_S
+        self.round_over_why = why
+
+    def _next_round(self, now: float) -> None:
+        """The round is over (the box arrived, or the watch task ended without it) and the
+        run goes on: the user withdraws the watch task (if still open), the stage hands put
+        the box and the robots back at their start poses (robots that are down are parked),
+        and the watch task is introduced again."""
+        loop = self.loop
+        self.next_round_s = None
+        self.round += 1
+        old = loop.main_task
+        if old is not None and old not in loop.state.finished:
+            why = self.round_over_why
+            loop.node.cancel(old, "round over: " + ("box at the goal" if why == "reached"
+                                                    else why))
+        self.actions.put(self._reset_stage)
+        params = dict(loop.task_params)
+        if self.goal_marker is not None and self.goal_marker != self.goal_watch.bg.goal:
+            params["goal_colour"] = f"#{bp.marker_goal(self.spec, self.goal_marker)[1]:06x}"
+        params["duration_s"] = max(60.0, self.duration_s - now - 5.0)
+        task_id = loop.announce(PlannedTask(now, "watch-box", params), now)
+        loop.main_task = task_id
+        loop.rec.event(now, ev.BOX_ROUND, round=self.round, task=task_id, replaces=old,
+                       after=self.round_over_why)
+        log.info("round %d at %.1f s simulated: box back at its start", self.round, now)
+
+    def _reset_stage(self, sim: Any) -> None:
+        """(serving thread, between steps) The box and the robots at their start poses; the
+        goal watch forgets the arrival (its next sample sees the box back at the start)."""
+        gw = self.goal_watch
+        box = next(b for b in self.spec.boxes if b.name == gw.bg.box)
+        sim.set_pose(box.name, *box.pose)
+        down = self.loop.scheduled_down
+        names = sorted(self.loop.processes.names())
+        for robot in self.spec.robots:
+            if not robot.mobile or robot.name in self.switched_off:
+                continue
+            start = (robot.pose[0], robot.pose[1], robot.pose[2])
+            # a robot that is down (killed, switched off for good) is parked out of the way
+            pose = bp.park_pose(self.spec, names.index(robot.name)) if (
+                robot.name in down and robot.name in names) else start
+            place(sim, robot.name, pose, odometry=bp.odometry_at(start, pose))
+        gw.reached_at_s = None
 
 
 # -------------------------------------------------------------------- the summary section
@@ -373,6 +453,8 @@ def goal_section(evs: list[Mapping[str, Any]]) -> dict[str, Any]:
         "switch_offs": kinds[ev.ROBOT_SWITCH_OFF],
         "switch_ons": kinds[ev.ROBOT_SWITCH_ON],
         "goal_moves": kinds[ev.GOAL_MOVED],
+        "rounds": 1 + kinds[ev.BOX_ROUND],
+        "arrivals": kinds[ev.GOAL_REACHED],
         "final_distance_m": track[-1][1] if track else None,
         "pushes": push_phases(evs),
     }
@@ -389,6 +471,8 @@ class Boxpush(ExperimentBase):
                 bp.marker_goal(spec, marker)
             except ValueError as exc:
                 raise OptionError("--retarget", str(exc)) from exc
+        if rounds(options) < 0:
+            raise OptionError("--rounds", f"expected 0 or more rounds, found {rounds(options)}")
         return replace(options, own={**options.own, "goal_plan": plan})
 
     def config(self, options: RunOptions) -> dict[str, Any]:
@@ -399,6 +483,7 @@ class Boxpush(ExperimentBase):
             "goal_radius_m": options.get("goal_radius") or bp.GOAL_RADIUS_M,
             "goal_velocity_mps": list(plan.velocity_mps),
             "retargets": [f"{m}@{t:g}s" for t, m in plan.retargets],
+            **({"rounds": rounds(options)} if rounds(options) != 1 else {}),
         }
 
     def tasks(self, spec: WorldSpec, options: RunOptions) -> Iterator[PlannedTask | None]:
@@ -425,6 +510,9 @@ class Boxpush(ExperimentBase):
         if not isinstance(referee, BoxpushReferee):
             return []
         gw = referee.goal_watch
+        if referee.rounds != 1:
+            return [f"the box reached the goal {referee.arrivals} times in {referee.round} "
+                    f"rounds"]
         if referee.loop.state.goal_outcome != "reached":
             return []
         return [f"goal reached at {gw.reached_at_s:.1f} s simulated: "
@@ -445,5 +533,5 @@ BOXPUSH = Boxpush(
     ),
     options=OPTIONS,
     task_kinds=("watch-box",),
-    supports=Supports(soak=True, compare=True, sub_tasks=True),
+    supports=Supports(soak=True, compare=True, sub_tasks=True, soak_options=(("rounds", 0),)),
 )

@@ -111,8 +111,8 @@ def soak(ctx: click.Context, experiment: str, sim_hours: float, seed: int,
          task_interval: float, realloc_bound: float | None, memory_slope_limit: float,
          memory_every: float, no_record: bool, meshcat: bool, **values: Any) -> None:
     """Run EXPERIMENT for --sim-hours under faults and check that nothing was lost (an
-    experiment that ends by itself, e.g. boxpush when the box arrives, is soaked until
-    then)."""
+    experiment that ends by itself starts over for the whole span when it says how:
+    boxpush puts the box back at its start each time it arrives, its --rounds 0)."""
     from experiments.run_cli import run_experiment
     from experiments.run_extras import RunExtras
     from experiments.soak.invariants import Limits
@@ -123,6 +123,9 @@ def soak(ctx: click.Context, experiment: str, sim_hours: float, seed: int,
     span_s = sim_hours * 3600.0
     every = experiments()
     own = own_values(every[experiment], every, values, ctx)
+    for dest, value in every[experiment].supports.soak_options:
+        if own.get(dest) is None:
+            own[dest] = value
     world_name = world_name or every[experiment].world
     try:
         spec = load_world(world_path(world_name))

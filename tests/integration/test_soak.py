@@ -112,23 +112,32 @@ def test_a_bad_fault_file_is_named_without_a_traceback(tmp_path: Path) -> None:
 
 
 @pytest.mark.timeout(1800)
-def test_boxpush_soaks_until_the_box_arrives_and_keeps_every_invariant(
-        tmp_path: Path) -> None:
-    """An experiment that ends by itself soaks until then: faults dense enough to fall
-    inside the episode act, and nothing is lost."""
-    out = tmp_path / "runs"
-    done = subprocess.run(
-        [*_murdoch(), "soak", "boxpush", "--sim-hours", "0.5", "--faults", "random",
-         "--kills-per-hour", "20", "--freezes-per-hour", "20", "--out", str(out)],
-        capture_output=True, text=True, timeout=1700)
-    assert done.returncode == 0, (done.stdout + done.stderr)[-3000:]
-    (run_dir,) = out.iterdir()
+def test_boxpush_soaks_its_whole_span_round_after_round_and_repeats(tmp_path: Path) -> None:
+    """boxpush ends by itself when the box arrives; soaked, it starts over (the box and the
+    robots back at their start, the watch task introduced again) until the span ends, so
+    faults after the first arrival act. Two soaks with the same seed write the same events."""
+    args = ["soak", "boxpush", "--sim-hours", "0.25", "--seed", "4", "--faults", "random",
+            "--kills-per-hour", "20", "--kill-down", "20s-60s", "--freezes-per-hour", "20",
+            "--freeze-for", "5s-20s", "--switch-offs", "0", "--bursts", "0"]
+    runs = []
+    for name in ("a", "b"):
+        out = tmp_path / name
+        done = subprocess.run([*_murdoch(), *args, "--out", str(out)],
+                              capture_output=True, text=True, timeout=800)
+        assert done.returncode == 0, (done.stdout + done.stderr)[-3000:]
+        (run_dir,) = out.iterdir()
+        runs.append(run_dir)
+    run_dir = runs[0]
     report = json.loads((run_dir / SOAK_JSON).read_text())
-    assert report["all_held"]
-    summary = json.loads((run_dir / "summary.json").read_text())
-    assert summary["goal"]["reached"]
-    kinds = {e["kind"] for e in ev.read_events(run_dir / "events.jsonl")}
-    assert kinds & {ev.ROBOT_FAILURE, ev.ROBOT_FREEZE}, "no fault fell inside the episode"
+    assert report["all_held"], report["invariants"]
+    events = ev.read_events(run_dir / "events.jsonl")
+    assert events[-1]["kind"] == ev.RUN_END and float(events[-1]["t"]) >= 0.25 * 3600 - 1
+    goal = json.loads((run_dir / "summary.json").read_text())["goal"]
+    assert goal["rounds"] >= 2 and goal["arrivals"] >= 1, goal
+    first_arrival = next(float(e["t"]) for e in events if e["kind"] == ev.GOAL_REACHED)
+    assert any(e["kind"] in (ev.ROBOT_FAILURE, ev.ROBOT_FREEZE)
+               and float(e["t"]) > first_arrival for e in events), "no fault after round 1"
+    assert (runs[0] / "events.jsonl").read_bytes() == (runs[1] / "events.jsonl").read_bytes()
 
 
 def test_an_unknown_world_is_named_without_a_traceback(tmp_path: Path) -> None:

@@ -68,6 +68,22 @@ def test_the_goal_section_and_verdict_come_from_the_boxpush_plugin() -> None:
     assert EXPERIMENTS["longterm"].verdict({"goal": None}) is None
 
 
+def test_boxpush_rounds_one_by_default_none_left_open_under_soak_and_counted() -> None:
+    plugin = EXPERIMENTS["boxpush"]
+    spec = load_world(world_path("boxpush"))
+    assert plugin.check(spec, RunOptions.of(plugin, 90.0, 2)).get("rounds", 1) == 1
+    assert "rounds" not in plugin.config(RunOptions.of(plugin, 90.0, 2))
+    assert plugin.config(RunOptions.of(plugin, 90.0, 2, rounds=0))["rounds"] == 0
+    assert ("rounds", 0) in plugin.supports.soak_options
+    with pytest.raises(click.BadParameter, match="0 or more rounds"):
+        plugin.check(spec, RunOptions.of(plugin, 90.0, 2, rounds=-1))
+    events = [{"t": 0.0, "kind": "run_start", "experiment": "boxpush"},
+              {"t": 200.0, "kind": "goal_reached", "box": "bigbox", "distance_m": 2.4},
+              {"t": 203.0, "kind": "box_round", "round": 2, "task": "user.0.2"}]
+    section = plugin.summary_sections(events)["goal"]
+    assert section["rounds"] == 2 and section["arrivals"] == 1 and section["reached"]
+
+
 def test_a_process_is_described_as_data_and_filled_in_at_each_start(tmp_path: Path) -> None:
     spec = robot_process("r1", world="w.toml", bus=BusPlace(mcast_port=4000), seed=7,
                          logs=tmp_path, metric_terms=("distance",), lockstep=True,
