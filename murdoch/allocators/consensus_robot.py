@@ -40,8 +40,6 @@ offer no sub-tasks.
 from __future__ import annotations
 
 import logging
-import threading
-from collections.abc import Iterable
 
 from murdoch.allocators.base import Assignment, RobotHooks
 from murdoch.allocators.consensus_refine import MAX_OFFERS, RefinePhase, Stance, check_refine
@@ -68,13 +66,11 @@ from murdoch.allocators.team_messages import (
     TaskWithdraw,
     TeamRefine,
 )
-from murdoch.auction.messages import AuctionEvent, TaskSpec
-from murdoch.auction.timing import USER_TASK
 from murdoch.consensus.async_runner import ConsensusChunk
 from murdoch.consensus.cbba import CbbaAgent
 from murdoch.consensus.cbga import CbgaAgent
-from murdoch.execution.executor import EndReports, Execution
-from murdoch.subjects import SubjectSet, subject_set
+from murdoch.execution.executor import Execution
+from murdoch.execution.task_robot import ABANDON_AFTER_S, PROGRESS_S, TaskRobot
 from murdoch.transport import Clock, Transport
 
 log = logging.getLogger(__name__)
@@ -84,14 +80,12 @@ SILENT_S = 6.0
 """Three heartbeats missed: the agent is taken for dead."""
 STABLE_S = 1.0
 CLAIM_RETRY_S = 3.0
-PROGRESS_S = USER_TASK.renew_period_s
-ABANDON_AFTER_S = USER_TASK.abandon_after_s
 ENDED_KEPT = 16
 
 Agent = CbbaAgent | CbgaAgent
 
 
-class ConsensusRobot:
+class ConsensusRobot(TaskRobot[TaskOffer]):
     """A robot's `TeamMember` for CBBA (`algorithm="cbba"`) or CBGA (`"cbga"`); `refine`
     adds the improvement phase (`consensus_refine`)."""
 
@@ -101,9 +95,6 @@ class ConsensusRobot:
             raise ValueError(f"unknown consensus algorithm {algorithm!r}")
         if hooks.agent_id not in hooks.team:
             raise ValueError(f"{hooks.agent_id!r} is not in the team {list(hooks.team)}")
-        self.transport = transport
-        self.clock = clock
-        self.hooks = hooks
         self.algorithm = algorithm
         self.refine = refine
         self.phase: RefinePhase | None = None
@@ -111,8 +102,6 @@ class ConsensusRobot:
         self._refine_inbox: list[TeamRefine] = []
         self._profile: Profile | None = None
         self.index = hooks.team.index(hooks.agent_id)
-        self._subjects: SubjectSet = subject_set(hooks.subjects)
-        self._lock = threading.RLock()
         self.offers: dict[int, TaskOffer] = {}
         self.withdrawn: set[int] = set()
         self.order: list[int] = []
@@ -121,11 +110,7 @@ class ConsensusRobot:
         self.silent: set[int] = set()
         self._inbox: list[ConsensusChunk] = []
         self._replan = True
-        self._executing: TaskOffer | None = None
         self._seat = 0
-        self._execution = Execution.start(0.0, ABANDON_AFTER_S, PROGRESS_S)
-        self._ended: EndReports[TaskReport] = EndReports(ENDED_KEPT)
-        """The end reports of the latest tasks, sent again while the user still renews."""
         self._claim: tuple[int, float] | None = None
         self._claimed: TaskOffer | None = None
         self._last_sent: tuple[object, float] | None = None
@@ -134,89 +119,27 @@ class ConsensusRobot:
         self.counters = {"claims": 0, "grants": 0, "replans": 0, "silent": 0, "refused": 0}
         if refine:
             self.counters.update(phases=0, refined=0, phases_given_up=0, refine_refused=0)
-        self._sub = transport.subscribe({TEAM_SUBJECT, STATE_SUBJECT})
-        self.closed = False
+        super().__init__(transport, clock, hooks, {TEAM_SUBJECT, STATE_SUBJECT}, ENDED_KEPT)
 
-    # -- capabilities
     @property
-    def subjects(self) -> SubjectSet:
-        return self._subjects
+    def _who(self) -> str:
+        return f"{self.algorithm}: a robot"
 
-    def set_subjects(self, subjects: Iterable[str] | str) -> None:
-        with self._lock:
-            new = subject_set(subjects)
-            if new != self._subjects:
-                self._subjects = new
-                self._replan = True
+    def _subjects_changed(self) -> None:
+        self._replan = True
 
-    # -- tasks: under consensus only the user introduces them
-    def announce(self, spec: TaskSpec, patience_s: float | None = None) -> str:
-        raise ValueError(f"{self.algorithm}: a robot cannot introduce sub-tasks ({spec.name}); "
-                         f"use the murdoch allocator for experiments that need them")
+    def _freed(self) -> None:
+        self._replan = True
 
-    def cancel(self, task_id: str, reason: str = "cancelled") -> None:
-        raise ValueError(f"{self.algorithm}: a robot introduces no tasks to cancel")
-
-    def open_tasks(self) -> tuple[str, ...]:
-        return ()
-
-    # -- execution
-    @property
-    def executing(self) -> str | None:
-        ex = self._executing
-        return ex.task_id if ex is not None else None
-
-    def progress(self, task_id: str, fraction: float, note: str = "") -> None:
-        with self._lock:
-            if self.executing == task_id:
-                self._execution.progress(fraction, note)
-
-    def complete(self, task_id: str, note: str = "") -> None:
-        self._end(task_id, "completed", note)
-
-    def fail(self, task_id: str, reason: str) -> None:
-        self._end(task_id, "failed", reason)
-
-    def abandon(self, task_id: str, reason: str) -> None:
-        self._end(task_id, "abandoned", reason)
-
-    def _end(self, task_id: str, status: str, reason: str) -> None:
-        with self._lock:
-            ex = self._executing
-            if ex is None or ex.task_id != task_id:
-                return
-            self._executing = None
-            self._replan = True
-            report = TaskReport(ex.task_id, ex.offer, self.hooks.agent_id, status,
-                                self._execution.fraction, reason)
-            self._ended.remember(ex.offer, report)
-            self._publish(STATE_SUBJECT, report)
-
-    # -- the loop
-    def step(self, timeout_s: float = 0.0) -> int:
-        with self._lock:
-            if self.closed:
-                return 0
-            self.transport.poll(timeout_s)
-            envelopes = self._sub.drain()
-            now = self.clock()
-            for envelope in envelopes:
-                self._handle(envelope.message, now)
-            self._notice_silence(now)
-            if self._replan:
-                self._rebuild(now)
-            self._consensus(now)
-            if self.refine:
-                self._refine(now)
-            self._maybe_claim(now)
-            self._report_progress(now)
-            return len(envelopes)
-
-    def close(self) -> None:
-        with self._lock:
-            if not self.closed:
-                self.closed = True
-                self._sub.close()
+    def _advance(self, now: float) -> None:
+        self._notice_silence(now)
+        if self._replan:
+            self._rebuild(now)
+        self._consensus(now)
+        if self.refine:
+            self._refine(now)
+        self._maybe_claim(now)
+        self._keep(now)
 
     # -- internals
     def _handle(self, msg: object, now: float) -> None:
@@ -269,10 +192,7 @@ class ConsensusRobot:
             self._withdraw(msg.offer)
             ex = self._executing
             if ex is not None and ex.offer == msg.offer:
-                self._executing = None
-                self._replan = True
-                self._emit(now, "stopped", ex.task_id, reason=msg.reason)
-                self.hooks.on_stop(Assignment(ex.task_id, ex.name, ex.params), msg.reason)
+                self._stop(ex, now, msg.reason)
             if self._claim is not None and self._claim[0] == msg.offer:
                 self._claim = None
 
@@ -478,32 +398,3 @@ class ConsensusRobot:
         else:
             claim = TaskClaim(offer.task_id, offer.offer, self.hooks.agent_id, float(bid))
         self._publish(STATE_SUBJECT, claim)
-
-    def _report_progress(self, now: float) -> None:
-        ex = self._executing
-        due = self._execution.tick(now) if ex is not None else None
-        if ex is not None and due == "abandon":
-            # the user has not renewed the grant: it may have given the task to another
-            self._executing = None
-            self._replan = True
-            reason = self._execution.abandon_reason
-            self._emit(now, "stopped", ex.task_id, reason=reason)
-            self.hooks.on_stop(Assignment(ex.task_id, ex.name, ex.params), reason)
-            report = TaskReport(ex.task_id, ex.offer, self.hooks.agent_id, "abandoned",
-                                self._execution.fraction, reason)
-            self._ended.remember(ex.offer, report)
-            self._publish(STATE_SUBJECT, report)
-        elif ex is not None and due == "progress":
-            self._publish(STATE_SUBJECT, TaskReport(ex.task_id, ex.offer, self.hooks.agent_id,
-                                                    "progress", self._execution.fraction))
-
-    def _publish(self, subject: str, message: object) -> None:
-        try:
-            self.transport.publish({subject}, message)
-        except OSError as exc:  # silence is handled like loss
-            log.warning("could not send %s: %s", type(message).__name__, exc)
-
-    def _emit(self, now: float, kind: str, task_id: str, **detail: object) -> None:
-        if self.hooks.observer is not None:
-            self.hooks.observer(AuctionEvent(now, self.hooks.agent_id, kind, task_id, 0,
-                                             dict(detail)))

@@ -27,10 +27,6 @@ outcome), so a run's events read the same under every allocator.
 
 from __future__ import annotations
 
-import logging
-import threading
-from collections import deque
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 from murdoch.allocators.base import UserHooks
@@ -48,21 +44,13 @@ from murdoch.allocators.team_messages import (
     TaskReport,
     TaskWithdraw,
 )
-from murdoch.auction.messages import AuctionEvent, Outcome, TaskSpec
+from murdoch.auction.messages import TaskSpec
 from murdoch.consensus.async_runner import ConsensusChunk
+from murdoch.execution.task_user import TaskUser, UserTask
 from murdoch.execution.user_side import (
-    AT_ONCE_S,
     Lease,
-    LeaseStep,
-    next_attempt,
-    no_winner,
-    on_report,
-    outcome,
 )
-from murdoch.subjects import SubjectSet
 from murdoch.transport import Clock, Transport
-
-log = logging.getLogger(__name__)
 
 OFFER_REPEAT_S = 10.0
 CLAIM_KEPT_S = 2.0 * CLAIM_RETRY_S
@@ -70,20 +58,12 @@ CLAIM_KEPT_S = 2.0 * CLAIM_RETRY_S
 every `CLAIM_RETRY_S`)."""
 
 
-@dataclass
-class _Task:
-    task_id: str
-    spec: TaskSpec
-    deadline: float | None
-    attempt: int = 0
-    phase: str = "waiting"  # offered, granted, waiting
+@dataclass(kw_only=True)
+class _Task(UserTask):
+    """A task as this user keeps it (phases: offered, granted, waiting)."""
+
     offer: TaskOffer | None = None
     unwon_since: float = 0.0
-    wake_at: float = 0.0
-    winner: str | None = None
-    lease: Lease | None = None
-    no_bid_rounds: int = 0
-    last_reason: str = ""
     place: tuple[float, float] = (0.0, 0.0)
     repeats: list[float] = field(default_factory=list)
     claims: dict[str, tuple[float, SeatClaim]] = field(default_factory=dict)
@@ -94,94 +74,24 @@ class _Task:
     done: set[str] = field(default_factory=set)
 
 
-class ConsensusUser:
+class ConsensusUser(TaskUser[_Task]):
     """The runner's `TeamMember` for a CBBA or CBGA team."""
 
+    TEAM = "a consensus team"
+
     def __init__(self, transport: Transport, clock: Clock, hooks: UserHooks) -> None:
-        self.transport = transport
-        self.clock = clock
-        self.hooks = hooks
         self.agent_id = hooks.agent_id
-        inst = transport.instance
-        self._prefix = f"{hooks.agent_id}.{inst[:6]}" if inst else hooks.agent_id
-        self._counter = 0
-        self._offers = 0
-        self._tasks: dict[str, _Task] = {}
-        self._by_offer: dict[int, _Task] = {}
         self._views: dict[int, tuple[float, dict[int, frozenset[int]]]] = {}
         """Per agent index: when last heard, and the offers its state gives winners (the
         agents holding bids)."""
-        self._lock = threading.RLock()
-        self.outcomes: deque[Outcome] = deque(maxlen=1024)
-        """The latest outcomes of the tasks this member introduced."""
-        self._sub = transport.subscribe({TEAM_SUBJECT, STATE_SUBJECT})
-        self.closed = False
+        super().__init__(transport, clock, hooks, {TEAM_SUBJECT, STATE_SUBJECT})
 
-    # -- the user executes nothing and offers no capabilities
-    @property
-    def subjects(self) -> SubjectSet:
-        return frozenset()
+    def _new_task(self, task_id: str, spec: TaskSpec, deadline: float | None,
+                  place: tuple[float, float], now: float) -> _Task:
+        return _Task(task_id, spec, deadline, place=place)
 
-    def set_subjects(self, subjects: Iterable[str] | str) -> None:
-        if subjects:
-            raise ValueError("the user of a consensus team executes no tasks")
-
-    @property
-    def executing(self) -> str | None:
-        return None
-
-    def progress(self, task_id: str, fraction: float, note: str = "") -> None:
-        pass
-
-    def complete(self, task_id: str, note: str = "") -> None:
-        pass
-
-    def fail(self, task_id: str, reason: str) -> None:
-        pass
-
-    def abandon(self, task_id: str, reason: str) -> None:
-        pass
-
-    # -- tasks
-    def announce(self, spec: TaskSpec, patience_s: float | None = None) -> str:
-        with self._lock:
-            now = self.clock()
-            self._counter += 1
-            task_id = f"{self._prefix}.{self._counter}"
-            task = _Task(task_id, spec, None if patience_s is None else now + patience_s,
-                         place=self.hooks.locate(spec.name, spec.params))
-            self._tasks[task_id] = task
-            self._offer(task, now)
-            return task_id
-
-    def cancel(self, task_id: str, reason: str = "cancelled") -> None:
-        with self._lock:
-            task = self._tasks.get(task_id)
-            if task is not None:
-                self._finish(task, self.clock(), "failed", reason)
-
-    def open_tasks(self) -> tuple[str, ...]:
-        return tuple(self._tasks)
-
-    # -- the loop
-    def step(self, timeout_s: float = 0.0) -> int:
-        with self._lock:
-            if self.closed:
-                return 0
-            self.transport.poll(timeout_s)
-            envelopes = self._sub.drain()
-            now = self.clock()
-            for envelope in envelopes:
-                self._handle(envelope.message, now)
-            for task in list(self._tasks.values()):
-                self._tick(task, now)
-            return len(envelopes)
-
-    def close(self) -> None:
-        with self._lock:
-            if not self.closed:
-                self.closed = True
-                self._sub.close()
+    def _introduce(self, task: _Task, now: float) -> None:
+        self._offer(task, now)
 
     # -- internals
     def _handle(self, msg: object, now: float) -> None:
@@ -212,15 +122,8 @@ class ConsensusUser:
             if task.seats:
                 self._group_report(task, msg, now)
                 return
-            if task.winner != msg.robot or task.lease is None:
-                return
-            task.lease.last_heard = now
-            meaning = on_report(msg.status)
-            if meaning == "end":
-                self._finish(task, now, msg.status, msg.reason or msg.status)
-            elif meaning == "reoffer":
-                self._reallocate(task, now, f"winner {msg.robot} {msg.status}: {msg.reason}",
-                                 AT_ONCE_S)
+            if task.winner == msg.robot and task.lease is not None:
+                self._reported(task, msg, now)
 
     def _winner_seen(self, offer: TaskOffer, now: float) -> bool:
         """Whether some agent heard lately gives the offer a full set of winners."""
@@ -238,7 +141,7 @@ class ConsensusUser:
             if self._winner_seen(task.offer, now):
                 task.unwon_since = now
             elif now - task.unwon_since >= spec.bid_window_s:
-                self._no_bid(task, now)
+                self._no_winner(task, now)
             elif now - task.offer.offered_at >= OFFER_REPEAT_S * (len(task.repeats) + 1):
                 task.repeats.append(now)
                 self._publish(TEAM_SUBJECT, task.offer)
@@ -252,25 +155,11 @@ class ConsensusUser:
                 self._publish(TEAM_SUBJECT, TaskGrant(task.task_id, task.offer.offer,
                                                       task.winner))
 
-    def _lease_ended(self, task: _Task, step: LeaseStep, now: float) -> bool:
-        """Act on a lease's step; whether it ended the grant (else: renew it)."""
-        if step.kind == "expired":
-            self._finish(task, now, "failed", step.reason)
-        elif step.kind == "silent":
-            self._reallocate(task, now, step.reason, step.wait_s)
-        return step.kind != "renew"
-
     def _offer(self, task: _Task, now: float) -> None:
         spec = task.spec
-        gave_up = next_attempt(task.attempt, spec)
-        if gave_up is not None:
-            task.winner = None
-            task.phase = "waiting"
-            self._finish(task, now, "failed", gave_up)
+        if not self._next_attempt(task, now):
             return
-        task.attempt += 1
         task.phase = "offered"
-        task.winner = None
         task.unwon_since = now
         task.repeats = []
         task.claims, task.seats, task.heard, task.done = {}, {}, {}, set()
@@ -289,11 +178,7 @@ class ConsensusUser:
             self._publish(TEAM_SUBJECT, TaskWithdraw(task.task_id, task.offer.offer, reason))
 
     def _grant(self, task: _Task, claim: TaskClaim, now: float) -> None:
-        task.phase = "granted"
-        task.winner = claim.robot
-        task.lease = Lease.grant(claim.robot, now, task.spec)
-        self._emit(now, "close", task, bids=1)
-        self._emit(now, "award", task, winner=claim.robot, score=claim.bid, bids=1)
+        self._granted(task, claim.robot, now, 1, claim.bid)
         self._publish(TEAM_SUBJECT, TaskGrant(task.task_id, claim.offer, claim.robot))
 
     # -- group offers
@@ -352,43 +237,6 @@ class ConsensusUser:
         if step is not None and not self._lease_ended(task, step, now):
             self._send_seats(task)
 
-    def _no_bid(self, task: _Task, now: float) -> None:
-        self._emit(now, "close", task, bids=0)
-        self._withdraw(task, "no winner")
-        task.no_bid_rounds += 1
-        backoff = self.hooks.backoff
-        verdict = no_winner(now, task.spec, task.attempt, task.no_bid_rounds, task.last_reason,
-                            task.deadline, backoff.delay_s)
-        if verdict.retry_in_s is not None:
-            task.phase = "waiting"
-            task.wake_at = now + verdict.retry_in_s
-            self._emit(now, "retry", task, delay_s=verdict.retry_in_s, reason=verdict.reason)
-            return
-        task.winner = None
-        self._finish(task, now, "unachievable", verdict.final_reason)
-
-    def _reallocate(self, task: _Task, now: float, reason: str, wait_s: float) -> None:
-        self._emit(now, "reallocation", task, winner=task.winner, reason=reason)
-        self._withdraw(task, reason)
-        task.last_reason = reason
-        task.phase = "waiting"
-        task.wake_at = now + wait_s
-
-    def _finish(self, task: _Task, now: float, status: str, reason: str) -> None:
-        self._tasks.pop(task.task_id, None)
+    def _release(self, task: _Task, reason: str) -> None:
         if task.phase in ("offered", "granted"):
             self._withdraw(task, reason)
-        ended = outcome(task.task_id, task.spec, status, reason, task.winner, task.attempt, now)
-        self.outcomes.append(ended)
-        self._emit(now, "outcome", task, status=status, reason=reason, winner=ended.winner)
-
-    def _publish(self, subject: str, message: object) -> None:
-        try:
-            self.transport.publish({subject}, message)
-        except OSError as exc:
-            log.warning("could not send %s: %s", type(message).__name__, exc)
-
-    def _emit(self, now: float, kind: str, task: _Task, **detail: object) -> None:
-        if self.hooks.observer is not None:
-            self.hooks.observer(AuctionEvent(now, self.agent_id, kind, task.task_id,
-                                             task.attempt, dict(detail)))

@@ -4,7 +4,10 @@ However an allocator decides who executes a task (MURDOCH's auctions, CBBA's and
 consensus, a central `murdoch.plugin.CentralAllocator`), the user that introduced the task
 and the robot that executes it then keep the same contract; its rules live here and the
 allocators call them (`murdoch.auction`, `murdoch.allocators.consensus_*`,
-`murdoch.execution.central_*`):
+`murdoch.execution.central_*`). The members that grant over the bus also share their shells:
+`bus_member` (the step skeleton, closing, sending), `task_user` (the user: introduces tasks,
+executes none, and the user's side of the contract) and `task_robot` (a robot: executes what
+it is granted, introduces nothing, and the executor's side):
 
 1. **Offer or grant.** Each attempt to allocate a task (at most `TaskSpec.max_attempts`,
    `user_side.next_attempt`) ends with exactly one executor granted the task, or none.

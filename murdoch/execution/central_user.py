@@ -24,25 +24,15 @@ logged; `murdoch.plugin.check_allocator` names such a hook before any run.
 from __future__ import annotations
 
 import logging
-import threading
-from collections import deque
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 from murdoch.allocators.base import UserHooks
 from murdoch.allocators.team_messages import STATE_SUBJECT, TEAM_SUBJECT, TaskReport, TaskWithdraw
-from murdoch.auction.messages import AuctionEvent, Outcome, TaskSpec
+from murdoch.auction.messages import TaskSpec
 from murdoch.execution.messages import RobotStatus, TaskOrder
-from murdoch.execution.user_side import (
-    AT_ONCE_S,
-    Lease,
-    next_attempt,
-    no_winner,
-    on_report,
-    outcome,
-)
+from murdoch.execution.task_user import TaskUser, UserTask
 from murdoch.execution.views import RobotView, TaskView, WorldView
-from murdoch.subjects import SubjectSet
 from murdoch.transport import Clock, Transport
 
 log = logging.getLogger(__name__)
@@ -54,119 +44,45 @@ Decide = Callable[[WorldView], Mapping[str, str]]
 """The decision hook: the open tasks' executors (task id -> robot name), from the world."""
 
 
-@dataclass
-class _Task:
-    task_id: str
-    spec: TaskSpec
-    deadline: float | None
+@dataclass(kw_only=True)
+class _Task(UserTask):
+    """A task as this user keeps it (phases: open, granted, waiting)."""
+
     place: tuple[float, float] | None
     arrived_s: float
-    attempt: int = 0
-    phase: str = "waiting"  # open, granted, waiting
     offer: int = -1
     opened_at: float = 0.0
-    wake_at: float = 0.0
-    winner: str | None = None
-    lease: Lease | None = None
-    no_bid_rounds: int = 0
-    last_reason: str = ""
 
 
-class CentralUser:
+class CentralUser(TaskUser[_Task]):
     """The runner's `TeamMember` for a central allocator (`decide`)."""
+
+    TEAM = "a centrally allocated team"
 
     def __init__(self, transport: Transport, clock: Clock, hooks: UserHooks,
                  decide: Decide) -> None:
-        self.transport = transport
-        self.clock = clock
-        self.hooks = hooks
         self.decide = decide
-        inst = transport.instance
-        self._prefix = f"{hooks.agent_id}.{inst[:6]}" if inst else hooks.agent_id
-        self._counter = 0
-        self._offers = 0
-        self._tasks: dict[str, _Task] = {}
-        self._by_offer: dict[int, _Task] = {}
         self._robots: dict[str, tuple[float, RobotStatus]] = {}
         self._changed = False
-        self._lock = threading.RLock()
-        self.outcomes: deque[Outcome] = deque(maxlen=1024)
         self.counters = {"decisions": 0, "refused": 0}
-        self._sub = transport.subscribe({STATE_SUBJECT})
-        self.closed = False
+        super().__init__(transport, clock, hooks, {STATE_SUBJECT})
 
-    # -- the user executes nothing and offers no capabilities
-    @property
-    def subjects(self) -> SubjectSet:
-        return frozenset()
+    def _new_task(self, task_id: str, spec: TaskSpec, deadline: float | None,
+                  place: tuple[float, float], now: float) -> _Task:
+        return _Task(task_id, spec, deadline, place=place, arrived_s=now)
 
-    def set_subjects(self, subjects: Iterable[str] | str) -> None:
-        if subjects:
-            raise ValueError("the user of a centrally allocated team executes no tasks")
+    def _introduce(self, task: _Task, now: float) -> None:
+        self._open(task, now)
 
-    @property
-    def executing(self) -> str | None:
-        return None
-
-    def progress(self, task_id: str, fraction: float, note: str = "") -> None:
-        pass
-
-    def complete(self, task_id: str, note: str = "") -> None:
-        pass
-
-    def fail(self, task_id: str, reason: str) -> None:
-        pass
-
-    def abandon(self, task_id: str, reason: str) -> None:
-        pass
-
-    # -- tasks
-    def announce(self, spec: TaskSpec, patience_s: float | None = None) -> str:
-        with self._lock:
-            now = self.clock()
-            self._counter += 1
-            task_id = f"{self._prefix}.{self._counter}"
-            task = _Task(task_id, spec, None if patience_s is None else now + patience_s,
-                         self.hooks.locate(spec.name, spec.params), now)
-            self._tasks[task_id] = task
-            self._open(task, now)
-            return task_id
-
-    def cancel(self, task_id: str, reason: str = "cancelled") -> None:
-        with self._lock:
-            task = self._tasks.get(task_id)
-            if task is not None:
-                self._finish(task, self.clock(), "failed", reason)
-
-    def open_tasks(self) -> tuple[str, ...]:
-        return tuple(self._tasks)
-
-    # -- the loop
-    def step(self, timeout_s: float = 0.0) -> int:
-        with self._lock:
-            if self.closed:
-                return 0
-            self.transport.poll(timeout_s)
-            envelopes = self._sub.drain()
-            now = self.clock()
-            for envelope in envelopes:
-                self._handle(envelope.message, now)
-            for name, (heard, _) in list(self._robots.items()):
-                if now - heard > SILENT_S:
-                    del self._robots[name]
-                    self._changed = True
-            for task in list(self._tasks.values()):
-                self._tick(task, now)
-            if self._changed:
-                self._changed = False
-                self._assign(now)
-            return len(envelopes)
-
-    def close(self) -> None:
-        with self._lock:
-            if not self.closed:
-                self.closed = True
-                self._sub.close()
+    def _advance(self, now: float) -> None:
+        for name, (heard, _) in list(self._robots.items()):
+            if now - heard > SILENT_S:
+                del self._robots[name]
+                self._changed = True
+        super()._advance(now)
+        if self._changed:
+            self._changed = False
+            self._assign(now)
 
     def world(self, now: float) -> WorldView:
         """What the decision hook is shown now."""
@@ -191,16 +107,8 @@ class CentralUser:
             self._robots[msg.robot] = (now, msg)
         elif isinstance(msg, TaskReport):
             task = self._by_offer.get(msg.offer)
-            if task is None or task.phase != "granted" or task.winner != msg.robot:
-                return
-            assert task.lease is not None
-            task.lease.last_heard = now
-            meaning = on_report(msg.status)
-            if meaning == "end":
-                self._finish(task, now, msg.status, msg.reason or msg.status)
-            elif meaning == "reoffer":
-                self._reallocate(task, now, f"winner {msg.robot} {msg.status}: {msg.reason}",
-                                 AT_ONCE_S)
+            if task is not None and task.phase == "granted" and task.winner == msg.robot:
+                self._reported(task, msg, now)
 
     def _tick(self, task: _Task, now: float) -> None:
         if task.phase == "waiting":
@@ -212,13 +120,7 @@ class CentralUser:
         elif task.phase == "granted":
             assert task.lease is not None
             step = task.lease.check(task.spec, now)
-            if step is None:
-                return
-            if step.kind == "expired":
-                self._finish(task, now, "failed", step.reason)
-            elif step.kind == "silent":
-                self._reallocate(task, now, step.reason, step.wait_s)
-            else:
+            if step is not None and not self._lease_ended(task, step, now):
                 self._send_order(task)
 
     def _queued(self, task: _Task, now: float) -> bool:
@@ -252,15 +154,9 @@ class CentralUser:
                         now)
 
     def _open(self, task: _Task, now: float) -> None:
-        gave_up = next_attempt(task.attempt, task.spec)
-        if gave_up is not None:
-            task.winner = None
-            task.phase = "waiting"
-            self._finish(task, now, "failed", gave_up)
+        if not self._next_attempt(task, now):
             return
-        task.attempt += 1
         task.phase = "open"
-        task.winner = None
         task.opened_at = now
         task.offer = self._offers
         self._offers += 1
@@ -271,11 +167,7 @@ class CentralUser:
 
     def _grant(self, task: _Task, robot: RobotView, cost: float, candidates: int,
                now: float) -> None:
-        task.phase = "granted"
-        task.winner = robot.name
-        task.lease = Lease.grant(robot.name, now, task.spec)
-        self._emit(now, "close", task, bids=candidates)
-        self._emit(now, "award", task, winner=robot.name, score=-cost, bids=candidates)
+        self._granted(task, robot.name, now, candidates, -cost)
         self._send_order(task)
 
     def _send_order(self, task: _Task) -> None:
@@ -287,43 +179,10 @@ class CentralUser:
         if self._by_offer.pop(task.offer, None) is not None and task.phase == "granted":
             self._publish(TEAM_SUBJECT, TaskWithdraw(task.task_id, task.offer, reason))
 
-    def _no_winner(self, task: _Task, now: float) -> None:
-        self._emit(now, "close", task, bids=0)
-        self._withdraw(task, "no winner")
-        task.no_bid_rounds += 1
-        verdict = no_winner(now, task.spec, task.attempt, task.no_bid_rounds, task.last_reason,
-                            task.deadline, self.hooks.backoff.delay_s)
-        if verdict.retry_in_s is not None:
-            task.phase = "waiting"
-            task.wake_at = now + verdict.retry_in_s
-            self._emit(now, "retry", task, delay_s=verdict.retry_in_s, reason=verdict.reason)
-            return
-        task.winner = None
-        self._finish(task, now, "unachievable", verdict.final_reason)
-
     def _reallocate(self, task: _Task, now: float, reason: str, wait_s: float) -> None:
-        self._emit(now, "reallocation", task, winner=task.winner, reason=reason)
-        self._withdraw(task, reason)
-        task.last_reason = reason
-        task.phase = "waiting"
-        task.wake_at = now + wait_s
+        super()._reallocate(task, now, reason, wait_s)
         self._changed = True
 
-    def _finish(self, task: _Task, now: float, status: str, reason: str) -> None:
-        self._tasks.pop(task.task_id, None)
+    def _release(self, task: _Task, reason: str) -> None:
         self._withdraw(task, reason)
         self._changed = True
-        ended = outcome(task.task_id, task.spec, status, reason, task.winner, task.attempt, now)
-        self.outcomes.append(ended)
-        self._emit(now, "outcome", task, status=status, reason=reason, winner=ended.winner)
-
-    def _publish(self, subject: str, message: object) -> None:
-        try:
-            self.transport.publish({subject}, message)
-        except OSError as exc:
-            log.warning("could not send %s: %s", type(message).__name__, exc)
-
-    def _emit(self, now: float, kind: str, task: _Task, **detail: object) -> None:
-        if self.hooks.observer is not None:
-            self.hooks.observer(AuctionEvent(now, self.hooks.agent_id, kind, task.task_id,
-                                             task.attempt, dict(detail)))
