@@ -3,19 +3,14 @@ battery of a robot whose body touches the model (within `contact.MARGIN_M`)."""
 
 from __future__ import annotations
 
-import time
-from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager
 from pathlib import Path
 
 import pytest
+from sibling import load_sibling
 
 from player_server.client import PlayerClient, PowerProxy
 from player_server.client.device_proxies import SimulationProxy
-from player_server.server.runner import PlayerServer
-from player_server.server.stage_assembly import plan_endpoints
-from player_server.server.stage_source import load_stage_source
-from player_server.sim import Simulation
 from worlds.stage import load_stage_world
 
 INCLUDE = Path(__file__).resolve().parents[2] / "worlds" / "stage" / "include"
@@ -48,21 +43,11 @@ def cfg(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return d / "c.cfg"
 
 
-@contextmanager
-def client(path: Path) -> Iterator[PlayerClient]:
-    world, plan = load_stage_source(str(path), 0)
-    sim = Simulation(world.spec, seed=1)
-    server = PlayerServer(sim, plan_endpoints(plan, world, sim, allow_world_control=True,
-                                              ephemeral=True),
-                          interval_s=sim.interval_s, clock=time.monotonic, speedup=10.0)
-    try:
-        server.start()
-        with PlayerClient("127.0.0.1", server.ports["robot1"], timeout_s=10.0,
-                          read_timeout_s=10.0) as cl:
-            yield cl
-    finally:
-        server.stop()
-        sim.close()
+_stage = load_sibling(__file__, "stage_serving.py")
+
+
+def client(path: Path) -> AbstractContextManager[PlayerClient]:
+    return _stage.robot1(path, world_control=True)
 
 
 def _power_at(cl: PlayerClient, sim: SimulationProxy, power: PowerProxy, x: float,

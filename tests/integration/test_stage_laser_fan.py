@@ -9,17 +9,13 @@ Served over real TCP, read with the Python client.
 from __future__ import annotations
 
 import math
-import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
+from sibling import load_sibling
 
 from player_server.client import LaserProxy, PlayerClient, PlayerNack, RangerProxy
 from player_server.protocol import sensor_msgs as sm
-from player_server.server.runner import PlayerServer
-from player_server.server.stage_assembly import plan_endpoints
 from player_server.server.stage_source import load_stage_source
 from player_server.sim import Simulation
 
@@ -51,20 +47,8 @@ def cfg(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return d / "fan.cfg"
 
 
-@contextmanager
-def client(path: Path) -> Iterator[PlayerClient]:
-    world, plan = load_stage_source(str(path), 0)
-    sim = Simulation(world.spec, seed=1)
-    server = PlayerServer(sim, plan_endpoints(plan, world, sim, ephemeral=True),
-                          interval_s=sim.interval_s, clock=time.monotonic, speedup=10.0)
-    try:
-        server.start()
-        with PlayerClient("127.0.0.1", server.ports["robot1"], timeout_s=10.0,
-                          read_timeout_s=10.0) as cl:
-            yield cl
-    finally:
-        server.stop()
-        sim.close()
+_stage = load_sibling(__file__, "stage_serving.py")
+client = _stage.robot1
 
 
 def _config(lo_deg: float, hi_deg: float, res: float) -> sm.LaserConfig:

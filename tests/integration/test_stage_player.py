@@ -12,12 +12,11 @@ import os
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 import pytest
+from sibling import load_sibling
 
 from player_server.client import (
     LaserProxy,
@@ -29,9 +28,6 @@ from player_server.client import (
 )
 from player_server.client.device_proxies import SimulationProxy
 from player_server.protocol import sensor_msgs as sm
-from player_server.server.runner import PlayerServer
-from player_server.server.stage_assembly import plan_endpoints
-from player_server.server.stage_source import load_stage_source
 from player_server.sim import Simulation
 
 INCLUDE = Path(__file__).resolve().parents[2] / "worlds" / "stage" / "include"
@@ -99,20 +95,8 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, np.ndarray]:
     return d, solid
 
 
-@contextmanager
-def serve(path: Path, *, world_control: bool = False) -> Iterator[tuple[PlayerServer, list]]:
-    world, plan = load_stage_source(str(path), 0)
-    sim = Simulation(world.spec, seed=1)
-    endpoints = plan_endpoints(plan, world, sim, allow_world_control=world_control,
-                               ephemeral=True)
-    server = PlayerServer(sim, endpoints, interval_s=sim.interval_s, clock=time.monotonic,
-                          speedup=10.0)
-    try:
-        server.start()
-        yield server, plan.ports()
-    finally:
-        server.stop()
-        sim.close()
+_stage = load_sibling(__file__, "stage_serving.py")
+serve = _stage.serve
 
 
 def _client(port: int) -> PlayerClient:

@@ -9,20 +9,14 @@ from __future__ import annotations
 
 import math
 import struct
-import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
+from sibling import load_sibling
 
-from player_server.client import BlobfinderProxy, FiducialProxy, PlayerClient, PlayerNack
+from player_server.client import BlobfinderProxy, FiducialProxy, PlayerNack
 from player_server.client.device_proxies import SimulationProxy
 from player_server.protocol import sensor_msgs as sm
-from player_server.server.runner import PlayerServer
-from player_server.server.stage_assembly import plan_endpoints
-from player_server.server.stage_source import load_stage_source
-from player_server.sim import Simulation
 
 INCLUDE = Path(__file__).resolve().parents[2] / "worlds" / "stage" / "include"
 
@@ -62,22 +56,8 @@ def cfg(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return d / "props.cfg"
 
 
-@contextmanager
-def serve(path: Path, *, world_control: bool) -> Iterator[PlayerClient]:
-    world, plan = load_stage_source(str(path), 0)
-    sim = Simulation(world.spec, seed=1)
-    endpoints = plan_endpoints(plan, world, sim, allow_world_control=world_control,
-                               ephemeral=True)
-    server = PlayerServer(sim, endpoints, interval_s=sim.interval_s, clock=time.monotonic,
-                          speedup=10.0)
-    try:
-        server.start()
-        with PlayerClient("127.0.0.1", server.ports["robot1"], timeout_s=10.0,
-                          read_timeout_s=10.0) as cl:
-            yield cl
-    finally:
-        server.stop()
-        sim.close()
+_stage = load_sibling(__file__, "stage_serving.py")
+serve = _stage.robot1
 
 
 def _blobs(proxy: BlobfinderProxy) -> tuple[sm.BlobfinderBlob, ...]:
