@@ -40,6 +40,7 @@ from murdoch.consensus.refine import (
 )
 from murdoch.consensus.scenario import Scenario
 from murdoch.consensus.scoring import build_problem, evaluate_plan
+from murdoch.manual_clock import ManualClock
 from murdoch.transport import Transport
 from murdoch.wire import Codec, Envelope
 
@@ -315,19 +316,6 @@ class ConsensusSwarm:
                               # (measured in synchronous runs only)
                               pairwise_steps=0, bytes_dense=0)
         return SwarmOutcome(result, period, datagrams, nbytes)
-
-
-class ManualClock:
-    """A clock that moves only when told to (for runs on the in-memory bus)."""
-
-    def __init__(self, start_s: float = 0.0) -> None:
-        self.now_s = start_s
-
-    def __call__(self) -> float:
-        return self.now_s
-
-    def advance(self, dt_s: float) -> None:
-        self.now_s += dt_s
 
 
 def make_agent(problem_scenario: Scenario, algorithm: str, index: int,

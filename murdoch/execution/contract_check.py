@@ -25,6 +25,7 @@ from typing import Any
 from murdoch.allocators.base import Allocator, Assignment, RobotHooks, UserHooks
 from murdoch.auction.messages import AuctionEvent
 from murdoch.auction.timing import USER_TASK
+from murdoch.manual_clock import ManualClock
 from murdoch.member import TeamMember
 from murdoch.memory_bus import MemoryBus
 from murdoch.user_agent import RandomizedBackoff
@@ -43,20 +44,12 @@ def _broken(rule: str, detail: str) -> ContractError:
     return ContractError(f"rule broken: {rule} ({detail})")
 
 
-class _Clock:
-    def __init__(self) -> None:
-        self.now = 0.0
-
-    def __call__(self) -> float:
-        return self.now
-
-
 class _Team:
     """The allocator's user and four robots that run each task for its duration."""
 
     def __init__(self, allocator: Allocator) -> None:
         self.allocator = allocator
-        self.clock = _Clock()
+        self.clock = ManualClock()
         self.bus = MemoryBus(self.clock, random.Random(0))
         self.events: list[AuctionEvent] = []
         self.user = allocator.user(
@@ -84,13 +77,13 @@ class _Team:
             if holders:
                 raise _broken("a task runs on one robot at a time",
                               f"{a.task_id} given to {name} while {holders[0]} runs it")
-            self.running[name] = (a.task_id, self.clock.now + float(a.params["duration_s"]))
-            self.log.append((self.clock.now, name, a.task_id, "start"))
+            self.running[name] = (a.task_id, self.clock.now_s + float(a.params["duration_s"]))
+            self.log.append((self.clock.now_s, name, a.task_id, "start"))
 
         def on_stop(a: Assignment, reason: str) -> None:
             if self.running.get(name, ("",))[0] == a.task_id:
                 del self.running[name]
-                self.log.append((self.clock.now, name, a.task_id, "stop"))
+                self.log.append((self.clock.now_s, name, a.task_id, "stop"))
 
         def score(kind: str, params: Mapping[str, Any], task_id: str) -> float:
             x, y = PLACES[name]
@@ -113,14 +106,14 @@ class _Team:
         self.robots.pop(name).close()
         self.bus.detach(name)
         if name in self.running:
-            self.log.append((self.clock.now, name, self.running.pop(name)[0], "stop"))
+            self.log.append((self.clock.now_s, name, self.running.pop(name)[0], "stop"))
 
     def leave(self, name: str) -> None:
         """The robot goes to charge: it gives its task back and offers nothing."""
         self.away.add(name)
         if name in self.running:
             task_id, _ = self.running.pop(name)
-            self.log.append((self.clock.now, name, task_id, "stop"))
+            self.log.append((self.clock.now_s, name, task_id, "stop"))
             self.robots[name].abandon(task_id, "battery low")
         self.robots[name].set_subjects(())
 
@@ -130,9 +123,9 @@ class _Team:
 
     def run(self, seconds: float) -> None:
         for _ in range(round(seconds / DT_S)):
-            self.clock.now = round(self.clock.now + DT_S, 6)
+            self.clock.now_s = round(self.clock.now_s + DT_S, 6)
             for name, (task_id, end) in list(self.running.items()):
-                if self.clock.now >= end:
+                if self.clock.now_s >= end:
                     del self.running[name]
                     self.robots[name].complete(task_id)
             for name in sorted(self.robots):
