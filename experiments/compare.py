@@ -8,7 +8,9 @@ schedule (`--kill`, `--restart` apply to each run alike). From each run director
 summary.json and events.jsonl it takes one row of `comparison.csv` (on the host that ran it),
 then writes `comparison.png` and prints the mean ± standard deviation over seeds per allocator:
 tasks completed, time from introduction to start, distance driven, messages and bytes per
-task, group tasks completed, reallocations after kills and unachievable tasks.
+task, group tasks completed, reallocations after kills and unachievable tasks. When `optimal`
+ran too, every other allocator is also set against it seed by seed (`compare_paired`:
+`comparison-paired.csv`, `comparison-paired.png` and a second table).
 
 A consensus allocator's refined form is compared as an allocator of its own: `cbba+refine`
 runs `--allocator cbba --refine` (`REFINED`); `--refine` adds the refined form of every
@@ -536,6 +538,13 @@ def compare(ctx: click.Context, experiment: str, allocators: str | None, refine:
                            "mean ± std over seeds")
     click.echo(format_table(stats))
     click.echo(f"wrote {out / 'comparison.csv'}, {plot}")
+    from experiments.compare_paired import against_reference
+
+    table = against_reference(rows, METRICS, out, f"{experiment}: {_span(until_s)} simulated,"
+                              f" seeds {seeds}, seed by seed against optimal")
+    if table is not None:
+        click.echo(f"{table}\nwrote {out / 'comparison-paired.csv'}, "
+                   f"{out / 'comparison-paired.png'}")
     failed = [r for r in rows if r["exit_code"] != 0]
     if failed:
         click.echo(f"error: {len(failed)} run(s) did not end cleanly: "
