@@ -93,6 +93,11 @@ class PlayerServer:
     # -- lifecycle ----------------------------------------------------------------------------
     def start(self) -> PlayerServer:
         self.tcp.bind(self.endpoints)
+        # a simulator that compiles code on first use (the sensing kernels) does it now, not
+        # inside the first round a client waits for
+        warm = getattr(self.sim, "warm", None)
+        if callable(warm):
+            warm()
         self._thread = threading.Thread(target=self._run, name="player-server", daemon=True)
         self._thread.start()
         return self

@@ -254,6 +254,16 @@ class BlobPlan:
         return Pending(slot, target, channel, origin, unit, rows[0], rows[1], rows[2],
                        rows[3], rows)
 
+    def boxes(self, p: Pending, sel: NDArray[np.int64], tilt: F64, zoom: F64
+              ) -> NDArray[np.int64]:
+        """`blob_kernel.blob_boxes` of the pending pairs `sel` (none is a valid selection)."""
+        slots = p.slot[sel]
+        targets = p.target[sel]
+        consts = self.cam_consts[slots]
+        consts[:, DZ_TOP] = self.z_top[targets] - self.cam_z[slots]
+        consts[:, DZ_BOTTOM] = self.z_bottom[targets] - self.cam_z[slots]
+        return blob_boxes(self.robot[slots], consts, p.rows[:, sel], zoom, tilt)
+
     def project(self, p: Pending, visible: NDArray[np.bool_], pan: F64, tilt: F64,
                 zoom: F64) -> list[tuple[BlobRow, ...]]:
         """Pinhole boxes of the visible pending pairs, per camera slot, as `BlobRow`s (the
@@ -265,10 +275,7 @@ class BlobPlan:
             return [() for _ in self.cams]
         slots = p.slot[sel]
         targets = p.target[sel]
-        consts = self.cam_consts[slots]
-        consts[:, DZ_TOP] = self.z_top[targets] - self.cam_z[slots]
-        consts[:, DZ_BOTTOM] = self.z_bottom[targets] - self.cam_z[slots]
-        boxes = blob_boxes(self.robot[slots], consts, p.rows[:, sel], zoom, tilt)
+        boxes = self.boxes(p, sel, tilt, zoom)
         seen = np.flatnonzero(boxes[:, 0])  # area 0: too small to see
         if seen.size == 0:
             return [() for _ in self.cams]

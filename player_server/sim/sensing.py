@@ -64,6 +64,34 @@ class SensingPass:
                 self._fast(rkeys, cams, cache)
         return cache
 
+    def warm(self) -> None:
+        """Compile, or load from numba's disk cache, every kernel the fast pass calls (the ray
+        casts with and without the footprint grid, the blobfinders' pending pairs and boxes),
+        by one pass over every range sensor and blobfinder of the world on its own arrays,
+        so that the first round a client asks for does not wait seconds for a compiler on a
+        fresh clone. Keeps nothing: no reading is cached and no sensor becomes active. The
+        render fidelity has nothing to compile."""
+        if self.world.fidelity != "fast":
+            return
+        robots = self.world.spec.robots
+        rkeys = tuple((i, kind) for i, r in enumerate(robots) for kind in self.ranging.kinds
+                      if getattr(r.devices, kind, None) is not None)
+        cams = [i for i, r in enumerate(robots) if r.devices.blobfinder is not None]
+        rays, *_ = self._rays(rkeys, cams)
+        if rays is not None:
+            o, d, limit, z, own = rays
+            fp, room = self.tick_arrays.footprints(), self.world.arrays.room
+            for grid_min in (0, fp.count + 1):  # with the grid, and without
+                CompiledCaster(grid_min, split_min=o.size + 1).cast(o, d, limit, z, fp, room,
+                                                                    own)
+        # numba types an array of one element (or none) as contiguous, whatever its strides:
+        # one camera and one pair give other signatures than several
+        _pan, tilt, zoom = self.world.ptz_arrays()
+        for some in (cams, cams[:1]) if cams else ():
+            bplan, pending = self.camera.fast_pending(some, self.tick_arrays.frame())
+            for pairs in ([0, 0], [0]) if pending.slot.size else ([],):
+                bplan.boxes(pending, np.array(pairs, dtype=np.int64), tilt, zoom)
+
     def _all_rkeys(self) -> tuple[tuple[int, str], ...]:
         """Every active range sensor, sorted (the active sets only grow: their size tells
         whether the last sort still holds)."""
@@ -88,6 +116,32 @@ class SensingPass:
               cache: dict[str, dict[Any, Any]]) -> None:
         w = self.world
         t0 = self._now()
+        rays, plan, bplan, pending = self._rays(rkeys, cams)
+        n_range = 0 if plan is None else plan.max_range.size
+        t1 = self._now()
+        hits = np.zeros(0)
+        if rays is not None:
+            o, d, limit, z, own = rays
+            hits = self.caster.cast(o, d, limit, z, self.tick_arrays.footprints(),
+                                    w.arrays.room, own)
+        t2 = self._now()
+        if plan is not None:
+            cache["ranges"].update(self.ranging.fast_readings(plan, hits[:n_range]))
+        t3 = self._now()
+        if bplan is not None and pending is not None:
+            visible = hits[n_range:] >= pending.near - 0.05
+            cache["blobs"].update(self.camera.fast_blobs(cams, bplan, pending, visible))
+        if self._clock is not None:
+            t4 = self._now()
+            share = n_range / max(1, hits.size)
+            self.timings.ranges_s += (t3 - t2) + (t2 - t1) * share
+            self.timings.blobs_s += (t1 - t0) + (t4 - t3) + (t2 - t1) * (1 - share)
+
+    def _rays(self, rkeys: tuple[tuple[int, str], ...], cams: list[int]) -> tuple[
+            tuple[np.ndarray, ...] | None, Any, Any, Any]:
+        """The batch of one fast pass: the rays (origins, directions, limits, heights, own
+        footprints; the range sensors' first, then the blobfinders' occlusion rays; None for
+        no ray), the range plan and the blob plan with its pending pairs (None without)."""
         frame = self.tick_arrays.frame()
         origins: list[np.ndarray] = []
         dirs: list[np.ndarray] = []
@@ -103,7 +157,6 @@ class SensingPass:
             maxr.append(plan.max_range)
             zs.append(plan.z)
             own.append(plan.own)
-        n_range = sum(o.size for o in origins)
         bplan = pending = None
         if cams:
             bplan, pending = self.camera.fast_pending(cams, frame)
@@ -115,27 +168,11 @@ class SensingPass:
                 maxr.append(pending.dist)
                 zs.append(self._zeros_for(pending.slot.size))
                 own.append(bplan.own[pending.slot])
-        t1 = self._now()
-        hits = np.zeros(0)
-        if origins:
-            o = np.concatenate(origins) if len(origins) > 1 else origins[0]
-            d = np.concatenate(dirs) if len(dirs) > 1 else dirs[0]
-            hits = self.caster.cast(o, d, np.concatenate(maxr) if len(maxr) > 1 else maxr[0],
-                                    np.concatenate(zs) if len(zs) > 1 else zs[0],
-                                    self.tick_arrays.footprints(), w.arrays.room,
-                                    np.concatenate(own) if len(own) > 1 else own[0])
-        t2 = self._now()
-        if plan is not None:
-            cache["ranges"].update(self.ranging.fast_readings(plan, hits[:n_range]))
-        t3 = self._now()
-        if bplan is not None and pending is not None:
-            visible = hits[n_range:] >= pending.near - 0.05
-            cache["blobs"].update(self.camera.fast_blobs(cams, bplan, pending, visible))
-        if self._clock is not None:
-            t4 = self._now()
-            share = n_range / max(1, hits.size)
-            self.timings.ranges_s += (t3 - t2) + (t2 - t1) * share
-            self.timings.blobs_s += (t1 - t0) + (t4 - t3) + (t2 - t1) * (1 - share)
+        if not origins:
+            return None, plan, bplan, pending
+        rays = tuple(np.concatenate(parts) if len(parts) > 1 else parts[0]
+                     for parts in (origins, dirs, maxr, zs, own))
+        return rays, plan, bplan, pending
 
     def _render(self, rkeys: tuple[tuple[int, str], ...], cams: list[int],
                 cache: dict[str, dict[Any, Any]]) -> None:

@@ -53,7 +53,7 @@ from player_server.sim.sensing import SensingPass
 from player_server.sim.tick_arrays import TickArrays
 from player_server.sim.timings import Timings
 from player_server.sim.world_arrays import WorldArrays
-from worlds import BoxSpec, ObjectSpec, WorldSpec
+from worlds import ObjectSpec, WorldSpec
 
 log = logging.getLogger(__name__)
 
@@ -321,9 +321,11 @@ class Simulation:
             st.x, st.y, st.yaw = x, y, wrap_angle(yaw)
             st.v = st.w = 0.0
         else:
-            z = {"box": lambda: self._box_spec(name).size_z_m / 2,
-                 "object": lambda: self.object_spec(name).height_m / 2,
-                 "marker": lambda: self._marker_spec_height(name) / 2}[kind]()
+            height = {"box": lambda: next(b.size_z_m for b in self.spec.boxes if b.name == name),
+                      "object": lambda: self.object_spec(name).height_m,
+                      "marker": lambda: next(m.height_m for m in self.spec.markers
+                                             if m.name == name)}[kind]()
+            z = height / 2
             pb.resetBasePositionAndOrientation(bid, (x, y, z), _quat_yaw(yaw),
                                                physicsClientId=cid)
             if kind == "marker":
@@ -344,17 +346,15 @@ class Simulation:
     def sense(self) -> Sensed:
         return self.sensing.sensed()
 
+    def warm(self) -> None:
+        """Compile the sensing kernels now (`SensingPass.warm`), before a client waits."""
+        self.sensing.warm()
+
     def ptz_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return self.ptz_model.arrays()
 
-    def _box_spec(self, name: str) -> BoxSpec:
-        return next(b for b in self.spec.boxes if b.name == name)
-
     def object_spec(self, name: str) -> ObjectSpec:
         return next(o for o in self.spec.objects if o.name == name)
-
-    def _marker_spec_height(self, name: str) -> float:
-        return next(m.height_m for m in self.spec.markers if m.name == name)
 
     def invalidate(self) -> None:
         self._cache.clear()

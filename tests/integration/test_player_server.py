@@ -67,7 +67,7 @@ def server() -> Iterator[PlayerServer]:
 
 @pytest.fixture
 def client(server: PlayerServer) -> Iterator[PlayerClient]:
-    with PlayerClient("127.0.0.1", server.ports["robot1"], timeout_s=30.0,
+    with PlayerClient("127.0.0.1", server.ports["robot1"], timeout_s=5.0,
                       read_timeout_s=10.0) as cl:
         yield cl
 
