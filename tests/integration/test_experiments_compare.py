@@ -112,3 +112,18 @@ def test_resume_reuses_finished_runs_made_with_the_same_options(tmp_path: Path) 
     assert again[0] == first and again[1]["allocator"] == "cbga"
     assert again[1]["exit_code"] == "0" and again[1]["events_sha256"]
     assert len([p for p in (out / "murdoch-s1").iterdir() if p.is_dir()]) == 1
+    assert not (out / "comparison-paired.csv").exists()  # no optimal: nothing to pair with
+    # with the exact central assignment, every other allocator is also set against it
+    proc = compare("--allocators", "murdoch,cbga,optimal", "--resume")
+    assert "murdoch-s1: reused" in proc.stdout and "cbga-s1: reused" in proc.stdout
+    assert "minus optimal, same seed" in proc.stdout
+    with (out / "comparison-paired.csv").open() as f:
+        pairs = list(csv.DictReader(f))
+    assert {p["allocator"] for p in pairs} == {"murdoch", "cbga"}
+    completed = {p["allocator"]: p for p in pairs if p["metric"] == "tasks_completed"}
+    by_allocator = {r["allocator"]: r for r in rows()}
+    for name in ("murdoch", "cbga"):
+        want = (int(by_allocator[name]["tasks_completed"])
+                - int(by_allocator["optimal"]["tasks_completed"]))
+        assert completed[name]["seeds"] == "1" and completed[name]["differences"] == f"{want:g}"
+    assert (out / "comparison-paired.png").read_bytes()[:4] == b"\x89PNG"
