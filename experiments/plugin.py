@@ -20,8 +20,9 @@ Stable names (kept compatible across minor versions): `Option`, `Supports`, `Run
 `Experiment`, `ExperimentBase`, `Referee`, `NoReferee`, `RunHandle`, `Fault`, `Verdict`,
 `PlannedTask`, `TaskKind`, `TaskSite`, `Place`, `default_place`, `OptionError`,
 `PluginError`, `robot_at_time`, `duration`, `fraction`; and the checkers
-`experiments.plugin_check.check_experiment` and `behaviors.task_kinds.check_task_kind`
-(`murdoch_api` re-exports them all). Everything else in `experiments` is internal.
+`experiments.plugin_check.check_experiment`, `experiments.referee_check.check_referee` (with
+its `ScriptedRun`) and `behaviors.task_kinds.check_task_kind` (`murdoch_api` re-exports them
+all). Everything else in `experiments` is internal.
 """
 
 from __future__ import annotations
