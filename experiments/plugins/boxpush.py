@@ -219,7 +219,7 @@ class BoxpushReferee:
         spot = bp.park_pose(self.spec, loop.robots().index(name))
         self.actions.put(functools.partial(place, name=name, pose=spot))
         loop.record(now, ev.ROBOT_SWITCH_OFF, robot=name, side_m=round(side, 3),
-                       end=self.worked_end.get(name))
+                    end=self.worked_end.get(name))
 
     def _switch_on(self, name: str, now: float) -> None:
         """Switch a pusher back on behind the other end from the one it worked before. The
@@ -256,8 +256,8 @@ class BoxpushReferee:
         self.actions.put(functools.partial(place, name=name, pose=pose, odometry=odo))
         self.loop.start_robot(name, now)
         self.loop.record(now, ev.ROBOT_SWITCH_ON, robot=name, x=round(pose[0], 3),
-                            y=round(pose[1], 3), yaw=round(pose[2], 3), end=end,
-                            other_at_old_end=other_ready, asked_t=round(asked_at, 3))
+                         y=round(pose[1], 3), yaw=round(pose[2], 3), end=end,
+                         other_at_old_end=other_ready, asked_t=round(asked_at, 3))
 
     # -- the goal
     def _goal(self, now: float) -> None:
@@ -288,7 +288,7 @@ class BoxpushReferee:
             task_id = loop.announce(PlannedTask(now, "watch-box", params), now)
             self.main_task = task_id
             loop.record(now, ev.GOAL_MOVED, marker=marker, x=round(xy[0], 3),
-                           y=round(xy[1], 3), task=task_id, replaces=old)
+                        y=round(xy[1], 3), task=task_id, replaces=old)
 
     def _referee(self, now: float) -> None:
         loop, gw = self.loop, self.goal_watch
@@ -363,7 +363,7 @@ class BoxpushReferee:
         task_id = loop.announce(PlannedTask(now, "watch-box", params), now)
         self.main_task = task_id
         loop.record(now, ev.BOX_ROUND, round=self.round, task=task_id, replaces=old,
-                       after=self.round_over_why)
+                    after=self.round_over_why)
         log.info("round %d at %.1f s simulated: box back at its start", self.round, now)
 
     def _box_start(self) -> tuple[float, float, float]:
