@@ -20,8 +20,9 @@ Stable names (kept compatible across minor versions): `Option`, `Supports`, `Run
 `Experiment`, `ExperimentBase`, `Referee`, `NoReferee`, `RunHandle`, `Fault`, `Verdict`,
 `PlannedTask`, `TaskKind`, `TaskSite`, `Place`, `default_place`, `OptionError`,
 `PluginError`, `robot_at_time`, `duration`, `fraction`; and the checkers
-`experiments.plugin_check.check_experiment` and `behaviors.task_kinds.check_task_kind`
-(`murdoch_api` re-exports them all). Everything else in `experiments` is internal.
+`experiments.plugin_check.check_experiment`, `experiments.referee_check.check_referee` (with
+its `ScriptedRun`) and `behaviors.task_kinds.check_task_kind` (`murdoch_api` re-exports them
+all). Everything else in `experiments` is internal.
 """
 
 from __future__ import annotations
@@ -171,18 +172,74 @@ Sampler = tuple[float, Callable[[Any, float], None]]
 
 
 class RunHandle(Protocol):
-    """What a referee may do to the run it watches (the runner's loop)."""
+    """What a referee may ask of and do to the run it watches (the runner's loop).
 
+    Called from the referee's hooks, on the serving thread: a question is answered as of the
+    tick boundary the hook runs at; an action takes effect at that tick. Times are simulated
+    seconds; `now` is the time the hook was given. `experiments.referee_check.ScriptedRun`
+    is an in-memory one for checks."""
+
+    # -- tasks
     def announce(self, planned: PlannedTask, now: float) -> str:
-        """Introduce a task now; its id."""
+        """Introduce a task now, as the user (its `task_introduced` event at `now`; it is
+        auctioned from this tick on and reintroduced with backoff while unachievable); its
+        id. Its kind is one of the experiment's `task_kinds`."""
         ...
 
+    def withdraw(self, task_id: str, reason: str) -> None:
+        """The user withdraws a task it introduced, at this tick: its auction ends, its
+        holder is told to stop, and it ends as failed with `reason` (`on_task_over` follows
+        as for any end). A task that has ended already is left as it is."""
+        ...
+
+    def first_task(self) -> tuple[str, PlannedTask] | None:
+        """The first task the experiment's task source introduced: its id and the task as
+        planned (None until it is introduced, at or after its planned time)."""
+        ...
+
+    def task_ended(self, task_id: str) -> bool:
+        """Whether the task has its outcome (completed, failed or unachievable) by now."""
+        ...
+
+    def unachievable(self, task_id: str) -> str | None:
+        """Why the team gave the task up as unachievable, if it has by now (else None)."""
+        ...
+
+    # -- robots
+    def robots(self) -> tuple[str, ...]:
+        """The names of the run's robots (each a process of its own), sorted."""
+        ...
+
+    def down(self) -> frozenset[str]:
+        """The robots down now: killed, switched off or exited by themselves, and not
+        started again since."""
+        ...
+
+    def stop_robot(self, name: str, now: float) -> None:
+        """Switch the robot off now: its process ends at once, it is down (the lockstep
+        clock no longer waits for it) until `start_robot`, and the tasks it held go back to
+        the team as after any failure. The referee records why (`record`)."""
+        ...
+
+    def start_robot(self, name: str, now: float) -> None:
+        """Start the robot's process now (replacing one still running); it is no longer
+        down, and the lockstep clock waits for it from the next tick."""
+        ...
+
+    # -- the record and the end
     def record(self, t_s: float, kind: str, **fields: Any) -> None:
-        """Add an event to events.jsonl."""
+        """Add an event of `kind` at `t_s` (no later than now) to events.jsonl; its fields
+        are JSON values."""
         ...
 
     def end(self, reason: str) -> None:
-        """End the run at this tick ('completed', or a reason of its own)."""
+        """End the run at this tick ('completed', or a reason of its own): what the robots
+        did up to now is read, the tasks still open end as failed."""
+        ...
+
+    def set_closing_reason(self, reason: str) -> None:
+        """The reason the tasks still open when the run ends are withdrawn with (from now
+        on; 'run ended' until set)."""
         ...
 
 
@@ -192,23 +249,39 @@ class Referee(Protocol):
     The loop calls, in this order at every tick boundary: its fault schedule (the referee's
     `fault_actions` among the others), `before_tasks`, the introduction of due tasks,
     `after_tasks`, then its allocator's step. The auction hooks see every announcement,
-    award and end of a task."""
+    award and end of a task (as the runner reads them, at the next tick boundary).
+    `experiments.referee_check.check_referee` drives one through a scripted run."""
 
     samplers: tuple[Sampler, ...]
+    """Functions of (sim, t) the server runs between physics steps (ground truth)."""
 
-    def bind(self, loop: RunHandle) -> None: ...
+    def bind(self, loop: RunHandle) -> None:
+        """The run it watches, before the first tick."""
+        ...
 
-    def fault_actions(self) -> Mapping[str, Callable[[str, float], None]]: ...
+    def fault_actions(self) -> Mapping[str, Callable[[str, float], None]]:
+        """Its own fault actions by name (none of the runner's): action(robot, now)."""
+        ...
 
-    def on_announce(self, task_id: str, name: str) -> None: ...
+    def on_announce(self, task_id: str, name: str) -> None:
+        """A task (of kind `name`) was put up for auction, by the user or by a robot."""
+        ...
 
-    def on_award(self, task_id: str, robot: str) -> None: ...
+    def on_award(self, task_id: str, robot: str) -> None:
+        """The task was awarded to `robot`."""
+        ...
 
-    def on_task_over(self, task_id: str) -> None: ...
+    def on_task_over(self, task_id: str) -> None:
+        """The task ended, or went back to the team (its holder failed)."""
+        ...
 
-    def before_tasks(self, now: float) -> None: ...
+    def before_tasks(self, now: float) -> None:
+        """At the tick boundary `now`, before due tasks are introduced."""
+        ...
 
-    def after_tasks(self, now: float) -> None: ...
+    def after_tasks(self, now: float) -> None:
+        """At the tick boundary `now`, after due tasks are introduced."""
+        ...
 
 
 class NoReferee:

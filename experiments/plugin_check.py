@@ -6,14 +6,14 @@ the options are checked against the experiment's world, its tasks are drawn twic
 same seed (the same stream both times: determinism), each task's kind, parameters, duration
 and place are checked, its faults and config are checked, and its summary sections, plots,
 verdict and next steps are asked of a scripted run's events in which tasks arrive, a robot
-is killed holding one, one is unachievable and one completes. With ``run=True`` the
+is killed holding one, one is unachievable and one completes, and its referee is driven
+through a scripted run of its own (`experiments.referee_check`). With ``run=True`` the
 experiment also runs for real for a few simulated minutes (a busy robot killed and started
 again), and every task must end in exactly one terminal state.
 """
 
 from __future__ import annotations
 
-import json
 import math
 import tempfile
 from collections.abc import Mapping
@@ -24,14 +24,18 @@ from typing import Any
 from behaviors.params import ParamError
 from behaviors.task_kinds import check_task_kind, task_kinds
 from experiments import events as ev
+from experiments.check_setup import (
+    checked_options,
+    draw,
+    is_json,
+    is_json_object,
+    resolve,
+    rule,
+    world_of,
+)
 from experiments.plugin import Experiment, Fault, PlannedTask, RunOptions, Verdict
+from experiments.referee_check import RUNNER_ACTIONS, check_referee
 from murdoch.plugin import ContractError, PluginError
-
-RUNNER_ACTIONS = frozenset({"kill", "restart", "freeze", "thaw", "retire", "charger-off",
-                            "charger-on", "burst"})
-"""Fault actions the runner carries out itself; others belong to the experiment's referee."""
-MAX_TASKS = 40
-"""How many tasks of the stream the check draws."""
 
 
 @dataclass(frozen=True)
@@ -52,93 +56,63 @@ class StaticSite:
         return None
 
 
-def _rule(ok: bool, name: str, rule: str) -> None:
-    if not ok:
-        raise ContractError(f"experiment {name!r}: {rule}")
-
-
 def check_experiment(experiment: Experiment | str, *, duration_s: float = 3600.0,
                      seed: int = 1, run: bool = False, out: Path | None = None) -> None:
     """Drive `experiment` (or the registered one of that name) through the scripted scenario;
     `ContractError` names the first rule it breaks (`PluginError` for a broken declaration)."""
-    from experiments.registry import check_declaration, experiments
-    from worlds import load_world, world_path
+    from experiments.registry import check_declaration
 
-    if isinstance(experiment, str):
-        found = experiments().get(experiment)
-        if found is None:
-            raise PluginError(f"no experiment {experiment!r}; known: "
-                              f"{', '.join(experiments())}")
-        experiment = found
-    plugin = check_declaration(experiment)
+    plugin = check_declaration(resolve(experiment))
     name = plugin.name
-    spec = load_world(world_path(plugin.world)) if not plugin.world.endswith(".toml") \
-        else load_world(Path(plugin.world))
-    options = plugin.check(spec, RunOptions.of(plugin, duration_s, seed))
-    _rule(isinstance(options, RunOptions), name, "check() must return the RunOptions")
-    _rule(_json(plugin.config(options)), name, "config() must be a JSON object")
-    planned = _draw(plugin, spec, options)
-    _rule(planned == _draw(plugin, spec, options), name,
+    spec = world_of(plugin)
+    options = checked_options(plugin, spec, duration_s, seed)
+    rule(is_json_object(plugin.config(options)), name, "config() must be a JSON object")
+    planned = draw(plugin, spec, options)
+    rule(planned == draw(plugin, spec, options), name,
           "tasks() must give the same tasks for the same world, seed and options")
-    _rule(bool(planned), name, f"tasks() introduced nothing in {duration_s:g} s")
+    rule(bool(planned), name, f"tasks() introduced nothing in {duration_s:g} s")
     for task in planned:
         _check_task(name, plugin, task, spec, duration_s)
     _check_faults(name, plugin, spec, options)
     _check_reports(name, plugin, planned, spec)
+    check_referee(plugin, duration_s=duration_s, seed=seed)
     if run:
         _real_run(plugin, seed, out)
 
 
-def _json(value: object) -> bool:
-    try:
-        json.dumps(value)
-    except (TypeError, ValueError):
-        return False
-    return isinstance(value, dict)
-
-
-def _draw(plugin: Experiment, spec: Any, options: RunOptions) -> list[PlannedTask]:
-    out: list[PlannedTask] = []
-    for task in plugin.tasks(spec, options):
-        if task is None or task.t_s >= options.duration_s or len(out) >= MAX_TASKS:
-            break
-        out.append(task)
-    return out
-
-
 def _check_task(name: str, plugin: Experiment, task: PlannedTask, spec: Any,
                 duration_s: float) -> None:
-    _rule(isinstance(task, PlannedTask), name, "tasks() must yield PlannedTask or None")
+    rule(isinstance(task, PlannedTask), name, "tasks() must yield PlannedTask or None")
     what = f"task {task.kind!r} at {task.t_s:g} s"
-    _rule(task.kind in plugin.task_kinds, name, f"{what}: its kind is not in task_kinds")
+    rule(task.kind in plugin.task_kinds, name, f"{what}: its kind is not in task_kinds")
     kind = task_kinds().get(task.kind)
-    _rule(kind is not None, name, f"{what}: its kind is not registered")
+    rule(kind is not None, name, f"{what}: its kind is not registered")
     assert kind is not None
     try:
         check_task_kind(kind, f"task kind {task.kind!r}")
     except PluginError as exc:
         raise ContractError(f"experiment {name!r}: {exc}") from None
-    _rule(0.0 <= task.t_s < duration_s, name, f"{what}: its time must be within the run")
-    _rule(_json(dict(task.params)), name, f"{what}: its params must be JSON values")
+    rule(0.0 <= task.t_s < duration_s, name, f"{what}: its time must be within the run")
+    rule(is_json(dict(task.params)), name, f"{what}: its params must be JSON values")
     try:
         kind.resolve(task.params)
         length = kind.duration_s(task.params)
     except ParamError as exc:
         raise ContractError(f"experiment {name!r}: {what}: {exc}") from None
-    _rule(kind.duration_param is not None and length > 0, name,
+    rule(kind.duration_param is not None and length > 0, name,
           f"{what}: a user task needs a positive duration ({kind.duration_param})")
     xy = kind.place(task.params, StaticSite(spec))
-    _rule(xy is None or (len(xy) == 2 and all(math.isfinite(float(v)) for v in xy)), name,
+    rule(xy is None or (len(xy) == 2 and all(math.isfinite(float(v)) for v in xy)), name,
           f"{what}: place() must give (x, y) or None")
 
 
 def _check_faults(name: str, plugin: Experiment, spec: Any, options: RunOptions) -> None:
     own = plugin.referee(spec, options).fault_actions()
     for fault in plugin.faults(options):
-        _rule(isinstance(fault, Fault), name, "faults() must give Fault entries")
-        _rule(0.0 <= fault.t_s < options.duration_s, name,
+        rule(isinstance(fault, Fault), name, "faults() must give Fault entries")
+        rule(0.0 <= fault.t_s < options.duration_s, name,
               f"fault {fault.action} {fault.label()}: its time must be within the run")
-        _rule(fault.action in RUNNER_ACTIONS or fault.action in own, name,
+        rule(fault.action in RUNNER_ACTIONS or fault.action in own, name,
               f"fault {fault.action}: neither the runner's nor its referee's action")
 
 
@@ -166,16 +140,16 @@ def _check_reports(name: str, plugin: Experiment, planned: list[PlannedTask],
                    spec: Any) -> None:
     events = _scripted_events(planned, spec)
     sections = plugin.summary_sections(events)
-    _rule(_json(sections), name, "summary_sections() must be a JSON object")
+    rule(is_json_object(sections), name, "summary_sections() must be a JSON object")
     verdict = plugin.verdict({"end_reason": "completed", **sections})
-    _rule(verdict is None or isinstance(verdict, Verdict), name,
+    rule(verdict is None or isinstance(verdict, Verdict), name,
           "verdict() must give a Verdict or None")
     steps = plugin.next_steps()
-    _rule(isinstance(steps, list) and all(isinstance(s, str) for s in steps), name,
+    rule(isinstance(steps, list) and all(isinstance(s, str) for s in steps), name,
           "next_steps() must give a list of str")
     with tempfile.TemporaryDirectory() as tmp:
         paths = plugin.plots(events, Path(tmp))
-        _rule(all(Path(p).is_file() for p in paths), name,
+        rule(all(Path(p).is_file() for p in paths), name,
               "plots() must give the paths of the files it wrote")
 
 
@@ -192,9 +166,9 @@ def _real_run(plugin: Experiment, seed: int, out: Path | None) -> None:
                               task_interval_s=None, kills=[("busy", 120.0)],
                               restarts=[("busy", 180.0)], replay=False, record=False)
         runs = sorted(p for p in where.iterdir() if p.is_dir())
-        _rule(bool(runs), plugin.name, "a real run left no run directory")
+        rule(bool(runs), plugin.name, "a real run left no run directory")
         problems: Mapping[str, Any] = terminal_state_problems(
             ev.read_events(runs[-1] / "events.jsonl"))
-        _rule(not any(problems.values()), plugin.name,
+        rule(not any(problems.values()), plugin.name,
               f"every task must end in exactly one terminal state: {problems}")
-        _rule(code in (0, 4), plugin.name, f"a real run ended with exit status {code}")
+        rule(code in (0, 4), plugin.name, f"a real run ended with exit status {code}")

@@ -76,7 +76,7 @@ class RunState:
     introduced: set[str] = field(default_factory=set)
     finished: set[str] = field(default_factory=set)
     unachievable: dict[str, str] = field(default_factory=dict)
-    goal_outcome: str | None = None
+    closing_reason: str = "run ended"
     end_reason: str | None = None
     error: BaseException | None = None
     last_t: float = 0.0
@@ -128,8 +128,7 @@ class RunLoop:
         self.interval_s = float(sim.interval_s)
         self.state = RunState()
         self.announced_at: dict[str, float] = {}
-        self.main_task: str | None = None
-        self.task_params: dict[str, Any] = {}
+        self.first: tuple[str, PlannedTask] | None = None
         self.busy_killed: list[str] = []
         self.scheduled_down: set[str] = set()
         self.hold_clock = hold_clock
@@ -297,11 +296,16 @@ class RunLoop:
                 self._actions[fault.action](name, now)
 
     def _kill(self, name: str, now: float) -> None:
+        self._take_down(name, now, "killed")
+        self.rec.event(now, ev.ROBOT_FAILURE, robot=name, reason="killed")
+
+    def _take_down(self, name: str, now: float, note: str) -> None:
+        """The robot's process killed at once (continued first if frozen: it never runs
+        again in between); it is down until started again."""
         self._unfreeze_quietly(name, resume=False)
         self.scheduled_down.add(name)
         pid = self.processes.kill(name)
-        self.rec.event(now, ev.ROBOT_FAILURE, robot=name, reason="killed")
-        self.rec.note_process(now, "killed", name, pid)
+        self.rec.note_process(now, note, name, pid)
 
     def _restart(self, name: str, now: float) -> None:
         self.start_process(name, now)
@@ -368,11 +372,8 @@ class RunLoop:
         if name in self.scheduled_down:
             self._skip("retire", name, now, "already down")
             return
-        self._unfreeze_quietly(name, resume=False)
-        self.scheduled_down.add(name)
-        pid = self.processes.kill(name)
+        self._take_down(name, now, "switched-off")
         self.rec.event(now, ev.ROBOT_SWITCH_OFF, robot=name, permanent=True)
-        self.rec.note_process(now, "switched-off", name, pid)
 
     def _charger_off(self, name: str, now: float) -> None:
         self.sim.set_charger_enabled(name, False)
@@ -399,9 +400,8 @@ class RunLoop:
                and self.next_task.t_s < self.duration_s):
             planned = self.next_task
             task_id = self.announce(planned, now)
-            if self.main_task is None:
-                self.main_task = task_id
-                self.task_params = dict(planned.params)
+            if self.first is None:
+                self.first = (task_id, planned)
             self.next_task = next(self.planned)
 
     def announce(self, planned: PlannedTask, now: float) -> str:
@@ -415,14 +415,40 @@ class RunLoop:
         self.state.introduced.add(task_id)
         return task_id
 
+    # -- the referee's handle (`experiments.plugin.RunHandle` says what each one does) ------
+    def withdraw(self, task_id: str, reason: str) -> None:
+        self.node.cancel(task_id, reason)
+
+    def first_task(self) -> tuple[str, PlannedTask] | None:
+        return self.first
+
+    def task_ended(self, task_id: str) -> bool:
+        return task_id in self.state.finished
+
+    def unachievable(self, task_id: str) -> str | None:
+        return self.state.unachievable.get(task_id)
+
+    def robots(self) -> tuple[str, ...]:
+        return tuple(sorted(self.processes.names()))
+
+    def down(self) -> frozenset[str]:
+        return frozenset(self.scheduled_down)
+
+    def stop_robot(self, name: str, now: float) -> None:
+        self._take_down(name, now, "switched-off")
+
+    def start_robot(self, name: str, now: float) -> None:
+        self.start_process(name, now)
+
     def record(self, t_s: float, kind: str, **fields: Any) -> None:
-        """An event of the experiment's referee (`experiments.plugin.RunHandle`)."""
         self.rec.event(t_s, kind, **fields)
 
     def end(self, reason: str) -> None:
-        """The referee ends the run at this tick (`experiments.plugin.RunHandle`)."""
         if self.state.end_reason is None:
             self.state.end_reason = reason
+
+    def set_closing_reason(self, reason: str) -> None:
+        self.state.closing_reason = reason
 
     # -- the end --------------------------------------------------------------------------------
     def close_open_tasks(self, end_t: float) -> None:
@@ -433,9 +459,8 @@ class RunLoop:
         if st.closed:
             return
         st.closed = True
-        why = "run ended: box at the goal" if st.goal_outcome == "reached" else "run ended"
         for task_id in self.node.open_tasks():
-            self.node.cancel(task_id, why)
+            self.node.cancel(task_id, st.closing_reason)
         for task_id in sorted(st.introduced - st.finished):
             self.rec.event(end_t, ev.TASK_OUTCOME, task=task_id, outcome=ev.FAILED,
                            reason="run ended")

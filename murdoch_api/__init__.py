@@ -7,7 +7,8 @@ distributed allocator, `check_allocator`.
 
 Experiments and task kinds (`experiments.plugin`): `ExperimentBase` / `Experiment`,
 `Option`, `Supports`, `RunOptions`, `PlannedTask`, `TaskKind`, `check_experiment`,
-`check_task_kind`, and what a referee sees.
+`check_task_kind`, what a referee sees (`Referee`, `RunHandle`), and `check_referee` with its
+in-memory `ScriptedRun`.
 
 Composing the robot-side behaviour of a task kind: `TaskPlan`, `Stage`, `Layer`,
 `ServoToLocation`, `avoid_layers`, `signal`, `elapsed`, `elapsed_progress`,
@@ -49,6 +50,7 @@ from experiments.plugin import (
     robot_at_time,
 )
 from experiments.plugin_check import check_experiment
+from experiments.referee_check import ScriptedRun, check_referee
 from murdoch.plugin import (
     Allocator,
     Assignment,
@@ -68,9 +70,10 @@ __all__ = [
     "Allocator", "Assignment", "CentralAllocator", "ContractError", "Experiment",
     "ExperimentBase", "Fault", "Layer", "NoReferee", "Option", "OptionError", "ParamError",
     "Place", "PlannedTask", "PluginError", "Referee", "RobotHooks", "RobotProfile",
-    "RobotView", "RunHandle", "RunOptions", "ServoToLocation", "Stage", "Supports",
+    "RobotView", "RunHandle", "RunOptions", "ScriptedRun", "ServoToLocation", "Stage",
+    "Supports",
     "TaskKind", "TaskPlan", "TaskSite", "TaskView", "UserHooks", "Verdict", "WeightedMetric",
     "WorldView", "avoid_layers", "battery_fraction", "central_allocator", "check_allocator",
-    "check_experiment", "check_task_kind", "default_place", "duration", "elapsed",
+    "check_experiment", "check_referee", "check_task_kind", "default_place", "duration", "elapsed",
     "elapsed_progress", "fraction", "negative_distance", "number", "robot_at_time", "signal",
 ]

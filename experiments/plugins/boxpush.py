@@ -19,7 +19,7 @@ from collections import Counter, defaultdict
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from experiments import boxpush as bp
 from experiments import events as ev
@@ -39,9 +39,6 @@ from experiments.plugin import (
 )
 from experiments.task_source import PlannedTask, boxpush_task
 from worlds import WorldSpec
-
-if TYPE_CHECKING:
-    from experiments.run_loop import RunLoop
 
 log = logging.getLogger("murdoch.run")
 
@@ -154,17 +151,19 @@ class BoxpushReferee:
         self.ends_before: dict[str, Counter[str]] = defaultdict(Counter)
         self.worked_end: dict[str, str] = {}
         self.pending_on: dict[str, float] = {}
-        self._loop: RunLoop | None = None
+        # the watch task (the task source's, or the latest introduced in its place), the
+        # parameters it was introduced with, and the box's fate: reached, unachievable or None
+        self.main_task: str | None = None
+        self.task_params: dict[str, Any] = {}
+        self.goal_outcome: str | None = None
+        self._loop: RunHandle | None = None
 
     @property
-    def loop(self) -> RunLoop:
+    def loop(self) -> RunHandle:
         assert self._loop is not None, "bind() first"
         return self._loop
 
     def bind(self, loop: RunHandle) -> None:
-        from experiments.run_loop import RunLoop
-
-        assert isinstance(loop, RunLoop), "the boxpush referee drives the runner's own loop"
         self._loop = loop
 
     def fault_actions(self) -> Mapping[str, Callable[[str, float], None]]:
@@ -195,15 +194,16 @@ class BoxpushReferee:
             self._pending_switch_ons(now)
 
     def after_tasks(self, now: float) -> None:
+        first = self.loop.first_task() if self.main_task is None else None
+        if first is not None:
+            self.main_task, self.task_params = first[0], dict(first[1].params)
         self._goal(now)
         self._referee(now)
 
     # -- switching pushers off and on
     def _switch_off(self, name: str, now: float) -> None:
         loop, gw = self.loop, self.goal_watch
-        loop.scheduled_down.add(name)
-        pid = loop.processes.kill(name)
-        loop.rec.note_process(now, "switched-off", name, pid)
+        loop.stop_robot(name, now)
         box_pose = gw.box_pose
         xy = gw.robot_poses.get(name, (0.0, 0.0, 0.0))
         side = bp.side_of(box_pose, xy[:2]) if box_pose is not None else 0.0
@@ -216,10 +216,10 @@ class BoxpushReferee:
             self.worked_end[name] = bp.end_at(box_pose, gw.goal_xy, xy[:2])
         self.ends_before[name].clear()
         self.push_holder.pop(name, None)
-        spot = bp.park_pose(self.spec, sorted(loop.processes.names()).index(name))
+        spot = bp.park_pose(self.spec, loop.robots().index(name))
         self.actions.put(functools.partial(place, name=name, pose=spot))
-        loop.rec.event(now, ev.ROBOT_SWITCH_OFF, robot=name, side_m=round(side, 3),
-                       end=self.worked_end.get(name))
+        loop.record(now, ev.ROBOT_SWITCH_OFF, robot=name, side_m=round(side, 3),
+                    end=self.worked_end.get(name))
 
     def _switch_on(self, name: str, now: float) -> None:
         """Switch a pusher back on behind the other end from the one it worked before. The
@@ -247,24 +247,23 @@ class BoxpushReferee:
                          asked_at: float) -> None:
         gw = self.goal_watch
         self.switched_off.pop(name, None)
-        box_pose = gw.box_pose
-        assert box_pose is not None
+        box_pose = gw.box_pose if gw.box_pose is not None else self._box_start()
         offset = bp.end_offset(box_pose, gw.goal_xy, end, gw.bg)
         pose = bp.return_pose(box_pose, gw.goal_xy, offset, gw.bg)
         start = next(r.pose for r in self.spec.robots if r.name == name)
         odo = bp.odometry_at((start[0], start[1], start[2]), pose)
         # placed by hand and told where it is: odometry stays in the shared frame
         self.actions.put(functools.partial(place, name=name, pose=pose, odometry=odo))
-        self.loop.start_process(name, now)
-        self.loop.rec.event(now, ev.ROBOT_SWITCH_ON, robot=name, x=round(pose[0], 3),
-                            y=round(pose[1], 3), yaw=round(pose[2], 3), end=end,
-                            other_at_old_end=other_ready, asked_t=round(asked_at, 3))
+        self.loop.start_robot(name, now)
+        self.loop.record(now, ev.ROBOT_SWITCH_ON, robot=name, x=round(pose[0], 3),
+                         y=round(pose[1], 3), yaw=round(pose[2], 3), end=end,
+                         other_at_old_end=other_ready, asked_t=round(asked_at, 3))
 
     # -- the goal
     def _goal(self, now: float) -> None:
         """Move a moving goal, and re-target the watch task when it is time."""
         loop, gw, plan = self.loop, self.goal_watch, self.goal_plan
-        if loop.main_task is None:
+        if self.main_task is None:
             return
         if plan.moving and self.goal_marker is not None:
             start, _ = bp.marker_goal(self.spec, self.goal_marker)
@@ -275,65 +274,67 @@ class BoxpushReferee:
                 self.actions.put(functools.partial(_move_marker, marker=self.goal_marker, xy=xy))
         while self.retargets and self.retargets[0][0] <= now + 1e-9:
             _, marker = self.retargets.pop(0)
-            if loop.state.goal_outcome is not None or loop.main_task in loop.state.finished:
+            if self.goal_outcome is not None or loop.task_ended(self.main_task):
                 continue
             xy, colour = bp.marker_goal(self.spec, marker)
-            old = loop.main_task
+            old = self.main_task
             self.goal_marker = marker
             gw.goal_xy = xy
             # the user withdraws the watch task and introduces it again with the new goal
-            loop.node.cancel(old, f"re-targeted to {marker}")
-            params = dict(loop.task_params)
+            loop.withdraw(old, f"re-targeted to {marker}")
+            params = dict(self.task_params)
             params["goal_colour"] = f"#{colour:06x}"
             params["duration_s"] = max(60.0, self.duration_s - now - 5.0)
             task_id = loop.announce(PlannedTask(now, "watch-box", params), now)
-            loop.main_task = task_id
-            loop.rec.event(now, ev.GOAL_MOVED, marker=marker, x=round(xy[0], 3),
-                           y=round(xy[1], 3), task=task_id, replaces=old)
+            self.main_task = task_id
+            loop.record(now, ev.GOAL_MOVED, marker=marker, x=round(xy[0], 3),
+                        y=round(xy[1], 3), task=task_id, replaces=old)
 
     def _referee(self, now: float) -> None:
         loop, gw = self.loop, self.goal_watch
         if now >= self.next_progress_s - 1e-9 and gw.box_pose is not None:
             self.next_progress_s = now + BOX_PROGRESS_PERIOD_S
             bx, by, yaw = gw.box_pose
-            loop.rec.event(now, ev.BOX_PROGRESS, distance_m=round(gw.distance_m, 3),
-                           box=[round(bx, 3), round(by, 3), round(yaw, 3)],
-                           goal=[round(gw.goal_xy[0], 3), round(gw.goal_xy[1], 3)])
-        st = loop.state
+            loop.record(now, ev.BOX_PROGRESS, distance_m=round(gw.distance_m, 3),
+                        box=[round(bx, 3), round(by, 3), round(yaw, 3)],
+                        goal=[round(gw.goal_xy[0], 3), round(gw.goal_xy[1], 3)])
         if self.next_round_s is not None:
             if now >= self.next_round_s - 1e-9:
                 self._next_round(now)
             return
         more = self.rounds == 0 or self.round < self.rounds
-        main = loop.main_task
-        if st.goal_outcome is None:
+        main = self.main_task
+        given_up = loop.unachievable(main) if main is not None else None
+        ended = main is not None and loop.task_ended(main)
+        if self.goal_outcome is None:
             if gw.reached_at_s is not None:
                 if more:
                     # not the last round: the next one starts once the last reports are in
                     self._round_over(now, "reached")
                 else:
-                    st.goal_outcome = "reached"
+                    self.goal_outcome = "reached"
+                    loop.set_closing_reason("run ended: box at the goal")
                 self.arrivals += 1
-                loop.rec.event(gw.reached_at_s, ev.GOAL_REACHED, box=gw.bg.box,
-                               distance_m=round(gw.distance_m, 3), radius_m=gw.radius_m)
+                loop.record(gw.reached_at_s, ev.GOAL_REACHED, box=gw.bg.box,
+                            distance_m=round(gw.distance_m, 3), radius_m=gw.radius_m)
                 log.info("goal reached at %.1f s simulated: box %.2f m from the goal",
                          gw.reached_at_s, gw.distance_m)
-            elif more and main is not None and (main in st.unachievable or main in st.finished):
+            elif more and (given_up is not None or ended):
                 # the watch task ended without the box (e.g. a pusher gone for good): the
                 # round is over all the same
-                self._round_over(now, st.unachievable.get(main, "the watch task ended"))
-            elif main is not None and main in st.unachievable:
-                st.goal_outcome = "unachievable"
-                why = st.unachievable[main]
-                loop.rec.event(now, ev.GOAL_UNACHIEVABLE, task=main, reason=why)
+                self._round_over(now, given_up if given_up is not None
+                                 else "the watch task ended")
+            elif given_up is not None:
+                self.goal_outcome = "unachievable"
+                loop.record(now, ev.GOAL_UNACHIEVABLE, task=main, reason=given_up)
         if self.next_round_s is not None:
             return
-        if loop.main_task in st.finished or st.goal_outcome is not None:
+        if ended or self.goal_outcome is not None:
             # the box reached the goal (or could not): let the last reports arrive, then stop
             if self.end_after_s is None:
                 self.end_after_s = now + BOXPUSH_LINGER_S
             if now >= self.end_after_s - 1e-9:
-                st.end_reason = "completed"
+                loop.end("completed")
 
     # -- rounds
     def _round_over(self, now: float, why: str) -> None:
@@ -348,30 +349,33 @@ class BoxpushReferee:
         loop = self.loop
         self.next_round_s = None
         self.round += 1
-        old = loop.main_task
-        if old is not None and old not in loop.state.finished:
+        old = self.main_task
+        if old is not None and not loop.task_ended(old):
             why = self.round_over_why
-            loop.node.cancel(old, "round over: " + ("box at the goal" if why == "reached"
-                                                    else why))
-        self.actions.put(self._reset_stage)
-        params = dict(loop.task_params)
+            loop.withdraw(old, "round over: " + ("box at the goal" if why == "reached"
+                                                 else why))
+        self.actions.put(functools.partial(self._reset_stage, down=loop.down(),
+                                           names=loop.robots()))
+        params = dict(self.task_params)
         if self.goal_marker is not None and self.goal_marker != self.goal_watch.bg.goal:
             params["goal_colour"] = f"#{bp.marker_goal(self.spec, self.goal_marker)[1]:06x}"
         params["duration_s"] = max(60.0, self.duration_s - now - 5.0)
         task_id = loop.announce(PlannedTask(now, "watch-box", params), now)
-        loop.main_task = task_id
-        loop.rec.event(now, ev.BOX_ROUND, round=self.round, task=task_id, replaces=old,
-                       after=self.round_over_why)
+        self.main_task = task_id
+        loop.record(now, ev.BOX_ROUND, round=self.round, task=task_id, replaces=old,
+                    after=self.round_over_why)
         log.info("round %d at %.1f s simulated: box back at its start", self.round, now)
 
-    def _reset_stage(self, sim: Any) -> None:
-        """(serving thread, between steps) The box and the robots at their start poses; the
-        goal watch forgets the arrival (its next sample sees the box back at the start)."""
+    def _box_start(self) -> tuple[float, float, float]:
+        box = next(b for b in self.spec.boxes if b.name == self.goal_watch.bg.box)
+        return box.pose[0], box.pose[1], box.pose[2]
+
+    def _reset_stage(self, sim: Any, down: frozenset[str], names: tuple[str, ...]) -> None:
+        """(serving thread, between steps) The box and the robots at their start poses
+        (robots `down` when the round ended parked out of the way); the goal watch forgets
+        the arrival (its next sample sees the box back at the start)."""
         gw = self.goal_watch
-        box = next(b for b in self.spec.boxes if b.name == gw.bg.box)
-        sim.set_pose(box.name, *box.pose)
-        down = self.loop.scheduled_down
-        names = sorted(self.loop.processes.names())
+        sim.set_pose(gw.bg.box, *self._box_start())
         for robot in self.spec.robots:
             if not robot.mobile or robot.name in self.switched_off:
                 continue
@@ -513,7 +517,7 @@ class Boxpush(ExperimentBase):
         if referee.rounds != 1:
             return [f"the box reached the goal {referee.arrivals} times in {referee.round} "
                     f"rounds"]
-        if referee.loop.state.goal_outcome != "reached":
+        if referee.goal_outcome != "reached":
             return []
         return [f"goal reached at {gw.reached_at_s:.1f} s simulated: "
                 f"box {gw.distance_m:.2f} m from the goal"]

@@ -92,6 +92,15 @@ def test_the_patrol_experiment_runs_with_its_allocator_and_completes_tasks(
     assert done.get("completed", 0) >= 2, summary["tasks"]
 
 
+def test_the_example_keeps_the_contract_its_referee_included(plugin_venv: Path) -> None:
+    out = _run([str(plugin_venv / "bin" / "python"), "-c",
+                "from murdoch_api import check_experiment, check_referee\n"
+                "check_experiment('patrol'); print(check_referee('patrol').actions)"],
+               env=_env(plugin_venv))
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert out.stdout.strip() == "[]"  # it has no referee of its own: nothing done
+
+
 def test_a_broken_plugin_is_named_in_one_line_and_nothing_starts(
     plugin_venv: Path, tmp_path: Path,
 ) -> None:
