@@ -217,9 +217,17 @@ class McapSink:
 
     def _await_ready(self, startup_s: float) -> None:
         """Wait until the writer has its file open and its signals set (so that from here on
-        an ending recorder leaves a finished file)."""
+        an ending recorder leaves a finished file). A writer still starting after
+        ``startup_s`` (a loaded machine) is not given up: what is put waits in the pipe until
+        it reads, and its late "ready" is passed over by `close`. Only a writer that ended
+        stops the recording."""
         try:
-            if self._results.poll(startup_s) and self._results.recv() == "ready":
+            if self._results.poll(startup_s):
+                if self._results.recv() == "ready":
+                    return
+            elif self._proc.is_alive():
+                log.warning("%s: the writer process is still starting after %g s; recording "
+                            "goes on", self.path, startup_s)
                 return
         except (EOFError, OSError):
             pass
@@ -268,7 +276,8 @@ class McapSink:
         while result is None and (self._proc.is_alive() or self._results.poll(0)):
             try:
                 if self._results.poll(0.5):
-                    result = self._results.recv()
+                    got = self._results.recv()
+                    result = None if got == "ready" else got  # (a writer that started late)
             except (EOFError, OSError):
                 break
         self._proc.join()
