@@ -39,11 +39,15 @@ class Param:
     """A number that must be > 0."""
 
 
-def param(default: Any, doc: str, *, key: str = "", kind: ParamKind = "number",
+def param(default: Any, doc: str, *, key: str = "", kind: ParamKind | None = None,
           min: float | None = None, max: float | None = None,
           positive: bool = False) -> Any:
     """A dataclass field that is a world-file parameter (``key`` defaults to the field's name
-    less a unit suffix: ``max_range_m`` is ``max_range``)."""
+    less a unit suffix: ``max_range_m`` is ``max_range``; ``kind`` to the default's type: a
+    boolean, integer, string or number; an angle, mount or colour says so)."""
+    if kind is None:
+        kind = ("boolean" if isinstance(default, bool) else "integer" if isinstance(default, int)
+                else "string" if isinstance(default, str) else "number")
     return dataclasses.field(default=default, metadata={
         "param": Param(key, doc, kind, min, max, positive)})
 
