@@ -13,9 +13,10 @@ File layout (all keys optional unless noted; SI units; angles as ``<key>_deg`` o
     [[chargers]] name position = [x, y] radius colour rate beacon_height
                  take footprint = [sx, sy] yaw_deg  (a model robots touch, not a pad)
     [overhead_camera] name position height view_size resolution position_noise
-    [[robots]]   name pose colour fiducial_id, then one sub-table per device:
-                 body position2d sonar laser ranger camera blobfinder bumper gripper ptz power
-                 fiducial (an empty table means "present, defaults")
+    [[robots]]   name pose colour fiducial_id, body, then one sub-table per device kind
+                 (`worlds.device_kinds`: position2d sonar laser ranger camera blobfinder
+                 bumper gripper ptz power fiducial, and those of `worlds.devices`; an empty
+                 table means "present, defaults")
 """
 
 from __future__ import annotations
@@ -24,51 +25,28 @@ import math
 import tomllib
 from pathlib import Path
 
-from worlds import generate, pioneer
-from worlds.colours import parse_colour
+from worlds import generate
+from worlds.device_kinds import RobotContext, device_kinds
 from worlds.errors import WorldError
 from worlds.reader import Table
 from worlds.spec import (
+    DEVICE_NAMES,
     FIDELITIES,
     ArenaSpec,
-    BlobfinderSpec,
     BodySpec,
     BoxSpec,
-    BumperSegment,
-    BumperSpec,
-    CameraSpec,
     ChargerSpec,
     DeviceSet,
-    FiducialSpec,
-    GripperSpec,
-    LaserSpec,
     MarkerSpec,
-    Mount,
     ObjectSpec,
     ObstacleSpec,
     OverheadCameraSpec,
-    Position2dSpec,
-    PowerSpec,
-    PtzSpec,
-    RangerSpec,
     RobotSpec,
     SimSpec,
-    SonarSpec,
     WorldSpec,
 )
 
 WORLDS_DIR = Path(__file__).resolve().parent
-
-# Default sensor draw (W) per device when a power table gives no sensor_w.
-DEVICE_DRAW_W: dict[str, float] = {
-    "sonar": 2.0,
-    "laser": 20.0,
-    "ranger": 10.0,
-    "camera": 5.0,
-    "ptz": 3.0,
-    "gripper": 1.0,
-    "fiducial": 2.0,
-}
 
 
 def world_path(name: str) -> Path:
@@ -304,53 +282,24 @@ def _robot(t: Table, index: int) -> RobotSpec:
     colour = t.colour("colour", 0x404040)
     fiducial_id = t.integer("fiducial_id", index + 1, min_value=0)
     body = _body(t.sub("body"))
-    position2d = _opt(t, "position2d", _position2d)
-    sonar = _opt(t, "sonar", _sonar)
-    laser = _opt(t, "laser", lambda s: _scanner(s, LaserSpec, pioneer.LASER_MOUNT))
-    ranger = _opt(t, "ranger", lambda s: _scanner(s, RangerSpec, pioneer.LASER_MOUNT))
-    camera = _opt(t, "camera", _camera)
-    blobfinder = _opt(t, "blobfinder", _blobfinder)
-    bumper = _opt(t, "bumper", lambda s: _bumper(s, body))
-    gripper = _opt(t, "gripper", _gripper)
-    ptz = _opt(t, "ptz", _ptz)
-    fiducial = _opt(t, "fiducial", _fiducial)
-    present = [
-        n
-        for n, v in (
-            ("sonar", sonar), ("laser", laser), ("ranger", ranger), ("camera", camera),
-            ("ptz", ptz), ("gripper", gripper), ("fiducial", fiducial),
-        )
-        if v is not None
-    ]
-    power = _opt(t, "power", lambda s: _power(s, present))
+    kinds = device_kinds()
+    found: dict[str, object] = {}
+    for kind in [k for k in kinds.values() if not k.late] + [
+            k for k in kinds.values() if k.late]:
+        sub = t.optional_sub(kind.name)
+        if sub is not None:
+            found[kind.name] = kind.read_table(sub, RobotContext(body, tuple(found)))
+            sub.finish()
     t.finish()
-    if blobfinder is not None and camera is None:
-        raise t.error("blobfinder", "a [camera] table on the same robot", "blobfinder alone")
-    if ptz is not None and camera is None:
-        raise t.error("ptz", "a [camera] table on the same robot", "ptz alone")
-    devices = DeviceSet(
-        position2d=position2d,
-        sonar=sonar,
-        laser=laser,
-        ranger=ranger,
-        camera=camera,
-        blobfinder=blobfinder,
-        bumper=bumper,
-        gripper=gripper,
-        ptz=ptz,
-        power=power,
-        fiducial=fiducial,
-    )
+    for kind in kinds.values():
+        for need in kind.needs:
+            if kind.name in found and need not in found:
+                raise t.error(kind.name, f"a [{need}] table on the same robot",
+                              f"{kind.name} alone")
+    built_in = {n: found.get(n) for n in DEVICE_NAMES}
+    extra = tuple((n, found[n]) for n in kinds if n in found and n not in built_in)
+    devices = DeviceSet(**built_in, extra=extra)  # type: ignore[arg-type]
     return RobotSpec(name, pose, colour, body, devices, fiducial_id)
-
-
-def _opt(t: Table, name: str, build):
-    sub = t.optional_sub(name)
-    if sub is None:
-        return None
-    spec = build(sub)
-    sub.finish()
-    return spec
 
 
 def _body(t: Table) -> BodySpec:
@@ -364,199 +313,6 @@ def _body(t: Table) -> BodySpec:
     )
     t.finish()
     return spec
-
-
-def _position2d(t: Table) -> Position2dSpec:
-    d = Position2dSpec()
-    return Position2dSpec(
-        max_speed_mps=t.number("max_speed", d.max_speed_mps, positive=True),
-        max_yaw_rate_radps=t.angle("max_yaw_rate", d.max_yaw_rate_radps, min_rad=1e-6),
-        accel_mps2=t.number("accel", d.accel_mps2, positive=True),
-        yaw_accel_radps2=t.angle("yaw_accel", d.yaw_accel_radps2, min_rad=1e-6),
-        odom_noise_fraction=t.number("odom_noise", 0.0, min_value=0.0, max_value=1.0),
-        odom_yaw_noise_fraction=t.number("odom_yaw_noise", 0.0, min_value=0.0, max_value=1.0),
-    )
-
-
-def _sonar(t: Table) -> SonarSpec:
-    d = SonarSpec(poses=())
-    z = t.number("z", pioneer.SONAR_Z_M, min_value=0.0)
-    raw = t.raw("poses", "pioneer")
-    if raw == "pioneer":
-        poses = tuple(Mount(m.x, m.y, z, m.yaw) for m in pioneer.sonar_ring())
-    elif isinstance(raw, list) and raw:
-        out = []
-        for i, p in enumerate(raw):
-            if (
-                not isinstance(p, list)
-                or len(p) != 3
-                or any(isinstance(v, bool) or not isinstance(v, int | float) for v in p)
-            ):
-                raise t.error(f"poses[{i}]", "[x, y, yaw_deg] numbers", p)
-            out.append(Mount(float(p[0]), float(p[1]), z, math.radians(p[2])))
-        poses = tuple(out)
-    else:
-        raise t.error("poses", "'pioneer' or a non-empty array of [x, y, yaw_deg]", raw)
-    min_r = t.number("min_range", d.min_range_m, min_value=0.0)
-    max_r = t.number("max_range", d.max_range_m, positive=True)
-    if max_r <= min_r:
-        raise t.error("max_range", f"a number > min_range ({min_r:g})", max_r)
-    return SonarSpec(
-        poses=poses,
-        min_range_m=min_r,
-        max_range_m=max_r,
-        cone_rad=t.angle("cone", d.cone_rad, min_rad=0.0, max_rad=math.pi),
-        rays_per_transducer=t.integer("rays_per_transducer", d.rays_per_transducer, min_value=1),
-    )
-
-
-def _scanner(t: Table, cls, mount: Mount):
-    d = cls(pose=mount)
-    pose = t.mount("pose", mount)
-    lo = t.angle("min_angle", d.min_angle_rad, min_rad=-math.pi, max_rad=math.pi)
-    hi = t.angle("max_angle", d.max_angle_rad, min_rad=-math.pi, max_rad=math.pi)
-    if hi <= lo:
-        raise t.error("max_angle_deg", f"an angle > min_angle ({math.degrees(lo):g} deg)",
-                      math.degrees(hi))
-    samples = t.integer("samples", d.samples, min_value=1)
-    min_r = t.number("min_range", d.min_range_m, min_value=0.0)
-    max_r = t.number("max_range", d.max_range_m, positive=True)
-    if max_r <= min_r:
-        raise t.error("max_range", f"a number > min_range ({min_r:g})", max_r)
-    return cls(
-        pose=pose,
-        min_angle_rad=lo,
-        max_angle_rad=hi,
-        samples=samples,
-        min_range_m=min_r,
-        max_range_m=max_r,
-        range_res_m=t.number("range_res", d.range_res_m, positive=True),
-        frequency_hz=t.number("frequency", d.frequency_hz, positive=True),
-    )
-
-
-def _camera(t: Table) -> CameraSpec:
-    d = CameraSpec(pose=pioneer.CAMERA_MOUNT)
-    w, h = t.vector("resolution", 2, (d.width_px, d.height_px), positive=True)
-    if w != int(w) or h != int(h):
-        raise t.error("resolution", "whole pixel counts", [w, h])
-    return CameraSpec(
-        pose=t.mount("pose", pioneer.CAMERA_MOUNT),
-        tilt_rad=t.angle("tilt", d.tilt_rad, min_rad=-math.pi / 2, max_rad=math.pi / 2),
-        fov_h_rad=t.angle("fov", d.fov_h_rad, min_rad=math.radians(1.0),
-                          max_rad=math.radians(170.0)),
-        width_px=int(w),
-        height_px=int(h),
-        max_range_m=t.number("max_range", d.max_range_m, positive=True),
-    )
-
-
-def _blobfinder(t: Table) -> BlobfinderSpec:
-    raw = t.raw("channels")
-    if not isinstance(raw, list) or not raw:
-        raise t.error("channels", "a non-empty array of colours", raw)
-    channels = []
-    for i, c in enumerate(raw):
-        try:
-            channels.append(parse_colour(c))
-        except ValueError:
-            raise t.error(f"channels[{i}]", "a colour", c) from None
-    d = BlobfinderSpec(channels=())
-    return BlobfinderSpec(
-        channels=tuple(channels),
-        min_area_px=t.integer("min_area", d.min_area_px, min_value=1),
-        colour_tolerance=t.integer("colour_tolerance", d.colour_tolerance, min_value=0),
-    )
-
-
-def _bumper(t: Table, body: BodySpec) -> BumperSpec:
-    raw = t.raw("segments", "pioneer")
-    if raw == "pioneer":
-        return BumperSpec(pioneer.bumper_ring(body))
-    if not isinstance(raw, list) or not raw:
-        raise t.error("segments", "'pioneer' or an array of [x, y, yaw_deg, length]", raw)
-    segs = []
-    for i, s in enumerate(raw):
-        if (
-            not isinstance(s, list)
-            or len(s) != 4
-            or any(isinstance(v, bool) or not isinstance(v, int | float) for v in s)
-            or s[3] <= 0
-        ):
-            raise t.error(f"segments[{i}]", "[x, y, yaw_deg, length > 0]", s)
-        segs.append(BumperSegment(float(s[0]), float(s[1]), math.radians(s[2]), float(s[3])))
-    return BumperSpec(tuple(segs))
-
-
-def _gripper(t: Table) -> GripperSpec:
-    d = GripperSpec(pose=pioneer.GRIPPER_MOUNT)
-    return GripperSpec(
-        pose=t.mount("pose", pioneer.GRIPPER_MOUNT),
-        width_m=t.number("width", d.width_m, positive=True),
-        depth_m=t.number("depth", d.depth_m, positive=True),
-        max_object_radius_m=t.number("max_object_radius", d.max_object_radius_m, positive=True),
-        capacity=t.integer("capacity", d.capacity, min_value=1),
-        move_time_s=t.number("move_time", d.move_time_s, min_value=0.0),
-    )
-
-
-def _ptz(t: Table) -> PtzSpec:
-    d = PtzSpec()
-    spec = PtzSpec(
-        pan_min_rad=t.angle("pan_min", d.pan_min_rad),
-        pan_max_rad=t.angle("pan_max", d.pan_max_rad),
-        tilt_min_rad=t.angle("tilt_min", d.tilt_min_rad),
-        tilt_max_rad=t.angle("tilt_max", d.tilt_max_rad),
-        zoom_min_rad=t.angle("zoom_min", d.zoom_min_rad, min_rad=1e-3),
-        zoom_max_rad=t.angle("zoom_max", d.zoom_max_rad, max_rad=math.radians(170.0)),
-        pan_speed_radps=t.angle("pan_speed", d.pan_speed_radps, min_rad=1e-6),
-        tilt_speed_radps=t.angle("tilt_speed", d.tilt_speed_radps, min_rad=1e-6),
-        zoom_speed_radps=t.angle("zoom_speed", d.zoom_speed_radps, min_rad=1e-6),
-    )
-    for lo, hi, key in (
-        (spec.pan_min_rad, spec.pan_max_rad, "pan_max_deg"),
-        (spec.tilt_min_rad, spec.tilt_max_rad, "tilt_max_deg"),
-        (spec.zoom_min_rad, spec.zoom_max_rad, "zoom_max_deg"),
-    ):
-        if hi < lo:
-            raise t.error(key, f"an angle >= {math.degrees(lo):g} deg", math.degrees(hi))
-    return spec
-
-
-def _power(t: Table, devices: list[str]) -> PowerSpec:
-    d = PowerSpec()
-    default_sensor_w = sum(DEVICE_DRAW_W.get(n, 0.0) for n in devices)
-    flat = t.number("flat_fraction", d.flat_fraction, min_value=0.0, max_value=1.0)
-    resume = t.number("resume_fraction", max(d.resume_fraction, flat), min_value=0.0,
-                      max_value=1.0)
-    if resume < flat:
-        raise t.error("resume_fraction", f"a number >= flat_fraction ({flat:g})", resume)
-    v_full = t.number("volts_full", d.volts_full, positive=True)
-    v_empty = t.number("volts_empty", d.volts_empty, min_value=0.0)
-    if v_empty >= v_full:
-        raise t.error("volts_empty", f"a number < volts_full ({v_full:g})", v_empty)
-    return PowerSpec(
-        capacity_j=t.number("capacity", d.capacity_j, positive=True),
-        initial_fraction=t.number("initial_fraction", d.initial_fraction, min_value=0.0,
-                                  max_value=1.0),
-        volts_full=v_full,
-        volts_empty=v_empty,
-        idle_w=t.number("idle_draw", d.idle_w, min_value=0.0),
-        moving_w=t.number("moving_draw", d.moving_w, min_value=0.0),
-        sensor_w=t.number("sensor_draw", default_sensor_w, min_value=0.0),
-        flat_fraction=flat,
-        resume_fraction=resume,
-    )
-
-
-def _fiducial(t: Table) -> FiducialSpec:
-    d = FiducialSpec(pose=pioneer.FIDUCIAL_MOUNT)
-    return FiducialSpec(
-        pose=t.mount("pose", pioneer.FIDUCIAL_MOUNT),
-        min_range_m=t.number("min_range", d.min_range_m, min_value=0.0),
-        max_range_m=t.number("max_range", d.max_range_m, positive=True),
-        fov_rad=t.angle("fov", d.fov_rad, min_rad=1e-3, max_rad=2 * math.pi),
-    )
 
 
 # ---- cross-checks --------------------------------------------------------------------------

@@ -11,7 +11,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal, NamedTuple
+from typing import Any, Literal, NamedTuple
+
+from worlds.params import REQUIRED, param
 
 __all__ = [
     "DEVICE_NAMES",
@@ -207,12 +209,16 @@ class BodySpec:
 class Position2dSpec:
     """Differential drive limits and odometry noise (fractions of distance / angle moved)."""
 
-    max_speed_mps: float = 0.5
-    max_yaw_rate_radps: float = math.radians(100.0)
-    accel_mps2: float = 0.5
-    yaw_accel_radps2: float = math.radians(200.0)
-    odom_noise_fraction: float = 0.0
-    odom_yaw_noise_fraction: float = 0.0
+    max_speed_mps: float = param(0.5, "top speed (m/s)", positive=True)
+    max_yaw_rate_radps: float = param(math.radians(100.0), "top turn rate (per s)",
+                                      kind="angle", min=1e-6)
+    accel_mps2: float = param(0.5, "acceleration (m/s^2)", positive=True)
+    yaw_accel_radps2: float = param(math.radians(200.0), "turn acceleration (per s^2)",
+                                    kind="angle", min=1e-6)
+    odom_noise_fraction: float = param(0.0, "odometry noise, a fraction of the distance moved",
+                                       key="odom_noise", min=0.0, max=1.0)
+    odom_yaw_noise_fraction: float = param(0.0, "odometry noise, a fraction of the angle turned",
+                                           key="odom_yaw_noise", min=0.0, max=1.0)
 
 
 @dataclass(frozen=True)
@@ -310,27 +316,33 @@ class BumperSpec:
 class GripperSpec:
     """Pioneer paddle gripper: paddles at pose.x ahead of the origin, opening width_m."""
 
-    pose: Mount
-    width_m: float = 0.2
-    depth_m: float = 0.12
-    max_object_radius_m: float = 0.09
-    capacity: int = 1
-    move_time_s: float = 1.0
+    pose: Mount = param(REQUIRED, "where the paddles sit (default: a Pioneer's)", kind="mount")
+    width_m: float = param(0.2, "opening between the paddles (m)", positive=True)
+    depth_m: float = param(0.12, "depth of the paddles (m)", positive=True)
+    max_object_radius_m: float = param(0.09, "the largest object radius it holds (m)",
+                                       positive=True)
+    capacity: int = param(1, "objects it can store", kind="integer", min=1)
+    move_time_s: float = param(1.0, "time to open or close (s)", min=0.0)
 
 
 @dataclass(frozen=True)
 class PtzSpec:
     """Pan-tilt-zoom camera head (Sony EVI-D30 limits); zoom is the horizontal FOV."""
 
-    pan_min_rad: float = math.radians(-100.0)
-    pan_max_rad: float = math.radians(100.0)
-    tilt_min_rad: float = math.radians(-25.0)
-    tilt_max_rad: float = math.radians(25.0)
-    zoom_min_rad: float = math.radians(4.4)
-    zoom_max_rad: float = math.radians(60.0)
-    pan_speed_radps: float = math.radians(80.0)
-    tilt_speed_radps: float = math.radians(50.0)
-    zoom_speed_radps: float = math.radians(30.0)
+    pan_min_rad: float = param(math.radians(-100.0), "pan limit", kind="angle")
+    pan_max_rad: float = param(math.radians(100.0), "pan limit", kind="angle")
+    tilt_min_rad: float = param(math.radians(-25.0), "tilt limit", kind="angle")
+    tilt_max_rad: float = param(math.radians(25.0), "tilt limit", kind="angle")
+    zoom_min_rad: float = param(math.radians(4.4), "narrowest field of view", kind="angle",
+                                min=1e-3)
+    zoom_max_rad: float = param(math.radians(60.0), "widest field of view", kind="angle",
+                                max=math.radians(170.0))
+    pan_speed_radps: float = param(math.radians(80.0), "pan speed (per s)", kind="angle",
+                                   min=1e-6)
+    tilt_speed_radps: float = param(math.radians(50.0), "tilt speed (per s)", kind="angle",
+                                    min=1e-6)
+    zoom_speed_radps: float = param(math.radians(30.0), "zoom speed (per s)", kind="angle",
+                                    min=1e-6)
 
 
 @dataclass(frozen=True)
@@ -341,25 +353,28 @@ class PowerSpec:
     At or below flat_fraction of capacity the motors stop until resume_fraction is regained.
     """
 
-    capacity_j: float = 180_000.0
-    initial_fraction: float = 1.0
-    volts_full: float = 13.0
-    volts_empty: float = 10.5
-    idle_w: float = 10.0
-    moving_w: float = 20.0
-    sensor_w: float = 5.0
-    flat_fraction: float = 0.0
-    resume_fraction: float = 0.05
+    capacity_j: float = param(180_000.0, "capacity (J)", positive=True)
+    initial_fraction: float = param(1.0, "charge at the start", min=0.0, max=1.0)
+    volts_full: float = param(13.0, "volts when full", positive=True)
+    volts_empty: float = param(10.5, "volts when empty (< volts_full)", min=0.0)
+    idle_w: float = param(10.0, "draw at rest (W)", key="idle_draw", min=0.0)
+    moving_w: float = param(20.0, "draw at full drive (W)", key="moving_draw", min=0.0)
+    sensor_w: float = param(5.0, "draw of the sensors (W; default: the sum of the robot's "
+                            "devices' draws)", key="sensor_draw", min=0.0)
+    flat_fraction: float = param(0.0, "at or below it the motors stop", min=0.0, max=1.0)
+    resume_fraction: float = param(0.05, "the motors run again from it (>= flat_fraction)",
+                                   min=0.0, max=1.0)
 
 
 @dataclass(frozen=True)
 class FiducialSpec:
     """Fiducial detector (e.g. a laser beacon reader): sees fiducial ids within a fan."""
 
-    pose: Mount
-    min_range_m: float = 0.0
-    max_range_m: float = 5.0
-    fov_rad: float = math.pi
+    pose: Mount = param(REQUIRED, "where it sits (default: a Pioneer's laser)", kind="mount")
+    min_range_m: float = param(0.0, "shortest range seen (m)", min=0.0)
+    max_range_m: float = param(5.0, "longest range seen (m)", positive=True)
+    fov_rad: float = param(math.pi, "width of its fan", kind="angle", min=1e-3,
+                           max=2 * math.pi)
 
 
 @dataclass(frozen=True)
@@ -377,10 +392,19 @@ class DeviceSet:
     ptz: PtzSpec | None = None
     power: PowerSpec | None = None
     fiducial: FiducialSpec | None = None
+    extra: tuple[tuple[str, Any], ...] = ()
+    """Devices of the kinds declared in `worlds.devices`: (name, spec), in their order."""
 
     def names(self) -> tuple[str, ...]:
-        """Names of the devices present, in declaration order."""
-        return tuple(n for n in DEVICE_NAMES if getattr(self, n) is not None)
+        """Names of the devices present, in declaration order (built-ins, then the others)."""
+        return tuple(n for n in DEVICE_NAMES if getattr(self, n) is not None) + tuple(
+            n for n, _ in self.extra)
+
+    def get(self, name: str) -> Any:
+        """The spec of the device `name`, None when the robot has none."""
+        if name in DEVICE_NAMES:
+            return getattr(self, name)
+        return next((spec for n, spec in self.extra if n == name), None)
 
 
 DEVICE_NAMES: tuple[str, ...] = (

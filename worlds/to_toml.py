@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from worlds.device_kinds import device_kinds
 from worlds.spec import Mount, Pose, RobotSpec, WorldSpec
 
 __all__ = ["world_to_toml"]
@@ -43,6 +44,7 @@ def _table(header: str, items: list[tuple[str, Any]]) -> list[str]:
 
 
 def _robot(r: RobotSpec) -> list[str]:
+    """The robot's table, its body and one table per device (each kind's own items)."""
     d = r.devices
     out = _table("[[robots]]", [("name", r.name), ("pose", r.pose), ("colour", _colour(r.colour)),
                                 ("fiducial_id", r.fiducial_id)])
@@ -50,54 +52,9 @@ def _robot(r: RobotSpec) -> list[str]:
     out += _table("[robots.body]", [("length", b.length_m), ("width", b.width_m),
                                     ("height", b.height_m), ("offset_x", b.offset_x_m),
                                     ("mass", b.mass_kg)])
-    if (p := d.position2d) is not None:
-        out += _table("[robots.position2d]", [
-            ("max_speed", p.max_speed_mps), ("max_yaw_rate_rad", p.max_yaw_rate_radps),
-            ("accel", p.accel_mps2), ("yaw_accel_rad", p.yaw_accel_radps2),
-            ("odom_noise", p.odom_noise_fraction), ("odom_yaw_noise", p.odom_yaw_noise_fraction)])
-    if (s := d.sonar) is not None:
-        z = s.poses[0].z if s.poses else 0.0
-        out += _table("[robots.sonar]", [
-            ("z", z), ("poses", [[m.x, m.y, math.degrees(m.yaw)] for m in s.poses]),
-            ("min_range", s.min_range_m), ("max_range", s.max_range_m), ("cone_rad", s.cone_rad),
-            ("rays_per_transducer", s.rays_per_transducer)])
-    for name in ("laser", "ranger"):
-        if (sc := getattr(d, name)) is not None:
-            out += _table(f"[robots.{name}]", [
-                ("pose", sc.pose), ("min_angle_rad", sc.min_angle_rad),
-                ("max_angle_rad", sc.max_angle_rad), ("samples", sc.samples),
-                ("min_range", sc.min_range_m), ("max_range", sc.max_range_m),
-                ("range_res", sc.range_res_m), ("frequency", sc.frequency_hz)])
-    if (c := d.camera) is not None:
-        out += _table("[robots.camera]", [
-            ("pose", c.pose), ("tilt_rad", c.tilt_rad), ("fov_rad", c.fov_h_rad),
-            ("resolution", [c.width_px, c.height_px]), ("max_range", c.max_range_m)])
-    if (bf := d.blobfinder) is not None:
-        out += _table("[robots.blobfinder]", [
-            ("channels", [_colour(x) for x in bf.channels]), ("min_area", bf.min_area_px),
-            ("colour_tolerance", bf.colour_tolerance)])
-    if (bu := d.bumper) is not None:
-        out += _table("[robots.bumper]", [("segments", [
-            [g.x, g.y, math.degrees(g.yaw), g.length_m] for g in bu.segments])])
-    if (g := d.gripper) is not None:
-        out += _table("[robots.gripper]", [
-            ("pose", g.pose), ("width", g.width_m), ("depth", g.depth_m),
-            ("max_object_radius", g.max_object_radius_m), ("capacity", g.capacity),
-            ("move_time", g.move_time_s)])
-    if (pt := d.ptz) is not None:
-        out += _table("[robots.ptz]", [(f"{k.removesuffix('_radps').removesuffix('_rad')}_rad",
-                                        getattr(pt, k)) for k in pt.__dataclass_fields__])
-    if (pw := d.power) is not None:
-        out += _table("[robots.power]", [
-            ("capacity", pw.capacity_j), ("initial_fraction", pw.initial_fraction),
-            ("volts_full", pw.volts_full), ("volts_empty", pw.volts_empty),
-            ("idle_draw", pw.idle_w), ("moving_draw", pw.moving_w),
-            ("sensor_draw", pw.sensor_w), ("flat_fraction", pw.flat_fraction),
-            ("resume_fraction", pw.resume_fraction)])
-    if (f := d.fiducial) is not None:
-        out += _table("[robots.fiducial]", [
-            ("pose", f.pose), ("min_range", f.min_range_m), ("max_range", f.max_range_m),
-            ("fov_rad", f.fov_rad)])
+    kinds = device_kinds()
+    for name in d.names():
+        out += _table(f"[robots.{name}]", kinds[name].items(d.get(name)))
     return out
 
 

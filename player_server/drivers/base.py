@@ -59,6 +59,9 @@ class Driver:
     """
 
     interf: ClassVar[int] = 0
+    #: the world file's device kind this driver serves on a robot's port
+    #: (`registry.robot_drivers` finds it by this); empty for the drivers of other things
+    device: ClassVar[str] = ""
     #: CMD subtypes handled by ``handle_command``
     commands: ClassVar[frozenset[int]] = frozenset()
     #: CMD subtypes that only set targets the simulation acts on at its next step: the

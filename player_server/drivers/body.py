@@ -38,6 +38,7 @@ _GRIPPER_COMMANDS = {
 
 
 class GripperDriver(Driver):
+    device = "gripper"
     interf = int(Interface.GRIPPER)
     commands = frozenset(_GRIPPER_COMMANDS)
     requests = frozenset({c.PLAYER_GRIPPER_REQ_GET_GEOM})
@@ -70,6 +71,7 @@ class GripperDriver(Driver):
 
 
 class BumperDriver(Driver):
+    device = "bumper"
     interf = int(Interface.BUMPER)
     requests = frozenset({c.PLAYER_BUMPER_REQ_GET_GEOM})
 
@@ -106,6 +108,7 @@ class PowerDriver(Driver):
     properties; when the simulator offers ``set_charging_enabled`` it is applied there.
     """
 
+    device = "power"
     interf = int(Interface.POWER)
     requests = frozenset({c.PLAYER_POWER_REQ_SET_CHARGING_POLICY})
 

@@ -53,6 +53,7 @@ class Position2dDriver(Driver):
     """Differential drive. Position (CMD POS) and heading (CMD VEL_HEAD) goals are followed
     by a proportional controller that sets the velocity before every simulation step."""
 
+    device = "position2d"
     interf = int(Interface.POSITION2D)
     commands = frozenset({1, 2, 3, 4})
     deferred_commands = commands  # velocity targets and goals, followed from the next step

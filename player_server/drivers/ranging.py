@@ -42,6 +42,7 @@ _MAKE_LASER = sm.LaserData.xdr_make  # type: ignore[attr-defined]
 
 
 class SonarDriver(Driver):
+    device = "sonar"
     interf = int(Interface.SONAR)
     requests = frozenset({c.PLAYER_SONAR_REQ_GET_GEOM, c.PLAYER_SONAR_REQ_POWER})
 
@@ -92,6 +93,7 @@ class LaserDriver(Driver):
     """The scanning laser. SET_CONFIG applies what `scan_config` accepts and is NACKed
     otherwise; GET_CONFIG and the DATA follow the configuration in force."""
 
+    device = "laser"
     interf = int(Interface.LASER)
     requests = frozenset({1, 2, 3, 4, 5})
 
@@ -154,6 +156,7 @@ class RangerDriver(Driver):
     robot's laser, as Stage serves its lasers. SET_CONFIG works as the laser's does (the
     angular resolution in radians); INTNS switches intensity DATA on and off."""
 
+    device = "ranger"
     interf = int(Interface.RANGER)
     requests = frozenset({1, 2, 3, 4, 5})
 

@@ -2,24 +2,18 @@
 
 from __future__ import annotations
 
+import importlib
+import pkgutil
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from player_server.drivers.base import Driver
-from player_server.drivers.body import BumperDriver, GripperDriver, PowerDriver
 from player_server.drivers.overhead import (
     OverheadBlobfinderDriver,
     OverheadCameraDriver,
     OverheadFiducialDriver,
 )
-from player_server.drivers.position2d import Position2dDriver
-from player_server.drivers.ranging import LaserDriver, RangerDriver, SonarDriver
 from player_server.drivers.simulation import SimulationDriver
-from player_server.drivers.vision import (
-    BlobfinderDriver,
-    CameraDriver,
-    FiducialDriver,
-    PtzDriver,
-)
 
 if TYPE_CHECKING:
     from player_server.drivers.sim_port import SimPort
@@ -27,19 +21,24 @@ if TYPE_CHECKING:
 
 DeviceKey = tuple[int, int]
 
-_BY_DEVICE: dict[str, Any] = {
-    "position2d": Position2dDriver,
-    "sonar": SonarDriver,
-    "laser": LaserDriver,
-    "ranger": RangerDriver,
-    "camera": CameraDriver,
-    "blobfinder": BlobfinderDriver,
-    "bumper": BumperDriver,
-    "gripper": GripperDriver,
-    "ptz": PtzDriver,
-    "power": PowerDriver,
-    "fiducial": FiducialDriver,
-}
+
+def _robot_device_drivers() -> dict[str, Any]:
+    """The driver of each device kind: every `Driver` subclass of the modules of this package
+    that names a `device` (a new kind's driver module is found here, not listed)."""
+    found: dict[str, Any] = {}
+    for mod in sorted(m.name for m in pkgutil.iter_modules([str(Path(__file__).parent)])):
+        module = importlib.import_module(f"{__package__}.{mod}")
+        for obj in vars(module).values():
+            if (isinstance(obj, type) and issubclass(obj, Driver) and obj.device
+                    and obj.__module__ == module.__name__):
+                if found.get(obj.device, obj) is not obj:
+                    raise ValueError(f"device {obj.device!r} has two drivers: "
+                                     f"{found[obj.device].__qualname__}, {obj.__qualname__}")
+                found[obj.device] = obj
+    return found
+
+
+_BY_DEVICE: dict[str, Any] = _robot_device_drivers()
 
 
 def driver_class(device: str) -> Any:

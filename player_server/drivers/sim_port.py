@@ -13,6 +13,7 @@ if TYPE_CHECKING:
     import numpy as np
     from numpy.typing import NDArray
 
+    from player_server.sim.devices.base import DeviceModel
     from player_server.sim.looks import Looks
     from player_server.sim.readings import (
         Blob,
@@ -105,3 +106,18 @@ class SimPort(WorldPort, OverheadPort, Protocol):
     def power(self, robot: str) -> PowerState: ...
 
     def fiducials(self, robot: str) -> tuple[Fiducial, ...]: ...
+
+    @property
+    def models(self) -> tuple[DeviceModel, ...]:
+        """The world's device models: the driver of a kind with no method above reads its
+        model's (`device_model`)."""
+        ...
+
+
+def device_model(sim: SimPort, kind: str) -> DeviceModel:
+    """The model simulating the device kind `kind` (KeyError if none); a driver types it with
+    a `TYPE_CHECKING` import of the model's class."""
+    for model in sim.models:
+        if kind in model.kinds:
+            return model
+    raise KeyError(f"no device model simulates {kind!r}")

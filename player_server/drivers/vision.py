@@ -70,6 +70,7 @@ class ImageDriver(Driver):
 class CameraDriver(ImageDriver):
     """The robot's camera: images rendered by the simulator."""
 
+    device = "camera"
     requests = frozenset({c.PLAYER_CAMERA_REQ_GET_SOURCE, c.PLAYER_CAMERA_REQ_GET_IMAGE})
 
     def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0) -> None:
@@ -98,6 +99,7 @@ _MAKE_PTZ = am.PtzData.xdr_make  # type: ignore[attr-defined]
 
 
 class BlobfinderDriver(Driver):
+    device = "blobfinder"
     interf = int(Interface.BLOBFINDER)
 
     def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0) -> None:
@@ -128,6 +130,7 @@ class BlobfinderDriver(Driver):
 
 
 class FiducialDriver(Driver):
+    device = "fiducial"
     interf = int(Interface.FIDUCIAL)
     requests = frozenset({c.PLAYER_FIDUCIAL_REQ_GET_GEOM, c.PLAYER_FIDUCIAL_REQ_GET_FOV,
                           c.PLAYER_FIDUCIAL_REQ_GET_ID})
@@ -158,6 +161,7 @@ class FiducialDriver(Driver):
 
 
 class PtzDriver(Driver):
+    device = "ptz"
     interf = int(Interface.PTZ)
     commands = frozenset({c.PLAYER_PTZ_CMD_STATE})
     deferred_commands = commands  # pan/tilt/zoom targets, approached from the next step

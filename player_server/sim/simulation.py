@@ -284,7 +284,7 @@ class Simulation:
         except KeyError:
             pass
         st = self._robot(name)
-        if getattr(st.spec.devices, device) is None:
+        if st.spec.devices.get(device) is None:
             raise ValueError(f"robot {name!r} has no {device}")
         self._has_device.setdefault(device, {})[name] = st
         return st

@@ -1,4 +1,5 @@
-"""Every device a world file can declare has a simulator model and a Player driver."""
+"""Every device a world file can declare has a simulator model and a Player driver, each found
+in its package (nothing lists them), the models in the order the world advances them."""
 
 from __future__ import annotations
 
@@ -8,14 +9,26 @@ from player_server.drivers.registry import _BY_DEVICE
 from player_server.sim import Simulation
 from player_server.sim.devices import DEVICE_MODELS, MODEL_CLASSES
 from worlds import load_world, world_path
+from worlds.device_kinds import device_kinds
 from worlds.spec import DEVICE_NAMES
 
 
 def test_each_declarable_device_has_a_model_and_a_driver() -> None:
-    assert set(DEVICE_NAMES) <= set(DEVICE_MODELS)
-    assert set(DEVICE_NAMES) <= set(_BY_DEVICE)
+    kinds = device_kinds()
+    assert list(kinds)[:len(DEVICE_NAMES)] == list(DEVICE_NAMES)
+    assert set(kinds) == set(DEVICE_MODELS)
+    assert set(kinds) == set(_BY_DEVICE)
+    assert all(_BY_DEVICE[k].device == k for k in kinds)
     assert len({k for cls in MODEL_CLASSES for k in cls.kinds}) == sum(
         len(cls.kinds) for cls in MODEL_CLASSES), "a device kind has two models"
+
+
+def test_the_models_keep_their_order() -> None:
+    """Power reads this tick's drive, so it advances after position2d; the built-ins keep the
+    order that the runs' digests were recorded with."""
+    names = [cls.__name__ for cls in MODEL_CLASSES]
+    assert names[:8] == ["Position2dModel", "PowerModel", "GripperModel", "PtzModel",
+                         "BumperModel", "RangeModel", "CameraModel", "TrackingModel"]
 
 
 @pytest.mark.parametrize("fidelity", ["fast", "render"])

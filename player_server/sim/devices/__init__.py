@@ -1,27 +1,34 @@
 """The device models of the simulator, one module per kind, and their registry.
 
-`DEVICE_MODELS` maps each device name of the world file to the model that simulates it;
-`MODEL_CLASSES` lists the models in the order the world builds and advances them. A new
-device kind is one module here (a class with the `base.DeviceModel` interface) and one entry
-in `MODEL_CLASSES`; see docs/internals.md for the driver, proxy and world-file entry.
+`MODEL_CLASSES` is every model class of the modules of this package (a class with the
+`base.DeviceModel` interface: non-empty `kinds`), found here without being listed, in the
+order the world builds and advances them (`order`, then module name); `DEVICE_MODELS` maps
+each device name of the world file to its model. A new device kind is one module here; see
+docs/internals.md for the rest of the recipe.
 """
 
 from __future__ import annotations
 
-from player_server.sim.devices.base import DeviceModel
-from player_server.sim.devices.bumper import BumperModel
-from player_server.sim.devices.camera import CameraModel
-from player_server.sim.devices.gripper import GripperModel
-from player_server.sim.devices.position2d import Position2dModel
-from player_server.sim.devices.power import PowerModel
-from player_server.sim.devices.ptz import PtzModel
-from player_server.sim.devices.ranging import RangeModel
-from player_server.sim.devices.tracking import TrackingModel
+import importlib
+import pkgutil
+from pathlib import Path
 
-MODEL_CLASSES: tuple[type[DeviceModel], ...] = (
-    Position2dModel, PowerModel, GripperModel, PtzModel, BumperModel, RangeModel, CameraModel,
-    TrackingModel,
-)
+from player_server.sim.devices.base import DeviceModel
+
+
+def _model_classes() -> tuple[type[DeviceModel], ...]:
+    found: list[type[DeviceModel]] = []
+    for mod in sorted(m.name for m in pkgutil.iter_modules([str(Path(__file__).parent)])):
+        module = importlib.import_module(f"{__package__}.{mod}")
+        for obj in vars(module).values():
+            kinds: object = getattr(obj, "kinds", None)
+            if (isinstance(obj, type) and obj.__module__ == module.__name__ and kinds
+                    and hasattr(obj, "advance")):
+                found.append(obj)
+    return tuple(sorted(found, key=lambda cls: (cls.order, cls.__module__)))
+
+
+MODEL_CLASSES: tuple[type[DeviceModel], ...] = _model_classes()
 DEVICE_MODELS: dict[str, type[DeviceModel]] = {
     kind: cls for cls in MODEL_CLASSES for kind in cls.kinds
 }

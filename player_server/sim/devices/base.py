@@ -22,6 +22,9 @@ class DeviceModel(Protocol):
     """The world file's device names this model simulates (e.g. "sonar", "laser")."""
     ticking: ClassVar[bool]
     """Whether it keeps state that `advance` moves on each tick (the world skips the others)."""
+    order: ClassVar[int]
+    """Where the world builds and advances it among the models (lower first; a model that
+    reads another's state this tick comes after it: power after position2d)."""
 
     def __init__(self, world: DeviceWorld) -> None: ...
 
@@ -41,6 +44,7 @@ class StatelessModel:
 
     kinds: ClassVar[tuple[str, ...]] = ()
     ticking: ClassVar[bool] = False
+    order: ClassVar[int] = 100
 
     def __init__(self, world: DeviceWorld) -> None:
         self.world = world

@@ -13,6 +13,7 @@ from player_server.sim.grid_index import FEW
 
 class BumperModel(StatelessModel):
     kinds: ClassVar[tuple[str, ...]] = ("bumper",)
+    order: ClassVar[int] = 50
 
     def bumpers(self, robot: str) -> tuple[bool, ...]:
         w = self.world

@@ -27,6 +27,7 @@ if TYPE_CHECKING:
 
 class CameraModel(StatelessModel):
     kinds: ClassVar[tuple[str, ...]] = ("camera", "blobfinder")
+    order: ClassVar[int] = 70
 
     def __init__(self, world: DeviceWorld) -> None:
         self.world = world

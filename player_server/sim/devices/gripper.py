@@ -23,6 +23,7 @@ GRIPPER_COMMANDS = ("open", "close", "stop", "store", "retrieve")
 
 class GripperModel:
     kinds: ClassVar[tuple[str, ...]] = ("gripper",)
+    order: ClassVar[int] = 30
     ticking: ClassVar[bool] = True
 
     def __init__(self, world: DeviceWorld) -> None:

@@ -24,6 +24,7 @@ class Position2dModel(StatelessModel):
     """Odometry advances with the bodies' poses (`advance_odometry`), not in `advance`."""
 
     kinds: ClassVar[tuple[str, ...]] = ("position2d",)
+    order: ClassVar[int] = 10
 
     def advance_odometry(self, st: RobotState, x: float, y: float, yaw: float, dt: float) -> None:
         """Odometry (with its noise), its velocity and the stall flag from the robot's true

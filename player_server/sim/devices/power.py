@@ -16,6 +16,7 @@ if TYPE_CHECKING:
 
 class PowerModel:
     kinds: ClassVar[tuple[str, ...]] = ("power",)
+    order: ClassVar[int] = 20
     ticking: ClassVar[bool] = True
 
     def __init__(self, world: DeviceWorld) -> None:

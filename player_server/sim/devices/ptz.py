@@ -20,6 +20,7 @@ if TYPE_CHECKING:
 
 class PtzModel:
     kinds: ClassVar[tuple[str, ...]] = ("ptz",)
+    order: ClassVar[int] = 40
     ticking: ClassVar[bool] = True
 
     def __init__(self, world: DeviceWorld) -> None:

@@ -26,6 +26,7 @@ RangeKey = tuple[int, str]
 
 class RangeModel(StatelessModel):
     kinds: ClassVar[tuple[str, ...]] = ("sonar", "laser", "ranger")
+    order: ClassVar[int] = 60
 
     def __init__(self, world: DeviceWorld) -> None:
         self.world = world

@@ -16,6 +16,7 @@ _make_tracked = fast_constructor(TrackedObject)
 
 class TrackingModel(StatelessModel):
     kinds: ClassVar[tuple[str, ...]] = ("fiducial",)
+    order: ClassVar[int] = 80
     """(and the world's overhead camera, which is not a robot's device)"""
 
     def build(self) -> None:
