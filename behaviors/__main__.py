@@ -319,6 +319,7 @@ def _team_transport(args: argparse.Namespace, name: str, agent: Any, client: Pla
     gives them, through the environment) and, in a lockstep run, its tick sync."""
     from behaviors.murdoch_link import TickSync
     from murdoch.auth import TeamKey
+    from murdoch.endpoint import EndpointOptions
     from murdoch.lossy import ENV as LOSS_ENV
     from murdoch.lossy import LossSpec, LossyReceiver
     from murdoch.multicast import MulticastConfig
@@ -350,8 +351,8 @@ def _team_transport(args: argparse.Namespace, name: str, agent: Any, client: Pla
                 group=args.mcast_group, port=args.mcast_port))
         transport = open_transport(
             choice, name, lambda: float(agent.status().time_s),
-            codec=ALLOCATORS[args.allocator].codec, key=key,
-            instance=args.instance or None, ticks=ticks, loss=loss)
+            EndpointOptions(codec=ALLOCATORS[args.allocator].codec, key=key,
+                            instance=args.instance or None, ticks=ticks), loss=loss)
     except (ValueError, ZenohUnavailable, OSError) as exc:
         raise PlayerError(f"cannot join the team's bus: {exc}") from None
     sync = None

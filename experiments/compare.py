@@ -25,12 +25,10 @@ go (a thread pool here, or `murdoch.dask_jobs.connected`) is the `submit` given 
 
 from __future__ import annotations
 
-import csv
 import functools
 import json
 import math
 import statistics
-import subprocess
 import sys
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -42,10 +40,10 @@ from typing import TYPE_CHECKING, Any, Protocol
 import click
 
 from experiments import events as ev
+from experiments.child_runs import parse_seeds, run_child, write_rows
 from experiments.option_params import add_passthrough_params, passthrough_args
 from experiments.registry import experiments, supporting
 from experiments.run_cli import parse_at, parse_duration_s
-from experiments.sweep_longterm import murdoch_command, parse_seeds
 from murdoch.allocators import ALLOCATORS, REFINABLE
 
 if TYPE_CHECKING:
@@ -287,11 +285,7 @@ def format_table(stats: Sequence[Mapping[str, Any]]) -> str:
 
 
 def write_csv(rows: Sequence[Mapping[str, Any]], path: Path) -> None:
-    with path.open("w", newline="", encoding="utf-8") as f:
-        writer = csv.DictWriter(f, fieldnames=list(COLUMNS))
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({c: row.get(c) for c in COLUMNS})
+    write_rows(rows, path, COLUMNS)
 
 
 def plot_comparison(rows: Sequence[Mapping[str, Any]], stats: Sequence[Mapping[str, Any]],
@@ -303,6 +297,8 @@ def plot_comparison(rows: Sequence[Mapping[str, Any]], stats: Sequence[Mapping[s
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
+    from experiments.plots import save
 
     colours = ("#1c7ed6", "#f08c00", "#2f9e44", "#ae3ec9", "#e03131")
     fig, axes = plt.subplots(2, 4, figsize=(14, 6.5), dpi=100)
@@ -323,9 +319,7 @@ def plot_comparison(rows: Sequence[Mapping[str, Any]], stats: Sequence[Mapping[s
         ax.grid(True, axis="y", alpha=0.3)
     fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
-    return path
+    return save(fig, path)
 
 
 def _reused_row(job: Job, out: Path, until_s: float, task_interval: float,
@@ -350,20 +344,14 @@ def run_one(job: Job, *, out: Path, until_s: float, extra: Sequence[str],
     """Run the experiment once as its own process; its row."""
     run_out = out / job.label()
     run_out.mkdir(parents=True, exist_ok=True)
-    args = [*murdoch_command(), "run", experiment, "--until", f"{until_s:g}s",
+    args = ["run", experiment, "--until", f"{until_s:g}s",
             *job.allocator_args(), "--seed", str(job.seed), "--out", str(run_out),
             "--no-replay", *extra]
     if not pin:
         args.append("--no-pin-cpus")
-    with (run_out / "compare.log").open("w", encoding="utf-8") as log_file:
-        code = subprocess.run(args, stdout=log_file, stderr=subprocess.STDOUT,
-                              stdin=subprocess.DEVNULL, check=False).returncode
-    runs = sorted(p for p in run_out.iterdir() if p.is_dir())
-    run_dir = runs[-1] if runs else None
-    summary = None
+    code, run_dir, summary = run_child(args, run_out, "compare.log")
     events: list[dict[str, Any]] = []
-    if run_dir is not None and (run_dir / "summary.json").is_file():
-        summary = json.loads((run_dir / "summary.json").read_text(encoding="utf-8"))
+    if run_dir is not None and summary is not None:
         events = ev.read_events(run_dir / "events.jsonl")
     return run_row(job, summary, events, code, run_dir)
 

@@ -320,6 +320,7 @@ def _user(settings: RunSettings, options: RunOptions, spec: WorldSpec, sim: Simu
     from experiments.task_source import longterm_tasks
     from murdoch.allocators import UserHooks, allocator
     from murdoch.auth import TeamKey
+    from murdoch.endpoint import EndpointOptions
     from murdoch.multicast import MulticastConfig
     from murdoch.transport import TickConfig
     from murdoch.transport_choice import TransportChoice, open_transport
@@ -342,8 +343,9 @@ def _user(settings: RunSettings, options: RunOptions, spec: WorldSpec, sim: Simu
     else:
         choice = TransportChoice("multicast", multicast=MulticastConfig(port=bus.mcast_port))
     try:
-        transport = open_transport(choice, "user", sim_now, codec=team.codec,
-                                   key=TeamKey(secret), instance="0", ticks=ticks,
+        transport = open_transport(choice, "user", sim_now,
+                                   EndpointOptions(codec=team.codec, key=TeamKey(secret),
+                                                   instance="0", ticks=ticks),
                                    loss=bus_loss)
     except (ZenohUnavailable, OSError) as exc:
         raise RunSetupError(f"cannot open the team's bus ({choice.describe()}): {exc}") from exc

@@ -14,11 +14,9 @@ the click command are the process and file edges.
 
 from __future__ import annotations
 
-import csv
 import itertools
 import json
 import statistics
-import subprocess
 import sys
 from collections.abc import Iterable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -28,6 +26,7 @@ from typing import Any
 
 import click
 
+from experiments.child_runs import parse_seeds, run_child, write_rows
 from experiments.run_cli import parse_duration_s
 
 PAPER_TASKS = 49
@@ -111,44 +110,24 @@ def rate_for(means: Sequence[Mapping[str, Any]], target: float = PAPER_TASKS,
     return None
 
 
-def murdoch_command() -> list[str]:
-    """The `murdoch` command next to this interpreter (or the package run by it)."""
-    exe = Path(sys.executable).parent / "murdoch"
-    if exe.exists():
-        return [str(exe)]
-    return [sys.executable, "-c", "import sys; from experiments.cli import main; sys.exit(main())"]
-
-
 def run_one(job: Job, *, out: Path, until_s: float, world: str | None, extra: Sequence[str],
             pin: bool) -> dict[str, Any]:
     """Run one long-term experiment as its own process; its row (from summary.json)."""
     run_out = out / job.label()
     run_out.mkdir(parents=True, exist_ok=True)
-    args = [*murdoch_command(), "run", "longterm", "--until", f"{until_s:g}s",
+    args = ["run", "longterm", "--until", f"{until_s:g}s",
             "--task-interval", f"{job.task_interval_s:g}", "--seed", str(job.seed),
             "--out", str(run_out), "--no-replay", *extra]
     if world:
         args += ["--world", world]
     if not pin:
         args.append("--no-pin-cpus")
-    log_path = run_out / "sweep.log"
-    with log_path.open("w", encoding="utf-8") as log_file:
-        code = subprocess.run(args, stdout=log_file, stderr=subprocess.STDOUT,
-                              stdin=subprocess.DEVNULL, check=False).returncode
-    runs = sorted(p for p in run_out.iterdir() if p.is_dir())
-    run_dir = runs[-1] if runs else None
-    summary = None
-    if run_dir is not None and (run_dir / "summary.json").is_file():
-        summary = json.loads((run_dir / "summary.json").read_text(encoding="utf-8"))
+    code, run_dir, summary = run_child(args, run_out, "sweep.log")
     return row_of(job, summary, code, run_dir)
 
 
 def write_csv(rows: Sequence[Mapping[str, Any]], path: Path) -> None:
-    with path.open("w", newline="", encoding="utf-8") as f:
-        writer = csv.DictWriter(f, fieldnames=list(COLUMNS))
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({c: row.get(c) for c in COLUMNS})
+    write_rows(rows, path, COLUMNS)
 
 
 def format_table(means: Sequence[Mapping[str, Any]]) -> str:
@@ -176,6 +155,8 @@ def plot_sweep(rows: Sequence[Mapping[str, Any]], means: Sequence[Mapping[str, A
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
+    from experiments.plots import save
 
     panels = (
         ("executed_per_3h", "tasks executed (per 3 h)"),
@@ -205,9 +186,7 @@ def plot_sweep(rows: Sequence[Mapping[str, Any]], means: Sequence[Mapping[str, A
         ax.legend(fontsize="small")
     fig.suptitle("Long-term experiment against offered load")
     fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
-    return path
+    return save(fig, path)
 
 
 def _floats(text: str, option: str) -> list[float]:
@@ -218,22 +197,6 @@ def _floats(text: str, option: str) -> list[float]:
                                  param_hint=option) from None
     if not values or any(not v > 0 for v in values):
         raise click.BadParameter(f"expected positive numbers, got {text!r}", param_hint=option)
-    return values
-
-
-def parse_seeds(text: str) -> list[int]:
-    """'1,2,3' or '1-4' -> the seeds; a clear error naming --seeds otherwise."""
-    try:
-        if "-" in text and "," not in text:
-            lo, hi = (int(v) for v in text.split("-", 1))
-            values = list(range(lo, hi + 1))
-        else:
-            values = [int(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise click.BadParameter(f"expected seeds such as 1,2,3 or 1-4, got {text!r}",
-                                 param_hint="--seeds") from None
-    if not values:
-        raise click.BadParameter(f"no seed in {text!r}", param_hint="--seeds")
     return values
 
 

@@ -33,19 +33,15 @@ import ipaddress
 import logging
 import select
 import socket
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
-from murdoch.auth import TeamKey
+from murdoch.endpoint import EndpointOptions, NetworkEndpoint
 from murdoch.lossy import LossyReceiver
 from murdoch.transport import (
     Clock,
-    EndpointBacked,
-    EndpointCore,
-    TickConfig,
 )
-from murdoch.wire import Codec
 
 log = logging.getLogger(__name__)
 
@@ -124,7 +120,7 @@ def open_multicast_socket(config: MulticastConfig) -> socket.socket:
     return sock
 
 
-class MulticastTransport(EndpointBacked):
+class MulticastTransport(NetworkEndpoint):
     """A `Transport` over one UDP multicast group and port (plus the reply group when the
     configuration turns the reply lane on)."""
 
@@ -133,23 +129,17 @@ class MulticastTransport(EndpointBacked):
         sender_id: str,
         clock: Clock,
         config: MulticastConfig | None = None,
-        codec: Codec | None = None,
-        key: TeamKey | None = None,
-        instance: str | None = None,
-        ticks: TickConfig | None = None,
+        options: EndpointOptions | None = None,
         loss: LossyReceiver | None = None,
     ) -> None:
-        from murdoch.auction.messages import AUCTION_CODEC
-
-        if loss is not None and ticks is not None and ticks.ordered:
+        options = options or EndpointOptions()
+        if loss is not None and options.ticks is not None and options.ticks.ordered:
             raise ValueError("a loss layer cannot be used in lockstep (ordered ticks): a "
                              "lost datagram is an error there")
         self.loss = loss
 
         self.config = config or MulticastConfig()
-        self._core = EndpointCore(
-            sender_id, codec or AUCTION_CODEC, clock, key, instance=instance, ticks=ticks
-        )
+        self._core = options.core(sender_id, clock)
         self._sock = open_multicast_socket(self.config)
         self._dest = (self.config.group, self.config.port)
         self._reply_sock: socket.socket | None = None
@@ -232,20 +222,8 @@ class MulticastTransport(EndpointBacked):
                 delivered += receive(datagram)
         return delivered
 
-    def settle_tick(
-        self, tick: int, table: Mapping[str, int], *, wait_clock: Clock,
-        give_up_after_s: float = 60.0,
-    ) -> int:
-        """Lockstep (an ordered `TickConfig`): the release point of `tick`.
-
-        `table` holds every sender's count of datagrams through tick-1. Reads the sockets
-        until all of them have arrived, then acts on those stamped tick-1 or earlier, in
-        tick order (`EndpointCore.release`). `wait_clock` (wall seconds) only bounds the
-        wait: a datagram still missing after `give_up_after_s` raises `LostDatagrams`."""
-        return self._core.settle(
-            tick, table, poll=lambda: self.poll(0.0),
-            wait=lambda s: select.select(self._both, [], [], s), wait_clock=wait_clock,
-            give_up_after_s=give_up_after_s)
+    def _wait(self, timeout_s: float) -> None:
+        select.select(self._both, [], [], timeout_s)
 
     def close(self) -> None:
         if not self.closed:
@@ -253,9 +231,3 @@ class MulticastTransport(EndpointBacked):
             self._sock.close()
             if self._reply_sock is not None:
                 self._reply_sock.close()
-
-    def __enter__(self) -> MulticastTransport:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()

@@ -19,6 +19,7 @@ import click
 
 from murdoch.auction.messages import AuctionEvent, Outcome, TaskSpec
 from murdoch.auth import TeamKey
+from murdoch.endpoint import EndpointOptions
 from murdoch.multicast import DEFAULT_GROUP, DEFAULT_PORT, MulticastConfig
 from murdoch.node import Node
 from murdoch.subjects import SubjectError, matches, subject_set
@@ -57,7 +58,7 @@ def _open(sender: str, clock: Any, net: dict[str, Any]) -> Any:
         choice = TransportChoice(
             "multicast", multicast=_config(net["group"], net["port"], net["reply_lane"]))
     try:
-        return open_transport(choice, sender, clock, key=_key(net["key"]))
+        return open_transport(choice, sender, clock, EndpointOptions(key=_key(net["key"])))
     except (ZenohUnavailable, OSError) as exc:
         raise click.ClickException(str(exc)) from None
 

@@ -10,11 +10,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Protocol
 
-from murdoch.auth import TeamKey
+from murdoch.endpoint import EndpointOptions
 from murdoch.lossy import LossyReceiver
 from murdoch.multicast import MulticastConfig, MulticastTransport
-from murdoch.transport import Clock, TickConfig, Transport
-from murdoch.wire import Codec
+from murdoch.transport import Clock, Transport
 from murdoch.zenoh_transport import ZenohConfig, ZenohTransport
 
 TRANSPORTS = ("multicast", "zenoh")
@@ -52,18 +51,13 @@ def open_transport(
     choice: TransportChoice,
     sender_id: str,
     clock: Clock,
+    options: EndpointOptions | None = None,
     *,
-    codec: Codec | None = None,
-    key: TeamKey | None = None,
-    instance: str | None = None,
-    ticks: TickConfig | None = None,
     loss: LossyReceiver | None = None,
 ) -> MulticastTransport | ZenohTransport:
     """Open the chosen transport (a loss layer exists for multicast only)."""
     if choice.kind == "zenoh":
         if loss is not None:
             raise ValueError("a bus loss layer is available on the multicast transport only")
-        return ZenohTransport(sender_id, clock, choice.zenoh, codec=codec, key=key,
-                              instance=instance, ticks=ticks)
-    return MulticastTransport(sender_id, clock, choice.multicast, codec=codec, key=key,
-                              instance=instance, ticks=ticks, loss=loss)
+        return ZenohTransport(sender_id, clock, choice.zenoh, options)
+    return MulticastTransport(sender_id, clock, choice.multicast, options, loss=loss)

@@ -38,13 +38,12 @@ import re
 import threading
 import time
 from collections import deque
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
-from murdoch.auth import TeamKey
-from murdoch.transport import Clock, EndpointBacked, EndpointCore, TickConfig
-from murdoch.wire import Codec
+from murdoch.endpoint import EndpointOptions, NetworkEndpoint
+from murdoch.transport import Clock
 
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 DEFAULT_PREFIX = "murdoch/team"
@@ -143,7 +142,7 @@ def open_session(config: ZenohConfig) -> Any:
         raise OSError(f"zenoh: cannot {role} {config.endpoint}: {exc}") from None
 
 
-class ZenohTransport(EndpointBacked):
+class ZenohTransport(NetworkEndpoint):
     """A `Transport` over a Zenoh session (hub or client, see the module doc)."""
 
     def __init__(
@@ -151,17 +150,10 @@ class ZenohTransport(EndpointBacked):
         sender_id: str,
         clock: Clock,
         config: ZenohConfig | None = None,
-        codec: Codec | None = None,
-        key: TeamKey | None = None,
-        instance: str | None = None,
-        ticks: TickConfig | None = None,
+        options: EndpointOptions | None = None,
     ) -> None:
-        from murdoch.auction.messages import AUCTION_CODEC
-
         self.config = config or ZenohConfig()
-        self._core = EndpointCore(
-            sender_id, codec or AUCTION_CODEC, clock, key, instance=instance, ticks=ticks
-        )
+        self._core = (options or EndpointOptions()).core(sender_id, clock)
         self._queue: deque[bytes] = deque()
         self._closing = threading.Event()
         self._arrived = threading.Condition()
@@ -263,14 +255,6 @@ class ZenohTransport(EndpointBacked):
             delivered += receive(datagram)
         return delivered
 
-    def settle_tick(
-        self, tick: int, table: Mapping[str, int], *, wait_clock: Clock,
-        give_up_after_s: float = 60.0,
-    ) -> int:
-        """Lockstep: the release point of `tick`, as `MulticastTransport.settle_tick`."""
-        return self._core.settle(tick, table, poll=lambda: self.poll(0.0), wait=self._wait,
-                                 wait_clock=wait_clock, give_up_after_s=give_up_after_s)
-
     def close(self) -> None:
         if not self.closed:
             self.closed = True
@@ -284,9 +268,3 @@ class ZenohTransport(EndpointBacked):
             with self._arrived:
                 self._queue.clear()
                 self._arrived.notify_all()
-
-    def __enter__(self) -> ZenohTransport:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()

@@ -30,18 +30,26 @@ import numpy as np
 from numba import njit
 
 from murdoch.consensus.kernel_parts import (
-    DUR,
-    EPS,
     NONE,
-    WE,
-    conflict_action,
-    earliest_start,
+    bundles_changed,
+    close_round,
+    commit_path,
+    count_sends,
+    cut_bundle,
+    forget_gains,
     gain,
+    insert_task,
     merge_stamps,
+    new_tally,
+    path_starts,
     prepare,
+    remember_bundles,
+    reported,
+    settle_task,
+    settled,
 )
 
-PARTS_SHA256 = "8a9142c8045e32bcfce86fc52548a5afdd2302ea3c8404c4c7993d41bed57ffe"
+PARTS_SHA256 = "6ca3022cd459a5aafb4c96e0d700677d315f9911b9bd9ef56fc5426bad08afb1"
 """The `kernel_parts.py` this module was written against (see its notes on numba's cache)."""
 
 
@@ -51,22 +59,8 @@ def _path_starts(at_row: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr:
                  n_path: int, out: np.ndarray) -> bool:
     """`scoring.path_starts` without group bounds: start times along the path (into `out`)
     and whether each fits its window after its prerequisites, earlier on the path."""
-    ok = True
-    ready = avail
-    prev = -1
-    finish = np.full(tasks.shape[1], np.nan)  # nan: not (yet) on the path
-    for n in range(n_path):
-        j = path[n]
-        start, fits = earliest_start(j, prev, ready, at_row, tt, tasks, pre_ptr, pre_idx, speed,
-                                     finish)
-        if not fits:
-            ok = False
-        if start > tasks[WE, j] + EPS:
-            ok = False
-        out[n] = start
-        ready = start + tasks[DUR, j]
-        finish[j] = ready
-        prev = j
+    ok, _bad = path_starts(at_row, tt, tasks, pre_ptr, pre_idx, speed, avail, path, n_path,
+                           np.zeros(tasks.shape[1]), out, np.zeros(n_path + 1))
     return ok
 
 
@@ -142,24 +136,13 @@ def _build(i: int, y: np.ndarray, z: np.ndarray, bundle: np.ndarray, blen: np.nd
         if best_j < 0:
             return
         # insert best_j at best_pos and re-time the path
-        for q in range(best_pos):
-            new_path[q] = path[q]
-        new_path[best_pos] = best_j
-        for q in range(best_pos, n_path):
-            new_path[q + 1] = path[q]
+        insert_task(path, n_path, best_pos, best_j, new_path)
         if not _path_starts(at_row, tt, tasks, pre_ptr, pre_idx, speed, avail, new_path,
                             n_path + 1, new_times):
             blocked[best_j] = True
             continue
-        for q in range(n_path + 1):
-            path[q] = new_path[q]
-            times[q] = new_times[q]
-        plen[i] = n_path + 1
-        for j in range(m):
-            gain_ok[j] = False
-        bundle[blen[i]] = best_j
-        blen[i] += 1
-        held[best_j] = True
+        commit_path(i, best_j, n_path, new_path, new_times, path, times, plen, gain_ok, bundle,
+                    blen, held)
         y[best_j] = best
         z[best_j] = i
 
@@ -172,20 +155,10 @@ def _merge(i: int, k: int, now: float, y: np.ndarray, z: np.ndarray, s: np.ndarr
     `cbba.merge_timestamps`); rows are i's and k's. True if y or z changed."""
     changed = False
     for j in range(y.shape[0]):
-        zk = z_k[j]
-        zi = z[j]
-        yk = y_k[j]
-        yi = y[j]
-        if zk == zi and yk == yi:
-            continue
-        action = conflict_action(i, k, yi, zi, yk, zk, s, s_k, table, lut)
-        if action == 1:
-            y[j] = yk
-            z[j] = zk
-            changed = True
-        elif action == 2 and (yi != 0.0 or zi != NONE):
-            y[j] = 0.0
-            z[j] = NONE
+        yj, zj, moved = settle_task(i, k, y[j], z[j], y_k[j], z_k[j], s, s_k, table, lut)
+        if moved:
+            y[j] = yj
+            z[j] = zj
             changed = True
     merge_stamps(s, s_k, k, i, now)
     return changed
@@ -201,50 +174,37 @@ def _release(i: int, y: np.ndarray, z: np.ndarray, bundle: np.ndarray, blen: np.
     for b in range(blen[i]):
         if z[bundle[b]] == i:
             continue
-        drop = np.zeros(y.shape[0], dtype=np.bool_)
-        for r in range(b, blen[i]):
-            drop[bundle[r]] = True
-            if r > b:
-                y[bundle[r]] = 0.0
-                z[bundle[r]] = NONE
-        blen[i] = b
-        kept = 0
-        for q in range(plen[i]):
-            if not drop[path[q]]:
-                path[kept] = path[q]
-                kept += 1
-        plen[i] = kept
-        for j in range(gain_ok.shape[0]):
-            gain_ok[j] = False
-        _path_starts(at_row, tt, tasks, pre_ptr, pre_idx, speed, avail, path, kept, times)
+        for r in range(b + 1, blen[i]):
+            y[bundle[r]] = 0.0
+            z[bundle[r]] = NONE
+        cut_bundle(i, b, bundle, blen, path, plen, y.shape[0])
+        forget_gains(gain_ok)
+        _path_starts(at_row, tt, tasks, pre_ptr, pre_idx, speed, avail, path, plen[i], times)
         return True
     return False
 
 
 @njit(cache=True)
 def _round_cost(y: np.ndarray, z: np.ndarray, y_sent: np.ndarray, z_sent: np.ndarray,
-                out_degree: np.ndarray, msg_base: int, msg_entry: int) -> tuple[int, int, int]:
-    """One round's sends: (messages, bytes, pairwise sends whose (y, z) entries differ from
-    what the sender sent the round before, held in y_sent, z_sent)."""
+                out_degree: np.ndarray, msg_base: int, msg_entry: int,
+                tally: np.ndarray) -> None:
+    """One round's sends, counted into the tally (`count_sends`): a message carries the
+    sender's assigned entries, and is a pairwise step when its (y, z) entries differ from
+    what the sender sent the round before, held in y_sent, z_sent."""
     n, m = z.shape
-    msgs = 0
-    nbytes = 0
-    pairs = 0
+    entries = np.zeros(n, dtype=np.int64)
+    changed = np.zeros(n, dtype=np.bool_)
     for k in range(n):
-        d = out_degree[k]
-        if d == 0:
+        if out_degree[k] == 0:
             continue
-        entries = 0
         for j in range(m):
             if z[k, j] != NONE:
-                entries += 1
-        msgs += d
-        nbytes += d * (msg_base + entries * msg_entry)
+                entries[k] += 1
         for j in range(m):
             if z[k, j] != z_sent[k, j] or (z[k, j] != NONE and y[k, j] != y_sent[k, j]):
-                pairs += d
+                changed[k] = True
                 break
-    return msgs, nbytes, pairs
+    count_sends(out_degree, entries, changed, msg_base, msg_entry, tally)
 
 
 @njit(cache=True)
@@ -252,13 +212,10 @@ def _round_changed(y: np.ndarray, z: np.ndarray, bundle: np.ndarray, blen: np.nd
                    y_before: np.ndarray, z_before: np.ndarray, b_before: np.ndarray,
                    blen_before: np.ndarray) -> bool:
     """Whether the bids, winners or bundles differ from those at the start of the round."""
+    if bundles_changed(bundle, blen, b_before, blen_before):
+        return True
     n, m = z.shape
     for i in range(n):
-        if blen[i] != blen_before[i]:
-            return True
-        for b in range(blen[i]):
-            if bundle[i, b] != b_before[i, b]:
-                return True
         for j in range(m):
             if y[i, j] != y_before[i, j] or z[i, j] != z_before[i, j]:
                 return True
@@ -299,22 +256,13 @@ def run_cbba(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
     z_before = z.copy()
     b_before = bundle.copy()
     blen_before = blen.copy()
-    sent_msgs = 0  # transmissions so far, and through the last round with a change
-    sent_bytes = 0
-    sent_pairs = 0
-    pairwise = 0
-    messages = 0
-    nbytes = 0
+    tally = new_tally()
     rnd = 0
-    last_change = 0
-    quiet = 0
-    while not quiet >= diameter + 1 and rnd < max_rounds:
+    while not settled(tally, diameter) and rnd < max_rounds:
         rnd += 1
         now = float(rnd)
+        remember_bundles(bundle, blen, b_before, blen_before)
         for i in range(n):
-            blen_before[i] = blen[i]
-            for b in range(blen[i]):
-                b_before[i, b] = bundle[i, b]
             for j in range(m):
                 y_before[i, j] = y[i, j]
                 z_before[i, j] = z[i, j]
@@ -327,11 +275,7 @@ def run_cbba(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
                        gain_bound[i],
                        max_depth, gain_val[i], gain_pos[i], gain_ok[i], work)
         # -- what the round's messages cost (y_sent, z_sent: what was sent last round)
-        d_msgs, d_bytes, d_pairs = _round_cost(y, z, y_sent, z_sent, out_degree, msg_base,
-                                               msg_entry)
-        sent_msgs += d_msgs
-        sent_bytes += d_bytes
-        sent_pairs += d_pairs
+        _round_cost(y, z, y_sent, z_sent, out_degree, msg_base, msg_entry, tally)
         # -- phase 2: everyone sends, then each merges its neighbours' messages in order
         for i in range(n):
             for j in range(m):
@@ -353,13 +297,8 @@ def run_cbba(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
                         gain_ok[i]):
                 needs[i] = True
         # -- did anything that comm_steps watches (y, z, bundles) change over the round?
-        if _round_changed(y, z, bundle, blen, y_before, z_before, b_before, blen_before):
-            last_change = rnd
-            messages = sent_msgs
-            nbytes = sent_bytes
-            pairwise = sent_pairs
-            quiet = 0
-        else:
-            quiet += 1
-    converged = quiet >= diameter + 1
-    return path, plen, z, y, times, rnd, last_change, messages, nbytes, converged, pairwise
+        close_round(tally, rnd, _round_changed(y, z, bundle, blen, y_before, z_before, b_before,
+                                               blen_before))
+    converged = settled(tally, diameter)
+    comm_steps, messages, nbytes, pairwise = reported(tally)
+    return path, plen, z, y, times, rnd, comm_steps, messages, nbytes, converged, pairwise

@@ -18,9 +18,16 @@ import math
 import numpy as np
 from numba import njit
 
-from murdoch.consensus.kernel_parts import DUR, EPS, NONE, WE, earliest_start, gain, prepare
+from murdoch.consensus.kernel_parts import (
+    commit_path,
+    gain,
+    insert_task,
+    path_starts,
+    prepare,
+    row_winner,
+)
 
-PARTS_SHA256 = "8a9142c8045e32bcfce86fc52548a5afdd2302ea3c8404c4c7993d41bed57ffe"
+PARTS_SHA256 = "6ca3022cd459a5aafb4c96e0d700677d315f9911b9bd9ef56fc5426bad08afb1"
 """The `kernel_parts.py` this module was written against (see its notes on numba's cache)."""
 
 
@@ -67,31 +74,14 @@ def _path_starts(i: int, xi: np.ndarray, ti: np.ndarray, single: np.ndarray,
     """`scoring.path_starts` with the group lower bounds of `CbgaAgent._lower_bounds`:
     start times (into `out`), each task's own time before the group bound (into `ready`),
     whether every start fits, and the first index that does not (-1)."""
-    ok = True
-    bad = -1
-    r = avail
-    prev = -1
-    finish = np.full(tasks.shape[1], np.nan)
-    for n in range(n_path):
-        j = path[n]
-        start, fits = earliest_start(j, prev, r, at_row, tt, tasks, pre_ptr, pre_idx, speed,
-                                     finish)
-        if not fits:
-            ok = False
-        ready[n] = start
-        if groups and not single[j]:
-            lb = _partners_time(i, j, xi, ti, latest)
-            if lb > 0.0 and lb > start:
-                start = lb
-        if start > tasks[WE, j] + EPS:
-            ok = False
-        if not ok and bad < 0:
-            bad = n
-        out[n] = start
-        r = start + tasks[DUR, j]
-        finish[j] = r
-        prev = j
-    return ok, bad
+    lower = np.zeros(tasks.shape[1])
+    if groups:
+        for n in range(n_path):
+            j = path[n]
+            if not single[j]:
+                lower[j] = _partners_time(i, j, xi, ti, latest)
+    return path_starts(at_row, tt, tasks, pre_ptr, pre_idx, speed, avail, path, n_path, lower,
+                       out, ready)
 
 
 @njit(cache=True)
@@ -349,12 +339,7 @@ def _single_bid(i: int, j: int, g: float, xi: np.ndarray, drop: np.ndarray) -> t
     """Agent i's bid g on single-agent task j: valid if it beats the winner it knows (a tie
     goes to the lower index)."""
     n = xi.shape[1]
-    yj = 0.0
-    zj = NONE
-    for q in range(n):
-        if xi[j, q] > yj:
-            yj = xi[j, q]
-            zj = q
+    yj, zj = row_winner(xi[j])
     if not (g > yj or (g == yj and zj >= i)):
         return False, 0.0
     for q in range(n):
@@ -371,16 +356,9 @@ def _commit(i: int, j: int, bid: float, now: float, best_pos: int, n_path: int,
             best_drop: np.ndarray) -> None:
     """Take task j at `best_pos` with `bid`: the timed path becomes agent i's, the bundle
     grows, the partners it drops lose their bids."""
-    m, n = xi.shape
-    for q in range(n_path + 1):
-        path[q] = new_path[q]
-        times[q] = new_times[q]
-    plen[i] = n_path + 1
-    for q in range(m):
-        gain_ok[q] = False
-    bundle[blen[i]] = j
-    blen[i] += 1
-    held[j] = True
+    n = xi.shape[1]
+    commit_path(i, j, n_path, new_path, new_times, path, times, plen, gain_ok, bundle, blen,
+                held)
     if groups:
         _publish(i, ti, single, path, n_path + 1, new_ready)
     for q in range(n):
@@ -484,11 +462,7 @@ def _build(i: int, now: float, xi: np.ndarray, ti: np.ndarray, bundle: np.ndarra
             return
         j = best_j
         # `CbgaAgent._insert`: the path with j at best_pos, timed against the partners
-        for q in range(best_pos):
-            new_path[q] = path[q]
-        new_path[best_pos] = j
-        for q in range(best_pos, n_path):
-            new_path[q + 1] = path[q]
+        insert_task(path, n_path, best_pos, j, new_path)
         ok, _bad = _path_starts(i, xi, ti, single, latest, groups, at_row, tt, tasks, pre_ptr,
                                 pre_idx, speed, avail, new_path, n_path + 1, new_times,
                                 new_ready)

@@ -60,13 +60,27 @@ from murdoch.consensus.cbga_round_kernel import (
     _round_cost,
     _stamp_sent,
 )
-from murdoch.consensus.kernel_parts import EPS, NONE, WE, conflict_action, merge_stamps
+from murdoch.consensus.kernel_parts import (
+    EPS,
+    NONE,
+    WE,
+    close_round,
+    cut_bundle,
+    forget_gains,
+    merge_stamps,
+    new_tally,
+    remove_marked,
+    reported,
+    row_winner,
+    settle_task,
+    settled,
+)
 
-PARTS_SHA256 = "8a9142c8045e32bcfce86fc52548a5afdd2302ea3c8404c4c7993d41bed57ffe"
+PARTS_SHA256 = "6ca3022cd459a5aafb4c96e0d700677d315f9911b9bd9ef56fc5426bad08afb1"
 """The `kernel_parts.py` this module was written against (see its notes on numba's cache)."""
-BUILD_SHA256 = "17159d0017637e3117d5ed9dd05da6a7e74c1664d7495f745499b15a60124c97"
+BUILD_SHA256 = "1945c867d49e9c74942a9229522fb9bca2255fe471e5044c283a160025c8105f"
 """The `cbga_build_kernel.py` this module was written against."""
-ROUND_SHA256 = "75cee9d03ff2338a64f3fb532f4abc54033459a5c0fa39a896b88c8056ddb0cc"
+ROUND_SHA256 = "b38a51ec63d48e78e8289c3f1ff0658d95c4b69d6a12956118c73ad58188fa36"
 """The `cbga_round_kernel.py` this module was written against."""
 
 
@@ -111,29 +125,14 @@ def _merge(i: int, k: int, now: float, xi: np.ndarray, ti: np.ndarray, s: np.nda
             continue
         if single[j]:
             # CBBA's table on (y, z) read from the rows (one non-zero entry at most)
-            yi = 0.0
-            zi = NONE
-            yk = 0.0
-            zk = NONE
-            for q in range(n):
-                if xi[j, q] > yi:
-                    yi = xi[j, q]
-                    zi = q
-                if xk[j, q] > yk:
-                    yk = xk[j, q]
-                    zk = q
-            if zk == zi and yk == yi:
-                continue
-            action = conflict_action(i, k, yi, zi, yk, zk, s, s_k, table, lut)
-            if action == 1:
+            yi, zi = row_winner(xi[j])
+            yk, zk = row_winner(xk[j])
+            yj, zj, moved = settle_task(i, k, yi, zi, yk, zk, s, s_k, table, lut)
+            if moved:
                 for q in range(n):
                     xi[j, q] = 0.0
-                if zk != NONE:
-                    xi[j, zk] = yk
-                changed = True
-            elif action == 2 and (yi != 0.0 or zi != NONE):
-                for q in range(n):
-                    xi[j, q] = 0.0
+                if zj != NONE:
+                    xi[j, zj] = yj
                 changed = True
             continue
         if n_known == 0:
@@ -184,20 +183,9 @@ def _retime(i: int, xi: np.ndarray, ti: np.ndarray, path: np.ndarray, times: np.
     """`_set_path(path, path_starts(...)[0])` then `_publish_times()` on the current path."""
     _path_starts(i, xi, ti, single, latest, groups, at_row, tt, tasks, pre_ptr, pre_idx,
                  speed, avail, path, plen[i], times, ready)
-    for q in range(gain_ok.shape[0]):
-        gain_ok[q] = False
+    forget_gains(gain_ok)
     if groups:
         _publish(i, ti, single, path, plen[i], ready)
-
-
-@njit(cache=True)
-def _remove(path: np.ndarray, plen: np.ndarray, i: int, drop: np.ndarray) -> None:
-    kept = 0
-    for q in range(plen[i]):
-        if not drop[path[q]]:
-            path[kept] = path[q]
-            kept += 1
-    plen[i] = kept
 
 
 @njit(cache=True)
@@ -228,7 +216,7 @@ def _quit(i: int, now: float, xi: np.ndarray, ti: np.ndarray, bundle: np.ndarray
             blen[i] -= 1
             drop = np.zeros(m, dtype=np.bool_)
             drop[j] = True
-            _remove(path, plen, i, drop)
+            remove_marked(path, plen, i, drop)
             _retime(i, xi, ti, path, times, plen, gain_ok, at_row, tt, tasks, pre_ptr,
                     pre_idx, speed, avail, single, latest, groups, ready)
             quits[j] += 1
@@ -252,18 +240,14 @@ def _release(i: int, xi: np.ndarray, ti: np.ndarray, bundle: np.ndarray, blen: n
     for b in range(blen[i]):
         if xi[bundle[b], i] > 0.0:
             continue
-        drop = np.zeros(m, dtype=np.bool_)
-        for r in range(b, blen[i]):
+        for r in range(b + 1, blen[i]):
             j = bundle[r]
-            drop[j] = True
-            if r > b:
-                if single[j]:
-                    for q in range(xi.shape[1]):
-                        xi[j, q] = 0.0
-                else:
-                    xi[j, i] = 0.0
-        blen[i] = b
-        _remove(path, plen, i, drop)
+            if single[j]:
+                for q in range(xi.shape[1]):
+                    xi[j, q] = 0.0
+            else:
+                xi[j, i] = 0.0
+        cut_bundle(i, b, bundle, blen, path, plen, m)
         _retime(i, xi, ti, path, times, plen, gain_ok, at_row, tt, tasks, pre_ptr, pre_idx,
                 speed, avail, single, latest, groups, ready)
         return True
@@ -313,13 +297,8 @@ def _refresh(i: int, xi: np.ndarray, ti: np.ndarray, bundle: np.ndarray, blen: n
         for j in range(m):
             if later[j]:
                 xi[j, i] = 0.0
-        kept = 0
-        for b in range(blen[i]):
-            if not later[bundle[b]]:
-                bundle[kept] = bundle[b]
-                kept += 1
-        blen[i] = kept
-        _remove(path, plen, i, later)
+        remove_marked(bundle, blen, i, later)
+        remove_marked(path, plen, i, later)
     held = False
     while True:
         ok, bad = _path_starts(i, xi, ti, single, latest, groups, at_row, tt, tasks, pre_ptr,
@@ -366,8 +345,7 @@ def _refresh(i: int, xi: np.ndarray, ti: np.ndarray, bundle: np.ndarray, blen: n
     if moved:
         for q in range(plen[i]):
             times[q] = new_times[q]
-        for q in range(m):
-            gain_ok[q] = False
+        forget_gains(gain_ok)
     _publish(i, ti, single, path, plen[i], ready)
     return moved
 
@@ -408,19 +386,12 @@ def run_cbga(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
     t_before = t.copy()
     b_before = bundle.copy()
     blen_before = blen.copy()
-    sent_msgs = 0
-    sent_bytes = 0
-    sent_pairs = 0
-    pairwise = 0
-    messages = 0
-    nbytes = 0
+    tally = new_tally()
     rnd = 0
-    last_change = 0
-    quiet = 0
     while True:
         pending = quitting and _any_pending_quit(x, bundle, blen, assigned_at, quit_after,
                                                  single, required, task_eq, agent_eq)
-        if (quiet >= diameter + 1 and not pending) or rnd >= max_rounds:
+        if (settled(tally, diameter) and not pending) or rnd >= max_rounds:
             break
         rnd += 1
         now = float(rnd)
@@ -443,11 +414,7 @@ def run_cbga(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
                        tasks, pre_ptr, pre_idx, speed[i], avail[i], eligible[i],
                        gain_bound[i], single, latest, groups, required, team_reward,
                        task_eq, agent_eq, team, quit_limit, max_depth, work, team_total)
-        msgs, nb, pairs = _round_cost(x, t, x_sent, t_sent, out_degree, single, msg_base,
-                                      msg_entry)
-        sent_msgs += msgs
-        sent_bytes += nb
-        sent_pairs += pairs
+        _round_cost(x, t, x_sent, t_sent, out_degree, single, msg_base, msg_entry, tally)
         # -- phase 2: everyone sends, then each merges its neighbours' messages in order
         _copy(x_sent, x)
         _copy(t_sent, t)
@@ -470,17 +437,10 @@ def run_cbga(at_dist: np.ndarray, tt: np.ndarray, tasks: np.ndarray, pre_ptr: np
                                    tasks, pre_ptr, pre_idx, speed[i], avail[i], single,
                                    latest, groups, new_times, ready):
                 needs[i] = True
-        changed = _round_changed(x, t, bundle, blen, x_before, t_before, b_before,
-                                 blen_before)
-        if changed:
-            last_change = rnd
-            messages = sent_msgs
-            nbytes = sent_bytes
-            pairwise = sent_pairs
-            quiet = 0
-        else:
-            quiet += 1
+        close_round(tally, rnd, _round_changed(x, t, bundle, blen, x_before, t_before, b_before,
+                                               blen_before))
     pending = quitting and _any_pending_quit(x, bundle, blen, assigned_at, quit_after, single,
                                              required, task_eq, agent_eq)
-    converged = quiet >= diameter + 1 and not pending
-    return path, plen, x, rnd, last_change, messages, nbytes, converged, pairwise
+    converged = settled(tally, diameter) and not pending
+    comm_steps, messages, nbytes, pairwise = reported(tally)
+    return path, plen, x, rnd, comm_steps, messages, nbytes, converged, pairwise

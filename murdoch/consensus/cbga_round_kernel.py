@@ -17,6 +17,10 @@ import numpy as np
 from numba import njit
 
 from murdoch.consensus.cbga_build_kernel import _complete, _copy
+from murdoch.consensus.kernel_parts import bundles_changed, count_sends, remember_bundles
+
+PARTS_SHA256 = "6ca3022cd459a5aafb4c96e0d700677d315f9911b9bd9ef56fc5426bad08afb1"
+"""The `kernel_parts.py` this module was written against (see its notes on numba's cache)."""
 
 
 @njit(cache=True)
@@ -94,10 +98,7 @@ def _remember(x: np.ndarray, t: np.ndarray, bundle: np.ndarray, blen: np.ndarray
     """Keep X, T and the bundles as the round begins (for `_round_changed`)."""
     _copy(x_before, x)
     _copy(t_before, t)
-    for i in range(blen.shape[0]):
-        blen_before[i] = blen[i]
-        for b in range(blen[i]):
-            b_before[i, b] = bundle[i, b]
+    remember_bundles(bundle, blen, b_before, blen_before)
 
 
 @njit(cache=True, inline="always")
@@ -124,30 +125,24 @@ def _any_pending_quit(x: np.ndarray, bundle: np.ndarray, blen: np.ndarray,
 @njit(cache=True, inline="always")
 def _round_cost(x: np.ndarray, t: np.ndarray, x_sent: np.ndarray, t_sent: np.ndarray,
                 out_degree: np.ndarray, single: np.ndarray, msg_base: int,
-                msg_entry: int) -> tuple[int, int, int]:
-    """What the round's messages cost (`CbgaAgent.sent_counts`): (messages, bytes, the
-    messages of senders whose lists changed since their last round)."""
+                msg_entry: int, tally: np.ndarray) -> None:
+    """What the round's messages cost (`CbgaAgent.sent_counts`), counted into the tally
+    (`count_sends`): pairwise steps are the messages of senders whose lists changed since
+    their last round."""
     n, m = x.shape[0], x.shape[1]
-    msgs = 0
-    nbytes = 0
-    pairs = 0
+    entries = np.zeros(n, dtype=np.int64)  # its non-zero bids and members' times
+    changed = np.zeros(n, dtype=np.bool_)
     for k in range(n):
-        d = out_degree[k]
-        if d == 0:
+        if out_degree[k] == 0:
             continue
-        entries = 0
-        n_starts = 0
         for j in range(m):
             for q in range(n):
                 if x[k, j, q] != 0.0:
-                    entries += 1
+                    entries[k] += 1
                     if not single[j] and t[k, j, q] > 0.0 and x[k, j, q] > 0.0:
-                        n_starts += 1
-        msgs += d
-        nbytes += d * (msg_base + (entries + n_starts) * msg_entry)
-        if _sent_changed(k, x, t, x_sent, t_sent, single):
-            pairs += d
-    return msgs, nbytes, pairs
+                        entries[k] += 1
+        changed[k] = _sent_changed(k, x, t, x_sent, t_sent, single)
+    count_sends(out_degree, entries, changed, msg_base, msg_entry, tally)
 
 
 @njit(cache=True, inline="always")
@@ -155,13 +150,9 @@ def _round_changed(x: np.ndarray, t: np.ndarray, bundle: np.ndarray, blen: np.nd
                    x_before: np.ndarray, t_before: np.ndarray, b_before: np.ndarray,
                    blen_before: np.ndarray) -> bool:
     """Did anything that comm_steps watches (X, T, bundles) change over the round?"""
+    if bundles_changed(bundle, blen, b_before, blen_before):
+        return True
     n, m = x.shape[0], x.shape[1]
-    for i in range(n):
-        if blen[i] != blen_before[i]:
-            return True
-        for b in range(blen[i]):
-            if bundle[i, b] != b_before[i, b]:
-                return True
     for i in range(n):
         for j in range(m):
             for q in range(n):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import pybullet as pb
 
@@ -126,6 +127,16 @@ def _compound_boxes(boxes: list[ObstacleSpec], cid: int) -> list[int]:
     return out
 
 
+def _movable(cid: int, mass_kg: float, col: int, vis: int, pos: list[float], yaw: float,
+             **dynamics: Any) -> int:
+    """A body the robots can push: placed at `pos` turned by `yaw`, with its own `dynamics`
+    (friction, inertia), and asleep whenever it comes to rest."""
+    body = pb.createMultiBody(mass_kg, col, vis, pos, _quat_yaw(yaw), physicsClientId=cid)
+    pb.changeDynamics(body, -1, activationState=pb.ACTIVATION_STATE_ENABLE_SLEEPING,
+                      physicsClientId=cid, **dynamics)
+    return body
+
+
 def build_world(spec: WorldSpec, client: int) -> BodyIds:
     """Create every body of the world on ``client``; robots' base frame is their body centre."""
     cid = client
@@ -140,12 +151,8 @@ def build_world(spec: WorldSpec, client: int) -> BodyIds:
         col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=cid)
         vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=_rgba(b.colour),
                                    physicsClientId=cid)
-        bid = pb.createMultiBody(b.mass_kg, col, vis, [b.pose.x, b.pose.y, half[2]],
-                                 _quat_yaw(b.pose.yaw), physicsClientId=cid)
-        pb.changeDynamics(bid, -1, lateralFriction=b.friction,
-                          activationState=pb.ACTIVATION_STATE_ENABLE_SLEEPING,
-                          physicsClientId=cid)
-        boxes[b.name] = bid
+        boxes[b.name] = _movable(cid, b.mass_kg, col, vis, [b.pose.x, b.pose.y, half[2]],
+                                 b.pose.yaw, lateralFriction=b.friction)
 
     objects: dict[str, int] = {}
     for o in spec.objects:
@@ -153,16 +160,12 @@ def build_world(spec: WorldSpec, client: int) -> BodyIds:
                                       physicsClientId=cid)
         vis = pb.createVisualShape(pb.GEOM_CYLINDER, radius=o.radius_m, length=o.height_m,
                                    rgbaColor=_rgba(o.colour), physicsClientId=cid)
-        oid = pb.createMultiBody(o.mass_kg, col, vis, [o.pose.x, o.pose.y, o.height_m / 2],
-                                 _quat_yaw(o.pose.yaw), physicsClientId=cid)
         # Upright cylinders slide rather than topple (keeps their footprint a circle).
         inertia = o.mass_kg * 1e3
-        pb.changeDynamics(oid, -1, lateralFriction=0.5,
-                          localInertiaDiagonal=[inertia, inertia,
-                                                0.5 * o.mass_kg * o.radius_m ** 2],
-                          activationState=pb.ACTIVATION_STATE_ENABLE_SLEEPING,
-                          physicsClientId=cid)
-        objects[o.name] = oid
+        objects[o.name] = _movable(
+            cid, o.mass_kg, col, vis, [o.pose.x, o.pose.y, o.height_m / 2], o.pose.yaw,
+            lateralFriction=0.5,
+            localInertiaDiagonal=[inertia, inertia, 0.5 * o.mass_kg * o.radius_m ** 2])
 
     markers: dict[str, int] = {}
     for m in spec.markers:

@@ -11,6 +11,7 @@ import pytest
 from murdoch.consensus import CbgaOptions
 from murdoch.consensus.async_runner import CONSENSUS_CODEC, ConsensusSwarm, make_nodes
 from murdoch.consensus.experiments import TaskSpec, make_scenario
+from murdoch.endpoint import EndpointOptions
 from murdoch.multicast import MulticastConfig, MulticastTransport
 
 
@@ -28,7 +29,8 @@ def test_cbga_over_loopback_multicast() -> None:
     s = make_scenario("mcast", np.random.default_rng(5), [frozenset()] * 4,
                       [TaskSpec(1 + j % 2) for j in range(8)])
     try:
-        transports = [MulticastTransport(a.id, time.monotonic, config, CONSENSUS_CODEC)
+        transports = [MulticastTransport(a.id, time.monotonic, config,
+                                         EndpointOptions(CONSENSUS_CODEC))
                       for a in s.agents]
     except OSError as exc:
         pytest.skip(f"UDP multicast on loopback is not available: {exc}")
@@ -66,7 +68,8 @@ def test_cbga_with_refine_over_loopback_multicast() -> None:
     config = _free_config()
     s = small_problem(np.random.default_rng([41, 0, 1]), 3, 7, "uniform-loose", groups=True)
     try:
-        transports = [MulticastTransport(a.id, time.monotonic, config, CONSENSUS_CODEC)
+        transports = [MulticastTransport(a.id, time.monotonic, config,
+                                         EndpointOptions(CONSENSUS_CODEC))
                       for a in s.agents]
     except OSError as exc:
         pytest.skip(f"UDP multicast on loopback is not available: {exc}")

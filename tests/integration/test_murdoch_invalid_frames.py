@@ -17,6 +17,7 @@ import pytest
 
 from murdoch.auction import AUCTION_CODEC, Announce, Bid, Contract, Outcome, TaskSpec
 from murdoch.auth import TeamKey
+from murdoch.endpoint import EndpointOptions
 from murdoch.multicast import MulticastConfig, MulticastTransport
 from murdoch.node import Node
 
@@ -82,9 +83,9 @@ def test_signed_frames_with_ill_typed_fields_are_rejected_and_counted_by_nodes(
     outcomes: list[Outcome] = []
     spec = TaskSpec("track", frozenset({"camera"}), bid_window_s=1.0, renew_period_s=0.5,
                     contract_timeout_s=5.0, abandon_after_s=5.0)
-    with MulticastTransport("user", clock, config, key=key) as user_tx, \
-            MulticastTransport("r1", clock, config, key=key) as robot_tx, \
-            MulticastTransport("ghost", clock, config, key=key) as ghost:
+    with MulticastTransport("user", clock, config, EndpointOptions(key=key)) as user_tx, \
+            MulticastTransport("r1", clock, config, EndpointOptions(key=key)) as robot_tx, \
+            MulticastTransport("ghost", clock, config, EndpointOptions(key=key)) as ghost:
         user = Node(user_tx, clock, on_outcome=outcomes.append)
         robot = Node(robot_tx, clock, subjects={"camera"}, metric=lambda ann: 1.0,
                      on_start=started.append)

@@ -103,6 +103,7 @@ def test_garbage_on_the_group_is_counted_and_harmless(config: MulticastConfig) -
 @pytest.mark.timeout(30)
 def test_a_seeded_loss_layer_drops_and_delays_what_one_receiver_reads(
         config: MulticastConfig) -> None:
+    from murdoch.endpoint import EndpointOptions
     from murdoch.lossy import LossSpec, LossyReceiver
     from murdoch.transport import TickConfig
 
@@ -129,5 +130,5 @@ def test_a_seeded_loss_layer_drops_and_delays_what_one_receiver_reads(
         sender.close()
         lossy.close()
     with pytest.raises(ValueError, match="lockstep"):
-        MulticastTransport("x", time.monotonic, config, loss=loss,
-                           ticks=TickConfig(lambda: 0, ordered=True))
+        MulticastTransport("x", time.monotonic, config,
+                           EndpointOptions(ticks=TickConfig(lambda: 0, ordered=True)), loss=loss)

@@ -16,6 +16,7 @@ import pytest
 
 from murdoch.auction import AuctionEvent, Bid, Outcome, TaskSpec
 from murdoch.auth import TeamKey
+from murdoch.endpoint import EndpointOptions
 from murdoch.multicast import MulticastConfig, MulticastTransport, open_multicast_socket
 from murdoch.node import Node
 
@@ -157,8 +158,10 @@ def test_forged_and_replayed_bids_are_rejected_on_a_keyed_team(bidders: Bidders)
     events: list[AuctionEvent] = []
     outcomes: list[Outcome] = []
     config = bidders.config
-    with MulticastTransport("keyed-user", clock, config, key=TeamKey(key)) as transport, \
-            MulticastTransport("forger", clock, config, key=TeamKey("not-the-key")) as forger, \
+    keyed = EndpointOptions(key=TeamKey(key))
+    forged = EndpointOptions(key=TeamKey("not-the-key"))
+    with MulticastTransport("keyed-user", clock, config, keyed) as transport, \
+            MulticastTransport("forger", clock, config, forged) as forger, \
             MulticastTransport("replayer", clock, config) as replayer:
         captured: list[bytes] = []
         wire_tap = open_multicast_socket(config)  # one group carries everything

@@ -9,6 +9,7 @@ from sibling import load_sibling
 
 from murdoch.auction.messages import Bid
 from murdoch.auth import TeamKey
+from murdoch.endpoint import EndpointOptions
 from murdoch.multicast import MulticastConfig, MulticastTransport
 from murdoch.tick_order import LostDatagrams
 from murdoch.transport import TickConfig
@@ -35,8 +36,8 @@ def _pair(config: MulticastConfig, tick: list[int]) -> tuple[MulticastTransport,
     out = []
     for name in ("p1", "p2"):
         ticks = TickConfig(lambda: tick[0], epoch="e1", ordered=True, late_joiner=False)
-        out.append(MulticastTransport(name, lambda: tick[0] * 0.1, config, key=key,
-                                      instance="0", ticks=ticks))
+        out.append(MulticastTransport(name, lambda: tick[0] * 0.1, config,
+                                      EndpointOptions(key=key, instance="0", ticks=ticks)))
     return tuple(out)
 
 

@@ -12,6 +12,7 @@ import pytest
 
 from murdoch.auction.messages import Bid
 from murdoch.auth import TeamKey
+from murdoch.endpoint import EndpointOptions
 from murdoch.tick_order import LostDatagrams
 from murdoch.transport import TickConfig
 from murdoch.wire import Envelope
@@ -27,7 +28,7 @@ def free_tcp_port() -> int:
         return int(probe.getsockname()[1])
 
 
-def team(names: list[str], **kwargs: object) -> list[ZenohTransport]:
+def team(names: list[str], options: EndpointOptions | None = None) -> list[ZenohTransport]:
     """The first name is the hub; the others connect to it."""
     endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
     prefix = f"test/t{os.getpid()}"
@@ -35,7 +36,7 @@ def team(names: list[str], **kwargs: object) -> list[ZenohTransport]:
     try:
         for i, name in enumerate(names):
             config = ZenohConfig(endpoint=endpoint, hub=i == 0, prefix=prefix)
-            out.append(ZenohTransport(name, time.monotonic, config, **kwargs))  # type: ignore[arg-type]
+            out.append(ZenohTransport(name, time.monotonic, config, options))
     except BaseException:
         for t in out:
             t.close()
@@ -101,7 +102,7 @@ def test_a_message_reaches_every_subscriber_holding_all_its_subjects(
 
 def test_forged_and_malformed_datagrams_are_refused_and_counted() -> None:
     key = TeamKey("team-secret-1")
-    transports = team(["hub", "a"], key=key)
+    transports = team(["hub", "a"], EndpointOptions(key=key))
     hub, a = transports
     try:
         connected(transports)
@@ -133,10 +134,10 @@ def test_lockstep_release_waits_for_declared_datagrams_and_keeps_tick_order() ->
         return TickConfig(lambda: tick[0], epoch="e1", ordered=True, late_joiner=False)
 
     endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
-    p1 = ZenohTransport("p1", lambda: tick[0] * 0.1, ZenohConfig(endpoint, hub=True), key=key,
-                        instance="0", ticks=ticks())
-    p2 = ZenohTransport("p2", lambda: tick[0] * 0.1, ZenohConfig(endpoint), key=key,
-                        instance="0", ticks=ticks())
+    p1 = ZenohTransport("p1", lambda: tick[0] * 0.1, ZenohConfig(endpoint, hub=True),
+                        EndpointOptions(key=key, instance="0", ticks=ticks()))
+    p2 = ZenohTransport("p2", lambda: tick[0] * 0.1, ZenohConfig(endpoint),
+                        EndpointOptions(key=key, instance="0", ticks=ticks()))
     with p1, p2:
         sub = p2.subscribe({"task.x"})
         # no warm-up: once a client's transport is open, the hub routes everything to it

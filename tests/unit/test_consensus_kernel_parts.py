@@ -28,6 +28,7 @@ def test_each_kernel_names_the_parts_it_was_built_against() -> None:
     assert digest == cbba_kernel.PARTS_SHA256, "update PARTS_SHA256 in cbba_kernel.py"
     assert digest == cbga_kernel.PARTS_SHA256, "update PARTS_SHA256 in cbga_kernel.py"
     assert digest == cbga_build_kernel.PARTS_SHA256, "update PARTS_SHA256 in cbga_build_kernel.py"
+    assert digest == cbga_round_kernel.PARTS_SHA256, "update PARTS_SHA256 in cbga_round_kernel.py"
 
 
 def test_the_cbga_run_names_the_bundle_building_it_was_built_against() -> None:
