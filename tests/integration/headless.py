@@ -69,7 +69,7 @@ def screenshot_commands(exe: str, jobs: Sequence[tuple[str, Path]], profiles: Pr
 
 def screenshots(exe: str, jobs: Sequence[tuple[str, Path]], profiles: Profiles, *,
                 size: tuple[int, int] = (1024, 768), budget_ms: int = 500,
-                timeout_s: float = 90.0) -> None:
+                timeout_s: float = 300.0) -> None:
     """Render each (url, png) pair, in parallel."""
     procs = [subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
              for cmd in screenshot_commands(exe, jobs, profiles, size=size,
@@ -85,7 +85,7 @@ def screenshots(exe: str, jobs: Sequence[tuple[str, Path]], profiles: Profiles, 
 
 
 def page_state(exe: str, url: str, profiles: Profiles, *, size: tuple[int, int] = (1400, 900),
-               budget_ms: int = 2000, timeout_s: float = 90.0) -> dict[str, Any]:
+               budget_ms: int = 2000, timeout_s: float = 300.0) -> dict[str, Any]:
     """The JSON a viewer page wrote into #murdoch-state after `budget_ms` of virtual time."""
     cmd = [*_command(exe, profiles.next(), size, budget_ms), "--dump-dom", url]
     out = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
