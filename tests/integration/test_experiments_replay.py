@@ -18,7 +18,7 @@ from worlds import load_world, world_path
 
 _headless = load_sibling(__file__, "headless.py")
 
-pytestmark = pytest.mark.timeout(120)
+pytestmark = pytest.mark.timeout(600)  # a browser on a loaded machine may take minutes
 
 
 def _synthetic_run(layout: scene.SceneLayout, duration_s: float, period_s: float = 1.0):
