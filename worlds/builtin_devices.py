@@ -58,10 +58,7 @@ def _sonar(t: Table, ctx: RobotContext) -> SonarSpec:
         poses = tuple(out)
     else:
         raise t.error("poses", "'pioneer' or a non-empty array of [x, y, yaw_deg]", raw)
-    min_r = t.number("min_range", d.min_range_m, min_value=0.0)
-    max_r = t.number("max_range", d.max_range_m, positive=True)
-    if max_r <= min_r:
-        raise t.error("max_range", f"a number > min_range ({min_r:g})", max_r)
+    min_r, max_r = _range_limits(t, d.min_range_m, d.max_range_m)
     return SonarSpec(
         poses=poses,
         min_range_m=min_r,
@@ -69,6 +66,15 @@ def _sonar(t: Table, ctx: RobotContext) -> SonarSpec:
         cone_rad=t.angle("cone", d.cone_rad, min_rad=0.0, max_rad=math.pi),
         rays_per_transducer=t.integer("rays_per_transducer", d.rays_per_transducer, min_value=1),
     )
+
+
+def _range_limits(t: Table, min_default: float, max_default: float) -> tuple[float, float]:
+    """A ranging device's `min_range` and `max_range` (metres), the first below the second."""
+    min_r = t.number("min_range", min_default, min_value=0.0)
+    max_r = t.number("max_range", max_default, positive=True)
+    if max_r <= min_r:
+        raise t.error("max_range", f"a number > min_range ({min_r:g})", max_r)
+    return min_r, max_r
 
 
 def _sonar_items(s: SonarSpec) -> list[tuple[str, Any]]:
@@ -87,10 +93,7 @@ def _scanner(t: Table, cls: type[ScanSpec], mount: Mount) -> Any:
         raise t.error("max_angle_deg", f"an angle > min_angle ({math.degrees(lo):g} deg)",
                       math.degrees(hi))
     samples = t.integer("samples", d.samples, min_value=1)
-    min_r = t.number("min_range", d.min_range_m, min_value=0.0)
-    max_r = t.number("max_range", d.max_range_m, positive=True)
-    if max_r <= min_r:
-        raise t.error("max_range", f"a number > min_range ({min_r:g})", max_r)
+    min_r, max_r = _range_limits(t, d.min_range_m, d.max_range_m)
     return cls(
         pose=pose,
         min_angle_rad=lo,
