@@ -48,11 +48,7 @@ def _sonar(t: Table, ctx: RobotContext) -> SonarSpec:
     elif isinstance(raw, list) and raw:
         out = []
         for i, p in enumerate(raw):
-            if (
-                not isinstance(p, list)
-                or len(p) != 3
-                or any(isinstance(v, bool) or not isinstance(v, int | float) for v in p)
-            ):
+            if not _numbers(p, 3):
                 raise t.error(f"poses[{i}]", "[x, y, yaw_deg] numbers", p)
             out.append(Mount(float(p[0]), float(p[1]), z, math.radians(p[2])))
         poses = tuple(out)
@@ -66,6 +62,12 @@ def _sonar(t: Table, ctx: RobotContext) -> SonarSpec:
         cone_rad=t.angle("cone", d.cone_rad, min_rad=0.0, max_rad=math.pi),
         rays_per_transducer=t.integer("rays_per_transducer", d.rays_per_transducer, min_value=1),
     )
+
+
+def _numbers(value: Any, n: int) -> bool:
+    """Is `value` an array of exactly `n` numbers (booleans are not numbers here)?"""
+    return isinstance(value, list) and len(value) == n and all(
+        isinstance(v, int | float) and not isinstance(v, bool) for v in value)
 
 
 def _range_limits(t: Table, min_default: float, max_default: float) -> tuple[float, float]:
@@ -165,12 +167,7 @@ def _bumper(t: Table, ctx: RobotContext) -> BumperSpec:
         raise t.error("segments", "'pioneer' or an array of [x, y, yaw_deg, length]", raw)
     segs = []
     for i, s in enumerate(raw):
-        if (
-            not isinstance(s, list)
-            or len(s) != 4
-            or any(isinstance(v, bool) or not isinstance(v, int | float) for v in s)
-            or s[3] <= 0
-        ):
+        if not _numbers(s, 4) or s[3] <= 0:
             raise t.error(f"segments[{i}]", "[x, y, yaw_deg, length > 0]", s)
         segs.append(BumperSegment(float(s[0]), float(s[1]), math.radians(s[2]), float(s[3])))
     return BumperSpec(tuple(segs))
