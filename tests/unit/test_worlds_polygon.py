@@ -46,7 +46,7 @@ def test_problems_are_named() -> None:
     assert problem([(0, 0), (1, 0), (2, 0)]) == "zero area"
     assert problem([(0, 0), (1, 1), (1, 0), (0, 1)]) == "edges 0 and 2 cross"
     assert problem([(0, 0), (1, 0), (1, 0), (0, 1)]) == "point 2 repeats point 1"
-    assert problem([(0, 0), (2, 0), (1, 0), (1, 1)]) == "edges meeting at point 2 fold back"
+    assert problem([(0, 0), (2, 0), (1, 0), (1, 1)]) == "edges meeting at point 1 fold back"
     assert problem(L_SHAPE) is None
     assert problem(L_SHAPE[::-1]) is None
 
@@ -70,7 +70,7 @@ def test_convex_polygon_is_its_own_piece_and_triangles_cover_it() -> None:
 
 
 def test_hull_and_axis_rectangles() -> None:
-    assert convex_hull(L_SHAPE + ((1.0, 1.0),)) == ((0.0, 0.0), (2.0, 0.0), (2.0, 0.5),
+    assert convex_hull((*L_SHAPE, (1.0, 1.0))) == ((0.0, 0.0), (2.0, 0.0), (2.0, 0.5),
                                                      (0.5, 2.0), (0.0, 2.0))
     assert is_axis_rectangle(((-0.2, -0.19), (0.2, -0.19), (0.2, 0.19), (-0.2, 0.19)))
     assert not is_axis_rectangle(((0, 0), (1, 1), (1, 0), (0, 1)))  # crossed
