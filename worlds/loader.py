@@ -6,7 +6,8 @@ File layout (all keys optional unless noted; SI units; angles as ``<key>_deg`` o
     name = "simple"                  # defaults to the file stem
     [sim]     interval_sim speedup quit_time seed fidelity physics_substeps
     [arena]   size = [sx, sy] (required) wall_thickness wall_height wall_colour floor_colour
-    [[arena.obstacles]] name pose shape ("box" | "cylinder") size = [sx, sy] | radius height colour
+    [[arena.obstacles]] name pose shape ("box" | "cylinder" | "polygon") size = [sx, sy] | radius
+                 | points = [[x, y], ...] (in the obstacle's frame) height colour base (polygon)
     [[boxes]]    name pose size = [sx, sy, sz] mass colour friction
     [[objects]]  name pose radius height mass colour fiducial_id
     [[markers]]  name position = [x, y] radius height colour     (visual only)
@@ -28,6 +29,7 @@ from pathlib import Path
 from worlds import generate
 from worlds.device_kinds import RobotContext, device_kinds
 from worlds.errors import WorldError
+from worlds.polygon import problem as polygon_problem
 from worlds.reader import Table
 from worlds.spec import (
     DEVICE_NAMES,
@@ -169,7 +171,14 @@ def _arena(t: Table) -> ArenaSpec:
 
 
 def _obstacle(t: Table) -> ObstacleSpec:
-    shape = t.string("shape", "box", choices=("box", "cylinder"))
+    shape = t.string("shape", "box", choices=("box", "cylinder", "polygon"))
+    if shape == "polygon":
+        spec = ObstacleSpec.polygon(
+            t.string("name"), t.pose("pose"), _points(t, "points"),
+            t.number("height", 0.5, positive=True), t.colour("colour", 0xA0A0A0),
+            t.number("base", 0.0, min_value=0.0))
+        t.finish()
+        return spec
     if shape == "box":
         sx, sy = t.vector("size", 2, positive=True)
     else:
@@ -186,6 +195,22 @@ def _obstacle(t: Table) -> ObstacleSpec:
     )
     t.finish()
     return spec
+
+
+def _points(t: Table, name: str) -> tuple[tuple[float, float], ...]:
+    """A simple polygon: ``[[x, y], ...]``, 3 points or more, edges not crossing, some area."""
+    value = t.raw(name)
+    expected = "[[x, y], ...]: 3 or more points outlining an area without crossing edges"
+    if not isinstance(value, list) or not all(
+            isinstance(p, list) and len(p) == 2 and all(
+                not isinstance(v, bool) and isinstance(v, int | float) and math.isfinite(v)
+                for v in p) for p in value):
+        raise t.error(name, expected, value)
+    pts = tuple((float(p[0]), float(p[1])) for p in value)
+    bad = polygon_problem(pts)
+    if bad is not None:
+        raise t.error(name, expected, f"{bad} in {value}")
+    return pts
 
 
 def _box(t: Table) -> BoxSpec:

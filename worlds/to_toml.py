@@ -72,8 +72,12 @@ def world_to_toml(w: WorldSpec) -> str:
                               ("wall_colour", _colour(a.wall_colour)),
                               ("floor_colour", _colour(a.floor_colour))])
     for o in a.obstacles:
-        size = [("size", [o.size_x_m, o.size_y_m])] if o.shape == "box" else [
-            ("radius", o.radius_m)]
+        size: list[tuple[str, Any]] = [("size", [o.size_x_m, o.size_y_m])]
+        if o.shape == "cylinder":
+            size = [("radius", o.radius_m)]
+        elif o.shape == "polygon":
+            size = [("points", [list(p) for p in o.points])]
+            size += [("base", o.base_m)] if o.base_m else []
         out += _table("[[arena.obstacles]]", [("name", o.name), ("shape", o.shape), *size,
                                               ("pose", o.pose), ("height", o.height_m),
                                               ("colour", _colour(o.colour))])
