@@ -1,4 +1,5 @@
-"""Build a world's PyBullet bodies on a given client (simple collision shapes only)."""
+"""Build a world's PyBullet bodies on a given client (simple collision shapes, and convex
+meshes for the pieces of polygon obstacles)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from typing import Any
 import pybullet as pb
 
 from worlds import ArenaSpec, ObstacleSpec, WorldSpec, colour_rgb01
+from worlds.polygon import convex_pieces
 
 _FLOOR_THICKNESS_M = 0.05
 
@@ -74,6 +76,9 @@ def _build_arena(arena: ArenaSpec, cid: int) -> tuple[int, list[int]]:
     for ob in arena.obstacles:
         if merged and ob.shape == "box":
             continue
+        if ob.shape == "polygon":
+            static.extend(_polygon_bodies(ob, cid))
+            continue
         if ob.shape == "box":
             col = pb.createCollisionShape(
                 pb.GEOM_BOX, halfExtents=[ob.size_x_m / 2, ob.size_y_m / 2, ob.height_m / 2],
@@ -124,6 +129,38 @@ def _compound_boxes(boxes: list[ObstacleSpec], cid: int) -> list[int]:
             body = pb.createMultiBody(0.0, col, vis, [0.0, 0.0, 0.0], physicsClientId=cid)
             pb.changeVisualShape(body, -1, rgbaColor=_rgba(colour), physicsClientId=cid)
             out.append(body)
+    return out
+
+
+def prism(piece: tuple[tuple[float, float], ...], height: float
+          ) -> tuple[list[list[float]], list[int]]:
+    """A convex anticlockwise polygon raised `height` about its middle: vertices (the bottom
+    ring, then the top one) and the triangles of its faces, wound outwards."""
+    m = len(piece)
+    h = height / 2
+    verts = [[x, y, -h] for x, y in piece] + [[x, y, h] for x, y in piece]
+    tris: list[int] = []
+    for k in range(1, m - 1):
+        tris += [0, k + 1, k]  # the bottom, seen from below
+        tris += [m, m + k, m + k + 1]  # the top
+    for k in range(m):
+        j = (k + 1) % m
+        tris += [k, j, m + j, k, m + j, m + k]
+    return verts, tris
+
+
+def _polygon_bodies(ob: ObstacleSpec, cid: int) -> list[int]:
+    """One static body per convex piece of a polygon obstacle: a convex mesh (PyBullet
+    collides with its hull) from the piece's prism, in the obstacle's frame."""
+    out: list[int] = []
+    for piece in convex_pieces(ob.points):
+        verts, tris = prism(piece, ob.height_m)
+        col = pb.createCollisionShape(pb.GEOM_MESH, vertices=verts, physicsClientId=cid)
+        vis = pb.createVisualShape(pb.GEOM_MESH, vertices=verts, indices=tris,
+                                   rgbaColor=_rgba(ob.colour), physicsClientId=cid)
+        out.append(pb.createMultiBody(
+            0.0, col, vis, [ob.pose.x, ob.pose.y, ob.base_m + ob.height_m / 2],
+            _quat_yaw(ob.pose.yaw), physicsClientId=cid))
     return out
 
 

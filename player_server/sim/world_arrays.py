@@ -1,8 +1,10 @@
 """Constant arrays derived once from a world spec for vectorised sensing (pure numpy).
 
 Index conventions: footprint rectangles are the static box obstacles, then the robots' bodies,
-then the boxes; footprint circles are the static cylinders, then the objects; blob targets are
-robots, boxes, objects, markers, chargers in world-file order.
+then the boxes; footprint circles are the static cylinders, then the objects; footprint
+polygons (after the circles) are the convex pieces of the static polygon obstacles, in
+world-file order; blob targets are robots, boxes, objects, markers, chargers in world-file
+order.
 """
 
 from __future__ import annotations
@@ -13,8 +15,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from player_server.sim.blobs import Cameras
-from player_server.sim.footprint_cast import Room
-from worlds import WorldSpec
+from player_server.sim.footprint_cast import Polygons, Room
+from worlds import ObstacleSpec, WorldSpec
+from worlds.polygon import convex_pieces
 
 F64 = NDArray[np.float64]
 
@@ -38,6 +41,7 @@ class WorldArrays:
     fp_rect_top: F64
     fp_circle_radius: F64  # static cylinders then objects
     fp_circle_top: F64
+    static_polygons: Polygons  # the polygon obstacles' convex pieces
     rect_half_x: F64  # robots then boxes
     body_offset: F64  # robots: body centre ahead of the axle centre
     rect_half_y: F64
@@ -114,6 +118,7 @@ class WorldArrays:
             fp_circle_radius=_arr([o.radius_m for o in cyl_static]
                                   + [o.radius_m for o in objects]),
             fp_circle_top=_arr([o.height_m for o in cyl_static] + [o.height_m for o in objects]),
+            static_polygons=polygon_footprints(a.obstacles),
             body_offset=_arr([r.body.offset_x_m for r in robots]),
             rect_half_x=_arr([r.body.length_m / 2 for r in robots]
                              + [b.size_x_m / 2 for b in boxes]),
@@ -135,6 +140,11 @@ class WorldArrays:
             cam=cam,
             channels=tuple(channels),
         )
+
+    @property
+    def n_fp_rects(self) -> int:
+        """Footprint rectangles: static boxes, robots' bodies and boxes."""
+        return int(self.fp_half.size)
 
     def own_body(self, robot: NDArray[np.int64], local: NDArray[np.complex128]
                  ) -> NDArray[np.int64]:
@@ -162,3 +172,13 @@ class WorldArrays:
             max_range=m[:, 8],
             min_area=m[:, 9],
         )
+
+
+def polygon_footprints(obstacles: tuple[ObstacleSpec, ...]) -> Polygons:
+    """The convex pieces of the polygon obstacles, placed in the world."""
+    pieces = []
+    for o in obstacles:
+        if o.shape == "polygon":
+            for piece in convex_pieces(o.points):
+                pieces.append(([complex(x, y) for x, y in o.placed(piece)], o.base_m, o.top_m))
+    return Polygons.build(pieces)
