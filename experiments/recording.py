@@ -34,6 +34,7 @@ from experiments.observe import snapshot_poses
 from player_server.record import channels as ch
 from player_server.record.writer import McapSink
 from player_server.viz import scene
+from worlds.polygon import prism_mesh
 
 DEFAULT_RATE_HZ = 2.0
 _WARNING_KINDS = frozenset({ev.ROBOT_FAILURE, ev.FAULT_SKIPPED, ev.REALLOCATION, ev.ALARM,
@@ -120,6 +121,10 @@ def static_scene(layout: scene.SceneLayout) -> dict[str, Any]:
             ents.append(ch.entity(0.0, ch.WORLD_FRAME, f"{kind}/{b.name}", cubes=[
                 ch.cube(b.x_m, b.y_m, b.size_z_m / 2, b.yaw_rad, b.size_x_m, b.size_y_m,
                         b.size_z_m, b.colour)]))
+    for p in layout.prisms:
+        verts, tris = prism_mesh(p.points, p.bottom_m, p.top_m)
+        ents.append(ch.entity(0.0, ch.WORLD_FRAME, f"obstacle/{p.name}",
+                              triangle_lists=[ch.triangles(verts, tris, p.colour)]))
     for kind, discs in (("post", layout.posts), ("charger", layout.chargers)):
         for d in discs:
             ents.append(ch.entity(0.0, ch.WORLD_FRAME, f"{kind}/{d.name}", cylinders=[

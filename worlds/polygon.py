@@ -201,3 +201,21 @@ def is_axis_rectangle(pts: Sequence[Point]) -> bool:
         return False
     # consecutive corners differ in exactly one coordinate
     return all((pts[i][0] == pts[i - 1][0]) != (pts[i][1] == pts[i - 1][1]) for i in range(4))
+
+
+def prism_mesh(pts: Sequence[Point], bottom: float, top: float
+               ) -> tuple[list[tuple[float, float, float]], list[int]]:
+    """The simple polygon `pts` raised from `bottom` to `top`: vertices (the bottom ring,
+    then the top one, anticlockwise) and the triangles of its faces as index triples, each
+    wound anticlockwise seen from outside (caps by ear clipping, so non-convex works)."""
+    poly = _anticlockwise(pts)
+    m = len(poly)
+    verts = [(x, y, bottom) for x, y in poly] + [(x, y, top) for x, y in poly]
+    tris: list[int] = []
+    for a, b, c in triangulate(poly):
+        tris += [a, c, b]  # the bottom, seen from below
+        tris += [m + a, m + b, m + c]  # the top
+    for k in range(m):
+        j = (k + 1) % m
+        tris += [k, j, m + j, k, m + j, m + k]
+    return verts, tris

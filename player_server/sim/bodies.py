@@ -10,7 +10,7 @@ from typing import Any
 import pybullet as pb
 
 from worlds import ArenaSpec, ObstacleSpec, WorldSpec, colour_rgb01
-from worlds.polygon import convex_pieces
+from worlds.polygon import convex_pieces, prism_mesh
 
 _FLOOR_THICKNESS_M = 0.05
 
@@ -132,29 +132,12 @@ def _compound_boxes(boxes: list[ObstacleSpec], cid: int) -> list[int]:
     return out
 
 
-def prism(piece: tuple[tuple[float, float], ...], height: float
-          ) -> tuple[list[list[float]], list[int]]:
-    """A convex anticlockwise polygon raised `height` about its middle: vertices (the bottom
-    ring, then the top one) and the triangles of its faces, wound outwards."""
-    m = len(piece)
-    h = height / 2
-    verts = [[x, y, -h] for x, y in piece] + [[x, y, h] for x, y in piece]
-    tris: list[int] = []
-    for k in range(1, m - 1):
-        tris += [0, k + 1, k]  # the bottom, seen from below
-        tris += [m, m + k, m + k + 1]  # the top
-    for k in range(m):
-        j = (k + 1) % m
-        tris += [k, j, m + j, k, m + j, m + k]
-    return verts, tris
-
-
 def _polygon_bodies(ob: ObstacleSpec, cid: int) -> list[int]:
     """One static body per convex piece of a polygon obstacle: a convex mesh (PyBullet
     collides with its hull) from the piece's prism, in the obstacle's frame."""
     out: list[int] = []
     for piece in convex_pieces(ob.points):
-        verts, tris = prism(piece, ob.height_m)
+        verts, tris = prism_mesh(piece, -ob.height_m / 2, ob.height_m / 2)
         col = pb.createCollisionShape(pb.GEOM_MESH, vertices=verts, physicsClientId=cid)
         vis = pb.createVisualShape(pb.GEOM_MESH, vertices=verts, indices=tris,
                                    rgbaColor=_rgba(ob.colour), physicsClientId=cid)

@@ -119,3 +119,20 @@ def _near_edge(p: tuple[float, float], poly: tuple[tuple[float, float], ...]) ->
         if math.hypot(x0 + t * dx - p[0], y0 + t * dy - p[1]) < 1e-9:
             return True
     return False
+
+
+def test_prism_mesh_is_closed_and_wound_outwards() -> None:
+    from collections import Counter
+
+    from worlds.polygon import prism_mesh
+
+    verts, tris = prism_mesh(L_SHAPE[::-1], 0.2, 0.7)
+    faces = [tuple(tris[i:i + 3]) for i in range(0, len(tris), 3)]
+    edges = Counter((f[k], f[(k + 1) % 3]) for f in faces for k in range(3))
+    assert all(edges[(b, a)] == 1 for (a, b) in edges) and set(edges.values()) == {1}
+    volume = 0.0  # the divergence theorem: positive only when every face looks outwards
+    for a, b, c in faces:
+        (ax, ay, az), (bx, by, bz), (cx, cy, cz) = verts[a], verts[b], verts[c]
+        volume += (ax * (by * cz - bz * cy) - ay * (bx * cz - bz * cx)
+                   + az * (bx * cy - by * cx)) / 6.0
+    assert volume == pytest.approx(1.75 * 0.5)
