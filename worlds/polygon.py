@@ -5,11 +5,13 @@ first. `problem` says what makes one unusable (fewer than 3 points, zero area, e
 cross); `convex_pieces` splits a simple polygon, convex or not, into convex polygons
 (anticlockwise) that tile it: ear-clipping triangles, then neighbours merged across their
 shared diagonal while the union stays convex (Hertel-Mehlhorn). `convex_hull` is the smallest
-convex polygon holding a set of points (Andrew's monotone chain).
+convex polygon holding a set of points (Andrew's monotone chain); `prism_mesh` the triangles
+of a polygon raised between two heights; `distance` how far a point lies from a polygon.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 Point = tuple[float, float]
@@ -219,3 +221,20 @@ def prism_mesh(pts: Sequence[Point], bottom: float, top: float
         j = (k + 1) % m
         tris += [k, j, m + j, k, m + j, m + k]
     return verts, tris
+
+
+def distance(p: Point, pts: Sequence[Point]) -> float:
+    """Metres from `p` to the polygon `pts` (0 inside it or on its edge)."""
+    x, y = p
+    best = math.inf
+    inside = False
+    n = len(pts)
+    for i in range(n):
+        (x0, y0), (x1, y1) = pts[i], pts[(i + 1) % n]
+        if (y0 > y) != (y1 > y) and x < x0 + (y - y0) * (x1 - x0) / (y1 - y0):
+            inside = not inside
+        dx, dy = x1 - x0, y1 - y0
+        t = ((x - x0) * dx + (y - y0) * dy) / (dx * dx + dy * dy)
+        t = min(1.0, max(0.0, t))
+        best = min(best, math.hypot(x0 + t * dx - x, y0 + t * dy - y))
+    return 0.0 if inside else best

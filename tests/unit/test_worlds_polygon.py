@@ -136,3 +136,13 @@ def test_prism_mesh_is_closed_and_wound_outwards() -> None:
         volume += (ax * (by * cz - bz * cy) - ay * (bx * cz - bz * cx)
                    + az * (bx * cy - by * cx)) / 6.0
     assert volume == pytest.approx(1.75 * 0.5)
+
+
+def test_distance_to_a_polygon() -> None:
+    from worlds.polygon import distance
+
+    assert distance((1.0, 0.8), L_SHAPE) == pytest.approx(0.3)  # in the notch
+    assert distance((2.3, 0.9), L_SHAPE) == pytest.approx(0.5)  # off a corner
+    assert distance((0.25, 1.0), L_SHAPE) == 0.0  # inside
+    assert distance((-1.0, 1.0), L_SHAPE) == pytest.approx(1.0)
+    assert distance((3.0, 0.25), L_SHAPE) == pytest.approx(1.0)
