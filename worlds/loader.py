@@ -14,7 +14,9 @@ File layout (all keys optional unless noted; SI units; angles as ``<key>_deg`` o
     [[chargers]] name position = [x, y] radius colour rate beacon_height
                  take footprint = [sx, sy] yaw_deg  (a model robots touch, not a pad)
     [overhead_camera] name position height view_size resolution position_noise
-    [[robots]]   name pose colour fiducial_id, body, then one sub-table per device kind
+    [[robots]]   name pose colour fiducial_id, body (length width height offset_x mass
+                 outline = [[x, y], ...]: a convex footprint about the body's centre), then one
+                 sub-table per device kind
                  (`worlds.device_kinds`: position2d sonar laser ranger camera blobfinder
                  bumper gripper ptz power fiducial, and those of `worlds.devices`; an empty
                  table means "present, defaults")
@@ -29,6 +31,7 @@ from pathlib import Path
 from worlds import generate
 from worlds.device_kinds import RobotContext, device_kinds
 from worlds.errors import WorldError
+from worlds.polygon import convex_hull, is_convex
 from worlds.polygon import problem as polygon_problem
 from worlds.reader import Table
 from worlds.spec import (
@@ -329,14 +332,28 @@ def _robot(t: Table, index: int) -> RobotSpec:
 
 def _body(t: Table) -> BodySpec:
     d = BodySpec()
+    outline: tuple[tuple[float, float], ...] = ()
+    length, width = d.length_m, d.width_m
+    if t.has("outline"):
+        outline = _points(t, "outline")
+        if not is_convex(outline):
+            raise t.error("outline", "a convex outline", outline)
+        outline = convex_hull(outline)  # anticlockwise, without straight-through corners
+        length = 2 * max(abs(x) for x, _ in outline)
+        width = 2 * max(abs(y) for _, y in outline)
     spec = BodySpec(
-        length_m=t.number("length", d.length_m, positive=True),
-        width_m=t.number("width", d.width_m, positive=True),
+        length_m=t.number("length", length, positive=True),
+        width_m=t.number("width", width, positive=True),
         height_m=t.number("height", d.height_m, positive=True),
         offset_x_m=t.number("offset_x", d.offset_x_m),
         mass_kg=t.number("mass", d.mass_kg, positive=True),
+        outline=outline,
     )
     t.finish()
+    if any(abs(x) > spec.length_m / 2 + 1e-9 or abs(y) > spec.width_m / 2 + 1e-9
+           for x, y in outline):
+        raise t.error("outline", f"points within the body's length and width "
+                      f"({spec.length_m:g} x {spec.width_m:g} m about its centre)", outline)
     return spec
 
 

@@ -137,6 +137,14 @@ def _convex(pts: Sequence[Point], eps: float) -> bool:
     return all(_cross(pts[i - 1], pts[i], pts[(i + 1) % n]) >= -eps for i in range(n))
 
 
+def is_convex(pts: Sequence[Point]) -> bool:
+    """A simple polygon with no reflex corner (either way round)."""
+    if problem(pts) is not None:
+        return False
+    poly = _anticlockwise(pts)
+    return _convex(poly, _EPS * _scale2(poly))
+
+
 def convex_pieces(pts: Sequence[Point]) -> tuple[Polygon, ...]:
     """Anticlockwise convex polygons tiling the simple polygon `pts` (itself when convex)."""
     poly = _anticlockwise(pts)

@@ -228,13 +228,19 @@ class SimSpec:
 
 @dataclass(frozen=True)
 class BodySpec:
-    """A robot's body box, relative to the robot origin (Pioneer 2-DX by default)."""
+    """A robot's body box, relative to the robot origin (Pioneer 2-DX by default).
+
+    `outline` (optional): the body's footprint as a convex polygon, anticlockwise, in the
+    box's frame (x forward from the box's centre, y left), inside the box; the body is then
+    that prism, as tall as the box, and the box only bounds it. Empty: the body is the box.
+    """
 
     length_m: float = 0.445
     width_m: float = 0.40
     height_m: float = 0.30
     offset_x_m: float = -0.04
     mass_kg: float = 9.0
+    outline: tuple[tuple[float, float], ...] = ()
 
 
 @dataclass(frozen=True)

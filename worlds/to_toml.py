@@ -51,7 +51,8 @@ def _robot(r: RobotSpec) -> list[str]:
     b = r.body
     out += _table("[robots.body]", [("length", b.length_m), ("width", b.width_m),
                                     ("height", b.height_m), ("offset_x", b.offset_x_m),
-                                    ("mass", b.mass_kg)])
+                                    ("mass", b.mass_kg)]
+                  + ([("outline", [list(p) for p in b.outline])] if b.outline else []))
     kinds = device_kinds()
     for name in d.names():
         out += _table(f"[robots.{name}]", kinds[name].items(d.get(name)))

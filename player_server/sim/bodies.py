@@ -206,9 +206,15 @@ def build_world(spec: WorldSpec, client: int) -> BodyIds:
     for r in spec.robots:
         body = r.body
         half = [body.length_m / 2, body.width_m / 2, body.height_m / 2]
-        col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=cid)
-        vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=_rgba(r.colour),
-                                   physicsClientId=cid)
+        if body.outline:  # the outline's prism: a convex mesh
+            verts, tris = prism_mesh(body.outline, -half[2], half[2])
+            col = pb.createCollisionShape(pb.GEOM_MESH, vertices=verts, physicsClientId=cid)
+            vis = pb.createVisualShape(pb.GEOM_MESH, vertices=verts, indices=tris,
+                                       rgbaColor=_rgba(r.colour), physicsClientId=cid)
+        else:
+            col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=cid)
+            vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=half,
+                                       rgbaColor=_rgba(r.colour), physicsClientId=cid)
         c, s = math.cos(r.pose.yaw), math.sin(r.pose.yaw)
         pos = [r.pose.x + body.offset_x_m * c, r.pose.y + body.offset_x_m * s, half[2] + 0.001]
         rid = pb.createMultiBody(body.mass_kg, col, vis, pos, _quat_yaw(r.pose.yaw),

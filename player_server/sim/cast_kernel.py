@@ -93,8 +93,8 @@ def _hit(f: int, ox: float, oy: float, dx: float, dy: float, b: float, n_rect: i
          ) -> float:
     """Distance along the unit ray (origin ox + i oy, direction dx + i dy, height zi) to
     footprint f when it is nearer than b, else inf (also for a ray starting inside it, or
-    passing under a polygon). polys: (start, vertices, bottom) of the polygons, the last
-    footprints."""
+    passing under a polygon). polys: (start, vertices, bottom) of the polygons, the
+    footprints after the rectangles."""
     cx = centre[f].real - ox
     cy = centre[f].imag - oy
     vr = cx * dx + cy * dy  # along the ray
@@ -121,9 +121,8 @@ def _hit(f: int, ox: float, oy: float, dx: float, dy: float, b: float, n_rect: i
         if t_near > 0.0 and t_near <= min(ax + bx, ay + by) and t_near < b:
             return t_near
         return np.inf
-    first_poly = centre.shape[0] - (polys[0].shape[0] - 1)
-    if f >= first_poly:
-        p = f - first_poly
+    if f < n_rect + polys[0].shape[0] - 1:
+        p = f - n_rect
         if polys[2][p] > zi:
             return np.inf
         return _poly_hit(p, ox, oy, dx, dy, b, polys[0], polys[1])
@@ -202,11 +201,12 @@ def cast_rays(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarray,
     """Distance along each unit ray (complex origin o, direction d, height z) to the nearest
     footprint at least as tall as the ray or wall, else its limit.
 
-    Footprints: complex centres (rectangles first, then circles), head_conj exp(-i yaw) and
-    complex half extents of each rectangle, bounding radius and top of each. own (per ray):
-    a footprint the ray starts inside, which it cannot see, or -1. room: (half_x, half_y, top)
-    of the arena's walls, or empty for none. The last footprints are convex polygons (see
-    `Footprints`: their vertex offsets, vertices and bottoms).
+    Footprints: complex centres (rectangles first, then polygons, then circles), head_conj
+    exp(-i yaw) and complex half extents of each rectangle, bounding radius and top of each.
+    own (per ray): a footprint the ray starts inside, which it cannot see, or -1. room:
+    (half_x, half_y, top) of the arena's walls, or empty for none. Convex polygons come between
+    the rectangles and the circles (see `Footprints`: their vertex offsets, vertices and
+    bottoms).
     """
     n = o.shape[0]
     n_rect = head_conj.shape[0]

@@ -58,7 +58,7 @@ def _no_polygons() -> I64:
 
 @dataclass(frozen=True)
 class Footprints:
-    """n_rect rectangles, then circles, then n_poly convex polygons.
+    """n_rect rectangles, then n_poly convex polygons, then circles.
 
     centre: complex centres (all; a polygon's is any point its bounding circle is centred
     on); head_conj: exp(-i yaw) of each rectangle; half: complex half extents hx + i hy of
@@ -81,11 +81,6 @@ class Footprints:
     @property
     def n_poly(self) -> int:
         return int(self.poly_start.shape[0]) - 1
-
-    @property
-    def first_poly(self) -> int:
-        """Index of the first polygon (the count when there is none)."""
-        return self.count - self.n_poly
 
     def poly_edges(self) -> tuple[C128, C128]:
         """(n_poly, most vertices) start points and outward normals of every polygon's
@@ -143,14 +138,16 @@ class Footprints:
         )
 
     def with_polygons(self, polygons: Polygons) -> Footprints:
-        """These footprints followed by the convex polygons."""
+        """These footprints (without polygons) with the convex polygons after the
+        rectangles."""
         if polygons.count == 0:
             return self
+        k = self.n_rect
         return Footprints(
-            centre=np.concatenate([self.centre, polygons.centre]),
+            centre=np.concatenate([self.centre[:k], polygons.centre, self.centre[k:]]),
             head_conj=self.head_conj, half=self.half,
-            radius=np.concatenate([self.radius, polygons.radius]),
-            top=np.concatenate([self.top, polygons.top]),
+            radius=np.concatenate([self.radius[:k], polygons.radius, self.radius[k:]]),
+            top=np.concatenate([self.top[:k], polygons.top, self.top[k:]]),
             poly_start=polygons.start, poly_vert=polygons.vert, poly_bottom=polygons.bottom)
 
 
@@ -248,11 +245,11 @@ class FootprintCaster:
         chunk = max(1, _CHUNK_ELEMENTS // k)
         n_rect = fp.n_rect
         # Candidate pairs per chunk: (footprint, ray, v) with v = (c - o) conj(d), i.e.
-        # along the ray + i (o - c) x d; rectangles' pairs and circles' pairs apart.
+        # along the ray + i (o - c) x d; rectangles', polygons' and circles' pairs apart.
         rects: list[tuple[I64, I64, C128]] = []
         circles: list[tuple[I64, I64, C128]] = []
         polys: list[tuple[I64, I64, C128]] = []
-        first_poly = fp.first_poly
+        first_circle = n_rect + fp.n_poly
         for start in range(0, n, chunk):
             stop = min(n, start + chunk)
             m = np.matmul(w, feat[:, start:stop])
@@ -277,11 +274,11 @@ class FootprintCaster:
             split = int(np.searchsorted(fi, n_rect))
             if split:
                 rects.append((fi[:split], ri[:split], v[:split]))
-            psplit = int(np.searchsorted(fi, first_poly))
-            if split < psplit:
-                circles.append((fi[split:psplit], ri[split:psplit], v[split:psplit]))
-            if psplit < fi.shape[0]:
-                polys.append((fi[psplit:], ri[psplit:], v[psplit:]))
+            csplit = int(np.searchsorted(fi, first_circle))
+            if split < csplit:
+                polys.append((fi[split:csplit], ri[split:csplit], v[split:csplit]))
+            if csplit < fi.shape[0]:
+                circles.append((fi[csplit:], ri[csplit:], v[csplit:]))
         low = bool(fp.top.min() < z.max())  # footprints lower than a ray pass under it
         for kind, parts in (("rect", rects), ("circle", circles), ("poly", polys)):
             if not parts:
@@ -295,8 +292,8 @@ class FootprintCaster:
             elif kind == "circle":
                 dist = _circle_hits(fp, fi, v)
             else:
-                dist = _poly_hits(o, d, fp, fi - first_poly, ri)
-                dist[fp.poly_bottom[fi - first_poly] > z[ri]] = np.inf
+                dist = _poly_hits(o, d, fp, fi - n_rect, ri)
+                dist[fp.poly_bottom[fi - n_rect] > z[ri]] = np.inf
             if low:
                 dist[fp.top[fi] < z[ri]] = np.inf
             np.minimum.at(best, ri, dist)

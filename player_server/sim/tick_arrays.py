@@ -80,8 +80,8 @@ class TickArrays:
 
     def footprints(self) -> Footprints:
         """This tick's footprints: static obstacles, robots' bodies and boxes (rectangles),
-        static cylinders and the objects not held or stored (circles), the static polygon
-        obstacles' convex pieces (polygons)."""
+        the static polygon obstacles' convex pieces and the robots' outlines (polygons),
+        static cylinders and the objects not held or stored (circles)."""
         w = self.world
 
         def compute() -> Footprints:
@@ -105,7 +105,7 @@ class TickArrays:
                 half=wa.fp_half,
                 radius=c_radius,
                 top=c_top,
-            ).with_polygons(wa.static_polygons)
+            ).with_polygons(wa.polygons(frame.body, frame.head))
 
         return w.cached("footprints", compute)  # type: ignore[return-value]
 

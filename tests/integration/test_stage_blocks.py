@@ -1,7 +1,8 @@
 """Stage blocks as polygons: a laser served over real TCP reads a triangular and an L-shaped
-block obstacle where ray geometry on their polygons says, not on their bounding boxes; the
-render fidelity (PyBullet's rays) agrees, and a robot drives past the box's corner up to the
-triangle's slanted side.
+block obstacle, and a robot whose blocks make a dart-shaped body, where ray geometry on their
+polygons says, not on their bounding boxes; the render fidelity (PyBullet's rays) agrees, a
+robot drives past the box's corner up to the triangle's slanted side, and the dart's own
+laser does not see its body.
 """
 
 from __future__ import annotations
@@ -26,6 +27,10 @@ LASER = (0.2, 0.0)  # the laser's mount ahead of the robot's origin (sick.inc)
 TRIANGLE = ((2.0, 0.0), (4.0, -1.0), (4.0, 1.0))
 # An L on the robot's left, its notch facing the robot: x 1..3, y 2..4, less x 1.6..3, y 2..3.4
 L_SHAPE = ((1.0, 2.0), (1.6, 2.0), (1.6, 3.4), (3.0, 3.4), (3.0, 4.0), (1.0, 4.0))
+# A robot at (1.5, -2.5) facing +y whose blocks make a dart 0.8 m long and 0.6 m wide: its tip
+# (0.4, 0) in its own frame points at the robot with the laser.
+DART = ((1.8, -2.9), (1.5, -2.1), (1.2, -2.9))
+POLYGONS = [TRIANGLE, L_SHAPE, DART]
 
 WORLD = f"""
 include "{INCLUDE}/pioneer.inc"
@@ -38,6 +43,9 @@ model( name "wedge" pose [ 3 0 0 0 ] size [ 2 2 0.5 ] color "gray"
 model( name "ell" pose [ 2 3 0 0 ] size [ 2 2 0.5 ] color "gray"
   block( points 6 point[0] [ 0 0 ] point[1] [ 0.6 0 ] point[2] [ 0.6 1.4 ] point[3] [ 2 1.4 ]
          point[4] [ 2 2 ] point[5] [ 0 2 ] z [ 0 1 ] ) )
+position( name "dart" pose [ 1.5 -2.5 0 90 ] size [ 0.8 0.6 0.3 ] origin [ 0 0 0 0 ]
+  block( points 3 point[0] [ 0 0 ] point[1] [ 4 1 ] point[2] [ 0 2 ] z [ 0 1 ] )
+  sicklaser( pose [ 0 0 0.03 0 ] ) )
 """
 
 CFG = """
@@ -86,7 +94,7 @@ def _grazes(a: float, reach: float) -> bool:
     """Does the ray pass within 1 cm of a polygon's corner before `reach` (where a few
     millimetres of collision margin decide whether it hits)?"""
     dx, dy = math.cos(a), math.sin(a)
-    for x, y in TRIANGLE + L_SHAPE:
+    for x, y in TRIANGLE + L_SHAPE + DART:
         along = (x - LASER[0]) * dx + (y - LASER[1]) * dy
         if 0 < along <= reach + 0.01 and abs((y - LASER[1]) * dx - (x - LASER[0]) * dy) < 0.01:
             return True
@@ -97,8 +105,8 @@ def _check(ranges: list[float], angles: np.ndarray, max_range: float) -> int:
     """Each reading where the polygons put it; how many rays a box would put elsewhere."""
     differ = 0
     for r, a in zip(ranges, angles, strict=True):
-        want = _ray(LASER, float(a), [TRIANGLE, L_SHAPE], max_range)
-        boxed = _ray(LASER, float(a), [_box(TRIANGLE), _box(L_SHAPE)], max_range)
+        want = _ray(LASER, float(a), POLYGONS, max_range)
+        boxed = _ray(LASER, float(a), [_box(p) for p in POLYGONS], max_range)
         if want >= max_range - 0.01 or _grazes(float(a), want):
             continue  # the arena's wall, not a block; or a ray past a corner
         assert r == pytest.approx(want, abs=0.03), (math.degrees(a), r, want, boxed)
@@ -132,6 +140,9 @@ def test_render_fidelity_and_physics_meet_the_polygons(cfg: Path) -> None:
     spec = load_stage_world(cfg.parent / "blocks.world").spec
     assert {o.name: o.shape for o in spec.arena.obstacles} == {"wedge": "polygon",
                                                                "ell": "polygon"}
+    dart = spec.robots[1].body
+    assert (dart.length_m, dart.width_m, dart.offset_x_m) == (0.8, 0.6, 0.0)
+    assert dart.outline == ((-0.4, -0.3), (0.4, 0.0), (-0.4, 0.3))
     render = dataclasses.replace(spec, sim=dataclasses.replace(spec.sim, fidelity="render"))
     with Simulation(render, seed=1) as sim:
         sim.step()
@@ -158,3 +169,16 @@ def test_render_fidelity_and_physics_meet_the_polygons(cfg: Path) -> None:
                     if 2.0 <= cx <= 4.0:
                         assert cy >= (cx - 2.0) / 2 - 0.03, (x, y, yaw, cx, cy)
         assert furthest > 2.4
+
+
+def test_a_laser_inside_a_dart_body_sees_out_of_it(cfg: Path) -> None:
+    """The dart's laser sits at its body's centre: no ray meets its own body (0.15 to 0.4 m
+    from the laser); straight ahead (+y) it reads the L's lower edge, 4.5 m away, and to its
+    right (+x) the arena's wall at x = 4."""
+    spec = load_stage_world(cfg.parent / "blocks.world").spec
+    with Simulation(spec, seed=1) as sim:
+        sim.step()
+        ranges = sim.range_model.reading("dart", "laser")
+        assert min(ranges) > 0.5
+        assert ranges[180] == pytest.approx(4.5, abs=0.01)
+        assert ranges[0] == pytest.approx(2.5, abs=0.01)

@@ -103,3 +103,60 @@ def test_bad_toml_polygons_name_file_key_expected_found(tmp_path: Path, points: 
     assert info.value.key == "arena.obstacles[0].points"
     assert msg.startswith(f"{p}: arena.obstacles[0].points: expected [[x, y], ...]: 3 or more")
     assert found in msg and "\n" not in msg
+
+
+DART_WORLD = """\
+position( name "dart" pose [ 1 0 0 0 ] size [ 0.8 0.6 0.3 ] origin [ -0.1 0 0 0 ]
+  block( points 3 point[0] [ 0 0 ] point[1] [ 4 1 ] point[2] [ 0 2 ] z [ 0 1 ] )
+  block( points 4 point[0] [ 0 0.5 ] point[1] [ 0.5 0.5 ] point[2] [ 0.5 1.5 ]
+         point[3] [ 0 1.5 ] z [ 0 1 ] ) )
+position( name "box" pose [ -1 0 0 0 ]
+  block( points 4 point[0] [ -1 -1 ] point[1] [ 1 -1 ] point[2] [ 1 1 ] point[3] [ -1 1 ] ) )
+"""
+
+
+def test_robot_blocks_make_a_convex_outline_that_survives_toml(tmp_path: Path) -> None:
+    w = tmp_path / "w.world"
+    w.write_text(DART_WORLD)
+    spec = load_stage_world(w).spec
+    dart, box = (r.body for r in spec.robots)
+    # the hull of both blocks, scaled into 0.8 x 0.6 m about the size box's centre
+    assert dart.outline == ((-0.4, -0.3), (0.4, 0.0), (-0.4, 0.3))
+    assert (dart.length_m, dart.width_m, dart.offset_x_m) == (0.8, 0.6, -0.1)
+    assert box.outline == ()  # a rectangular block: the size box
+    toml = tmp_path / "w.toml"
+    toml.write_text(world_to_toml(spec))
+    assert load_world(toml).robots == spec.robots
+
+
+BODY = """\
+[arena]
+size = [6.0, 4.0]
+[[robots]]
+name = "r"
+pose = [0, 0]
+[robots.body]
+"""
+
+
+def test_toml_body_outline(tmp_path: Path) -> None:
+    p = tmp_path / "w.toml"
+    p.write_text(BODY + "outline = [[0.3, 0], [-0.2, 0.2], [-0.2, -0.2]]\n")
+    body = load_world(p).robots[0].body
+    assert body.outline == ((-0.2, -0.2), (0.3, 0.0), (-0.2, 0.2))  # anticlockwise
+    assert (body.length_m, body.width_m) == (0.6, 0.4)  # from the outline when not given
+
+
+@pytest.mark.parametrize(("extra", "expected"), [
+    ("outline = [[0, 0], [1, 0], [0.2, 0.2], [0, 1]]", "a convex outline"),
+    ("outline = [[0.3, 0], [-0.2, 0.2], [-0.2, -0.2]]\nlength = 0.4", "points within"),
+    ("outline = [[0, 0], [1, 1], [1, 0], [0, 1]]", "3 or more points"),
+])
+def test_bad_body_outlines_are_one_line(tmp_path: Path, extra: str, expected: str) -> None:
+    p = tmp_path / "w.toml"
+    p.write_text(BODY + extra + "\n")
+    with pytest.raises(WorldError) as info:
+        load_world(p)
+    msg = str(info.value)
+    assert msg.startswith(f"{p}: robots[0].body.outline: expected") and expected in msg
+    assert "\n" not in msg

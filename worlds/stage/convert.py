@@ -27,6 +27,7 @@ from worlds.spec import (
     WorldSpec,
 )
 from worlds.stage.bitmap import Rect, merge_runs, read_solid
+from worlds.stage.blocks import read_block
 from worlds.stage.colour import model_colour
 from worlds.stage.robots import COMMON_IGNORED, RangerRole, convert_position
 from worlds.stage.syntax import Document, StageError, Where, parse_file
@@ -167,7 +168,7 @@ def _solid(m: StageModel, r: Reader, at: tuple[float, float, float],
     other block is a polygon prism over its scaled z extents."""
     ox, oy = (v * r.units.length for v in r.numbers("origin", 4, (0.0,) * 4)[:2])
     blocks = [b for b in m.parts if b.kind == "block"]
-    polys = [_polygon(b, r) for b in blocks]
+    polys = [read_block(b, r) for b in blocks]
     out.fixed[m.name + suffix] = Pose(*at)
     if not polys:
         if size[0] > 0 and size[1] > 0:
@@ -215,18 +216,6 @@ def _block(name: str, at: tuple[float, float, float],
     for dx in (-sx / 2, sx / 2):
         for dy in (-sy / 2, sy / 2):
             out.extents.append(_place((px, py, at[2]), dx, dy))
-
-
-def _polygon(b: StageModel, r: Reader) -> tuple[list[tuple[float, float]], tuple[float, float]]:
-    br = Reader(f"block of {r.owner}", b.props, r.units, r.warnings)
-    n = int(br.number("points", 0))
-    pts = [br.numbers(f"point[{i}]", 2, (0.0, 0.0)) for i in range(n)]
-    z = br.numbers("z", 2, (0.0, 1.0))
-    br.has("color")
-    br.finish(b.where)
-    if n < 3:
-        raise StageError(b.where, "a block with points >= 3 and point[i] [x y]", f"points {n}")
-    return [(p[0], p[1]) for p in pts], (z[0], z[1])
 
 
 def _floorplan(m: StageModel, r: Reader, bitmap: str, file: Path,
