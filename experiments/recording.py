@@ -159,12 +159,19 @@ def robots_scene(t: float, layout: scene.SceneLayout,
     for r in layout.robots:
         state, label = states.get(r.name, (scene.IDLE, ""))
         words = r.name if not label else f"{r.name}: {label}"
+        colour = scene.STATE_COLOURS.get(state, scene.STATE_COLOURS[scene.IDLE])
+        nose = ch.cube(r.offset_x_m + r.length_m / 2 - 0.05, 0.0, height + 0.01, 0.0, 0.1, 0.1,
+                       0.02, scene.NOSE_COLOUR)
+        texts = [ch.text(0.0, 0.0, scene.LABEL_HEIGHT_M, words)]
+        if r.outline:  # the outline's prism, about the body centre
+            verts, tris = prism_mesh([(x + r.offset_x_m, y) for x, y in r.outline], 0.0, height)
+            ents.append(ch.entity(t, r.name, f"robot/{r.name}", frame_locked=True,
+                                  cubes=[nose], texts=texts,
+                                  triangle_lists=[ch.triangles(verts, tris, colour)]))
+            continue
         ents.append(ch.entity(t, r.name, f"robot/{r.name}", frame_locked=True, cubes=[
-            ch.cube(r.offset_x_m, 0.0, height / 2, 0.0, r.length_m, r.width_m, height,
-                    scene.STATE_COLOURS.get(state, scene.STATE_COLOURS[scene.IDLE])),
-            ch.cube(r.offset_x_m + r.length_m / 2 - 0.05, 0.0, height + 0.01, 0.0, 0.1, 0.1,
-                    0.02, scene.NOSE_COLOUR),
-        ], texts=[ch.text(0.0, 0.0, scene.LABEL_HEIGHT_M, words)]))
+            ch.cube(r.offset_x_m, 0.0, height / 2, 0.0, r.length_m, r.width_m, height, colour),
+            nose], texts=texts))
     return ch.scene_update(ents)
 
 

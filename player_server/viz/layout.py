@@ -64,6 +64,7 @@ class RobotShape:
     y_m: float
     yaw_rad: float
     offset_x_m: float = 0.0  # body centre ahead of the robot's origin
+    outline: tuple[tuple[float, float], ...] = ()  # the body's outline about its centre
 
 
 @dataclass(frozen=True, slots=True)
@@ -168,7 +169,7 @@ def layout_from_world(spec: WorldSpec) -> SceneLayout:
         ),
         robots=tuple(
             RobotShape(r.name, r.body.length_m, r.body.width_m, r.pose.x, r.pose.y, r.pose.yaw,
-                       r.body.offset_x_m)
+                       r.body.offset_x_m, r.body.outline)
             for r in spec.robots
             if r.mobile
         ),

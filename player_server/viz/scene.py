@@ -159,7 +159,12 @@ def _cylinder_geometry(radius_m: float, height_m: float) -> dict[str, Any]:
 
 def _prism_geometry(p: Prism) -> dict[str, Any]:
     """A polygon prism in world coordinates as a three.js buffer geometry."""
-    verts, tris = prism_mesh(p.points, p.bottom_m, p.top_m)
+    return _prism_buffer(p.points, p.bottom_m, p.top_m)
+
+
+def _prism_buffer(points: Sequence[tuple[float, float]], bottom: float, top: float
+                  ) -> dict[str, Any]:
+    verts, tris = prism_mesh(points, bottom, top)
     return {
         "type": "BufferGeometry",
         "data": {
@@ -334,6 +339,9 @@ def robot_commands(ids: IdSource, r: RobotShape) -> list[Command]:
     path = robot_path(r.name)
     lift = pose_matrix(r.offset_x_m, 0.0, ROBOT_HEIGHT_M / 2, 0.0)
     geom = _box_geometry(r.length_m, r.width_m, ROBOT_HEIGHT_M)
+    if r.outline:  # the outline's prism, about the body centre
+        lift = pose_matrix(r.offset_x_m, 0.0, 0.0, 0.0)
+        geom = _prism_buffer(r.outline, 0.0, ROBOT_HEIGHT_M)
     cmds: list[Command] = []
     for state in ROBOT_STATES:
         body = f"{path}/body/{state}"

@@ -57,3 +57,21 @@ def test_scene_and_recording_draw_the_prism(layout: scene.SceneLayout) -> None:
     (ell,) = [e for e in ents if e["id"] == "obstacle/ell"]
     (tris,) = ell["triangles"]
     assert len(tris["points"]) == 12 and len(tris["indices"]) == 60
+
+
+def test_a_robot_with_an_outline_is_drawn_as_its_prism(tmp_path: Path) -> None:
+    p = tmp_path / "w.toml"
+    p.write_text(WORLD + '[[robots]]\nname = "dart"\npose = [-2, 1]\n[robots.position2d]\n'
+                 "[robots.body]\noutline = [[0.3, 0], [-0.2, 0.2], [-0.2, -0.2]]\n"
+                 "offset_x = -0.05\n")
+    layout = scene.layout_from_world(load_world(p))
+    (robot,) = layout.robots
+    assert robot.outline == ((-0.2, -0.2), (0.3, 0.0), (-0.2, 0.2))
+    cmds = {c["path"]: c for c in scene.static_scene(layout) if c["type"] == "set_object"}
+    body = cmds["/murdoch/robots/dart/body/idle"]["object"]
+    (geom,) = body["geometries"]
+    assert geom["type"] == "BufferGeometry"
+    assert len(geom["data"]["attributes"]["position"]["array"]) == 6 * 3
+    (ent,) = recording.robots_scene(0.0, layout, {})["entities"]
+    (tris,) = ent["triangles"]
+    assert [pt["x"] for pt in tris["points"][:3]] == pytest.approx([-0.25, 0.25, -0.25])
