@@ -30,7 +30,9 @@ L_SHAPE = ((1.0, 2.0), (1.6, 2.0), (1.6, 3.4), (3.0, 3.4), (3.0, 4.0), (1.0, 4.0
 # A robot at (1.5, -2.5) facing +y whose blocks make a dart 0.8 m long and 0.6 m wide: its tip
 # (0.4, 0) in its own frame points at the robot with the laser.
 DART = ((1.8, -2.9), (1.5, -2.1), (1.2, -2.9))
-POLYGONS = [TRIANGLE, L_SHAPE, DART]
+# A post inside the dart's size box, beside its slanted side: (0.3, 0.25) in the dart's frame.
+POST = ((1.22, -2.23), (1.28, -2.23), (1.28, -2.17), (1.22, -2.17))
+POLYGONS = [TRIANGLE, L_SHAPE, DART, POST]
 
 WORLD = f"""
 include "{INCLUDE}/pioneer.inc"
@@ -46,6 +48,7 @@ model( name "ell" pose [ 2 3 0 0 ] size [ 2 2 0.5 ] color "gray"
 position( name "dart" pose [ 1.5 -2.5 0 90 ] size [ 0.8 0.6 0.3 ] origin [ 0 0 0 0 ]
   block( points 3 point[0] [ 0 0 ] point[1] [ 4 1 ] point[2] [ 0 2 ] z [ 0 1 ] )
   sicklaser( pose [ 0 0 0.03 0 ] ) )
+model( name "post" pose [ 1.25 -2.2 0 0 ] size [ 0.06 0.06 0.5 ] color "gray" )
 """
 
 CFG = """
@@ -94,7 +97,7 @@ def _grazes(a: float, reach: float) -> bool:
     """Does the ray pass within 1 cm of a polygon's corner before `reach` (where a few
     millimetres of collision margin decide whether it hits)?"""
     dx, dy = math.cos(a), math.sin(a)
-    for x, y in TRIANGLE + L_SHAPE + DART:
+    for x, y in TRIANGLE + L_SHAPE + DART + POST:
         along = (x - LASER[0]) * dx + (y - LASER[1]) * dy
         if 0 < along <= reach + 0.01 and abs((y - LASER[1]) * dx - (x - LASER[0]) * dy) < 0.01:
             return True
@@ -138,8 +141,8 @@ def test_laser_reads_the_block_polygons_over_tcp(cfg: Path) -> None:
 
 def test_render_fidelity_and_physics_meet_the_polygons(cfg: Path) -> None:
     spec = load_stage_world(cfg.parent / "blocks.world").spec
-    assert {o.name: o.shape for o in spec.arena.obstacles} == {"wedge": "polygon",
-                                                               "ell": "polygon"}
+    assert {o.name: o.shape for o in spec.arena.obstacles} == {
+        "wedge": "polygon", "ell": "polygon", "post": "box"}
     dart = spec.robots[1].body
     assert (dart.length_m, dart.width_m, dart.offset_x_m) == (0.8, 0.6, 0.0)
     assert dart.outline == ((-0.4, -0.3), (0.4, 0.0), (-0.4, 0.3))
@@ -172,13 +175,22 @@ def test_render_fidelity_and_physics_meet_the_polygons(cfg: Path) -> None:
 
 
 def test_a_laser_inside_a_dart_body_sees_out_of_it(cfg: Path) -> None:
-    """The dart's laser sits at its body's centre: no ray meets its own body (0.15 to 0.4 m
-    from the laser); straight ahead (+y) it reads the L's lower edge, 4.5 m away, and to its
-    right (+x) the arena's wall at x = 4."""
+    """The dart's laser sits at its body's centre: no ray meets its own body (0.15 to 0.5 m
+    from the laser), the post beside its slanted side (inside its size box) is seen; straight
+    ahead (+y) it reads the L's lower edge, 4.5 m away, and to its right (+x) the arena's
+    wall at x = 4."""
     spec = load_stage_world(cfg.parent / "blocks.world").spec
     with Simulation(spec, seed=1) as sim:
         sim.step()
         ranges = sim.range_model.reading("dart", "laser")
-        assert min(ranges) > 0.5
+        near = np.flatnonzero(np.asarray(ranges) < 0.5)  # the post only, ~40 degrees left
+        assert near.size and all(abs(i / 2 - 90 - 39.8) < 8 for i in near), near
+        assert min(ranges) == pytest.approx(math.hypot(0.27, 0.22), abs=0.02)
         assert ranges[180] == pytest.approx(4.5, abs=0.01)
         assert ranges[0] == pytest.approx(2.5, abs=0.01)
+    # PyBullet's rays start where each leaves the dart's outline, not its box
+    render = dataclasses.replace(spec, sim=dataclasses.replace(spec.sim, fidelity="render"))
+    with Simulation(render, seed=1) as sim:
+        sim.step()
+        rendered = sim.range_model.reading("dart", "laser")
+        assert np.abs(np.asarray(rendered) - np.asarray(ranges)).max() < 0.01
