@@ -27,6 +27,7 @@ from typing import Any
 from experiments import events as ev
 from experiments.task_source import PlannedTask
 from worlds import WorldSpec
+from worlds.polygon import distance as polygon_distance
 
 WATCH_PAIR = "watch-object-pair"
 WATCH_SIDE = "watch-object-side"
@@ -113,6 +114,9 @@ def _room(spec: WorldSpec, x: float, y: float) -> float:
         dx, dy = x - ob.pose.x, y - ob.pose.y
         if ob.shape == "cylinder":
             room = min(room, math.hypot(dx, dy) - ob.radius_m)
+            continue
+        if ob.shape == "polygon":
+            room = min(room, polygon_distance((x, y), ob.placed()))
             continue
         c, s = math.cos(-ob.pose.yaw), math.sin(-ob.pose.yaw)
         lx, ly = c * dx - s * dy, s * dx + c * dy

@@ -34,6 +34,7 @@ from experiments.observe import snapshot_poses
 from player_server.record import channels as ch
 from player_server.record.writer import McapSink
 from player_server.viz import scene
+from worlds.polygon import prism_mesh
 
 DEFAULT_RATE_HZ = 2.0
 _WARNING_KINDS = frozenset({ev.ROBOT_FAILURE, ev.FAULT_SKIPPED, ev.REALLOCATION, ev.ALARM,
@@ -120,6 +121,10 @@ def static_scene(layout: scene.SceneLayout) -> dict[str, Any]:
             ents.append(ch.entity(0.0, ch.WORLD_FRAME, f"{kind}/{b.name}", cubes=[
                 ch.cube(b.x_m, b.y_m, b.size_z_m / 2, b.yaw_rad, b.size_x_m, b.size_y_m,
                         b.size_z_m, b.colour)]))
+    for p in layout.prisms:
+        verts, tris = prism_mesh(p.points, p.bottom_m, p.top_m)
+        ents.append(ch.entity(0.0, ch.WORLD_FRAME, f"obstacle/{p.name}",
+                              triangle_lists=[ch.triangles(verts, tris, p.colour)]))
     for kind, discs in (("post", layout.posts), ("charger", layout.chargers)):
         for d in discs:
             ents.append(ch.entity(0.0, ch.WORLD_FRAME, f"{kind}/{d.name}", cylinders=[
@@ -154,12 +159,19 @@ def robots_scene(t: float, layout: scene.SceneLayout,
     for r in layout.robots:
         state, label = states.get(r.name, (scene.IDLE, ""))
         words = r.name if not label else f"{r.name}: {label}"
+        colour = scene.STATE_COLOURS.get(state, scene.STATE_COLOURS[scene.IDLE])
+        nose = ch.cube(r.offset_x_m + r.length_m / 2 - 0.05, 0.0, height + 0.01, 0.0, 0.1, 0.1,
+                       0.02, scene.NOSE_COLOUR)
+        texts = [ch.text(0.0, 0.0, scene.LABEL_HEIGHT_M, words)]
+        if r.outline:  # the outline's prism, about the body centre
+            verts, tris = prism_mesh([(x + r.offset_x_m, y) for x, y in r.outline], 0.0, height)
+            ents.append(ch.entity(t, r.name, f"robot/{r.name}", frame_locked=True,
+                                  cubes=[nose], texts=texts,
+                                  triangle_lists=[ch.triangles(verts, tris, colour)]))
+            continue
         ents.append(ch.entity(t, r.name, f"robot/{r.name}", frame_locked=True, cubes=[
-            ch.cube(r.offset_x_m, 0.0, height / 2, 0.0, r.length_m, r.width_m, height,
-                    scene.STATE_COLOURS.get(state, scene.STATE_COLOURS[scene.IDLE])),
-            ch.cube(r.offset_x_m + r.length_m / 2 - 0.05, 0.0, height + 0.01, 0.0, 0.1, 0.1,
-                    0.02, scene.NOSE_COLOUR),
-        ], texts=[ch.text(0.0, 0.0, scene.LABEL_HEIGHT_M, words)]))
+            ch.cube(r.offset_x_m, 0.0, height / 2, 0.0, r.length_m, r.width_m, height, colour),
+            nose], texts=texts))
     return ch.scene_update(ents)
 
 

@@ -6,14 +6,17 @@ File layout (all keys optional unless noted; SI units; angles as ``<key>_deg`` o
     name = "simple"                  # defaults to the file stem
     [sim]     interval_sim speedup quit_time seed fidelity physics_substeps
     [arena]   size = [sx, sy] (required) wall_thickness wall_height wall_colour floor_colour
-    [[arena.obstacles]] name pose shape ("box" | "cylinder") size = [sx, sy] | radius height colour
+    [[arena.obstacles]] name pose shape ("box" | "cylinder" | "polygon") size = [sx, sy] | radius
+                 | points = [[x, y], ...] (in the obstacle's frame) height colour base (polygon)
     [[boxes]]    name pose size = [sx, sy, sz] mass colour friction
     [[objects]]  name pose radius height mass colour fiducial_id
     [[markers]]  name position = [x, y] radius height colour     (visual only)
     [[chargers]] name position = [x, y] radius colour rate beacon_height
                  take footprint = [sx, sy] yaw_deg  (a model robots touch, not a pad)
     [overhead_camera] name position height view_size resolution position_noise
-    [[robots]]   name pose colour fiducial_id, body, then one sub-table per device kind
+    [[robots]]   name pose colour fiducial_id, body (length width height offset_x mass
+                 outline = [[x, y], ...]: a convex footprint about the body's centre), then one
+                 sub-table per device kind
                  (`worlds.device_kinds`: position2d sonar laser ranger camera blobfinder
                  bumper gripper ptz power fiducial, and those of `worlds.devices`; an empty
                  table means "present, defaults")
@@ -28,6 +31,8 @@ from pathlib import Path
 from worlds import generate
 from worlds.device_kinds import RobotContext, device_kinds
 from worlds.errors import WorldError
+from worlds.polygon import convex_hull, is_convex
+from worlds.polygon import problem as polygon_problem
 from worlds.reader import Table
 from worlds.spec import (
     DEVICE_NAMES,
@@ -169,7 +174,14 @@ def _arena(t: Table) -> ArenaSpec:
 
 
 def _obstacle(t: Table) -> ObstacleSpec:
-    shape = t.string("shape", "box", choices=("box", "cylinder"))
+    shape = t.string("shape", "box", choices=("box", "cylinder", "polygon"))
+    if shape == "polygon":
+        spec = ObstacleSpec.polygon(
+            t.string("name"), t.pose("pose"), _points(t, "points"),
+            t.number("height", 0.5, positive=True), t.colour("colour", 0xA0A0A0),
+            t.number("base", 0.0, min_value=0.0))
+        t.finish()
+        return spec
     if shape == "box":
         sx, sy = t.vector("size", 2, positive=True)
     else:
@@ -186,6 +198,22 @@ def _obstacle(t: Table) -> ObstacleSpec:
     )
     t.finish()
     return spec
+
+
+def _points(t: Table, name: str) -> tuple[tuple[float, float], ...]:
+    """A simple polygon: ``[[x, y], ...]``, 3 points or more, edges not crossing, some area."""
+    value = t.raw(name)
+    expected = "[[x, y], ...]: 3 or more points outlining an area without crossing edges"
+    if not isinstance(value, list) or not all(
+            isinstance(p, list) and len(p) == 2 and all(
+                not isinstance(v, bool) and isinstance(v, int | float) and math.isfinite(v)
+                for v in p) for p in value):
+        raise t.error(name, expected, value)
+    pts = tuple((float(p[0]), float(p[1])) for p in value)
+    bad = polygon_problem(pts)
+    if bad is not None:
+        raise t.error(name, expected, f"{bad} in {value}")
+    return pts
 
 
 def _box(t: Table) -> BoxSpec:
@@ -304,14 +332,28 @@ def _robot(t: Table, index: int) -> RobotSpec:
 
 def _body(t: Table) -> BodySpec:
     d = BodySpec()
+    outline: tuple[tuple[float, float], ...] = ()
+    length, width = d.length_m, d.width_m
+    if t.has("outline"):
+        outline = _points(t, "outline")
+        if not is_convex(outline):
+            raise t.error("outline", "a convex outline", outline)
+        outline = convex_hull(outline)  # anticlockwise, without straight-through corners
+        length = 2 * max(abs(x) for x, _ in outline)
+        width = 2 * max(abs(y) for _, y in outline)
     spec = BodySpec(
-        length_m=t.number("length", d.length_m, positive=True),
-        width_m=t.number("width", d.width_m, positive=True),
+        length_m=t.number("length", length, positive=True),
+        width_m=t.number("width", width, positive=True),
         height_m=t.number("height", d.height_m, positive=True),
         offset_x_m=t.number("offset_x", d.offset_x_m),
         mass_kg=t.number("mass", d.mass_kg, positive=True),
+        outline=outline,
     )
     t.finish()
+    if any(abs(x) > spec.length_m / 2 + 1e-9 or abs(y) > spec.width_m / 2 + 1e-9
+           for x, y in outline):
+        raise t.error("outline", f"points within the body's length and width "
+                      f"({spec.length_m:g} x {spec.width_m:g} m about its centre)", outline)
     return spec
 
 

@@ -72,19 +72,51 @@ class Mount(NamedTuple):
 
 @dataclass(frozen=True)
 class ObstacleSpec:
-    """A static obstacle: an upright box (size_x by size_y) or cylinder (radius)."""
+    """A static obstacle: an upright box (size_x by size_y), cylinder (radius) or polygon
+    prism.
+
+    A polygon's `points` are its vertices in the obstacle's frame (the pose turns and moves
+    them), a simple polygon, convex or not (`worlds.polygon.problem` is None); its size is
+    the extent of its points along the frame's axes (for whoever needs only a bound), and
+    it stands from `base_m` up to `base_m + height_m`. Boxes and cylinders stand on the floor
+    and have no points.
+    """
 
     name: str
     pose: Pose
-    shape: Literal["box", "cylinder"]
+    shape: Literal["box", "cylinder", "polygon"]
     size_x_m: float
     size_y_m: float
     height_m: float
     colour: int
+    points: tuple[tuple[float, float], ...] = ()
+    base_m: float = 0.0
 
     @property
     def radius_m(self) -> float:
         return self.size_x_m / 2.0
+
+    @property
+    def top_m(self) -> float:
+        return self.base_m + self.height_m
+
+    def placed(self, points: tuple[tuple[float, float], ...] | None = None
+               ) -> tuple[tuple[float, float], ...]:
+        """World coordinates of `points` given in the obstacle's frame (its own points)."""
+        x, y, yaw = self.pose
+        c, s = math.cos(yaw), math.sin(yaw)
+        return tuple((x + c * px - s * py, y + s * px + c * py)
+                     for px, py in (self.points if points is None else points))
+
+    @staticmethod
+    def polygon(name: str, pose: Pose, points: tuple[tuple[float, float], ...],
+                height_m: float, colour: int, base_m: float = 0.0) -> ObstacleSpec:
+        """A polygon prism; its size is the extent of its points."""
+        xs = [p[0] for p in points]
+        ys = [p[1] for p in points]
+        return ObstacleSpec(name, pose, "polygon", max(xs) - min(xs), max(ys) - min(ys),
+                            height_m, colour, tuple((float(a), float(b)) for a, b in points),
+                            base_m)
 
 
 @dataclass(frozen=True)
@@ -196,13 +228,19 @@ class SimSpec:
 
 @dataclass(frozen=True)
 class BodySpec:
-    """A robot's body box, relative to the robot origin (Pioneer 2-DX by default)."""
+    """A robot's body box, relative to the robot origin (Pioneer 2-DX by default).
+
+    `outline` (optional): the body's footprint as a convex polygon, anticlockwise, in the
+    box's frame (x forward from the box's centre, y left), inside the box; the body is then
+    that prism, as tall as the box, and the box only bounds it. Empty: the body is the box.
+    """
 
     length_m: float = 0.445
     width_m: float = 0.40
     height_m: float = 0.30
     offset_x_m: float = -0.04
     mass_kg: float = 9.0
+    outline: tuple[tuple[float, float], ...] = ()
 
 
 @dataclass(frozen=True)

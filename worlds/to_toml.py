@@ -51,7 +51,8 @@ def _robot(r: RobotSpec) -> list[str]:
     b = r.body
     out += _table("[robots.body]", [("length", b.length_m), ("width", b.width_m),
                                     ("height", b.height_m), ("offset_x", b.offset_x_m),
-                                    ("mass", b.mass_kg)])
+                                    ("mass", b.mass_kg)]
+                  + ([("outline", [list(p) for p in b.outline])] if b.outline else []))
     kinds = device_kinds()
     for name in d.names():
         out += _table(f"[robots.{name}]", kinds[name].items(d.get(name)))
@@ -72,8 +73,12 @@ def world_to_toml(w: WorldSpec) -> str:
                               ("wall_colour", _colour(a.wall_colour)),
                               ("floor_colour", _colour(a.floor_colour))])
     for o in a.obstacles:
-        size = [("size", [o.size_x_m, o.size_y_m])] if o.shape == "box" else [
-            ("radius", o.radius_m)]
+        size: list[tuple[str, Any]] = [("size", [o.size_x_m, o.size_y_m])]
+        if o.shape == "cylinder":
+            size = [("radius", o.radius_m)]
+        elif o.shape == "polygon":
+            size = [("points", [list(p) for p in o.points])]
+            size += [("base", o.base_m)] if o.base_m else []
         out += _table("[[arena.obstacles]]", [("name", o.name), ("shape", o.shape), *size,
                                               ("pose", o.pose), ("height", o.height_m),
                                               ("colour", _colour(o.colour))])

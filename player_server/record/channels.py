@@ -229,14 +229,21 @@ def text(x: float, y: float, z: float, words: str, rgb: int = 0x111111) -> dict[
             "scale_invariant": True, "color": colour(rgb), "text": words}
 
 
+def triangles(points: Sequence[tuple[float, float, float]], indices: Sequence[int],
+              rgb: int, alpha: float = 1.0) -> dict[str, Any]:
+    """A triangle list in its entity's frame: vertices and index triples."""
+    return {"pose": pose(), "points": [{"x": x, "y": y, "z": z} for x, y, z in points],
+            "color": colour(rgb, alpha), "colors": [], "indices": list(indices)}
+
+
 def entity(t_s: float, frame_id: str, entity_id: str, *, cubes: Sequence[Any] = (),
            cylinders: Sequence[Any] = (), texts: Sequence[Any] = (),
-           frame_locked: bool = False) -> dict[str, Any]:
+           triangle_lists: Sequence[Any] = (), frame_locked: bool = False) -> dict[str, Any]:
     return {
         "timestamp": stamp(t_s), "frame_id": frame_id, "id": entity_id,
         "lifetime": {"sec": 0, "nsec": 0}, "frame_locked": frame_locked, "metadata": [],
         "arrows": [], "cubes": list(cubes), "spheres": [], "cylinders": list(cylinders),
-        "lines": [], "triangles": [], "texts": list(texts), "models": [],
+        "lines": [], "triangles": list(triangle_lists), "texts": list(texts), "models": [],
     }
 
 

@@ -1,4 +1,5 @@
-"""Build a world's PyBullet bodies on a given client (simple collision shapes only)."""
+"""Build a world's PyBullet bodies on a given client (simple collision shapes, and convex
+meshes for the pieces of polygon obstacles)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from typing import Any
 import pybullet as pb
 
 from worlds import ArenaSpec, ObstacleSpec, WorldSpec, colour_rgb01
+from worlds.polygon import convex_pieces, prism_mesh
 
 _FLOOR_THICKNESS_M = 0.05
 
@@ -74,6 +76,9 @@ def _build_arena(arena: ArenaSpec, cid: int) -> tuple[int, list[int]]:
     for ob in arena.obstacles:
         if merged and ob.shape == "box":
             continue
+        if ob.shape == "polygon":
+            static.extend(_polygon_bodies(ob, cid))
+            continue
         if ob.shape == "box":
             col = pb.createCollisionShape(
                 pb.GEOM_BOX, halfExtents=[ob.size_x_m / 2, ob.size_y_m / 2, ob.height_m / 2],
@@ -124,6 +129,21 @@ def _compound_boxes(boxes: list[ObstacleSpec], cid: int) -> list[int]:
             body = pb.createMultiBody(0.0, col, vis, [0.0, 0.0, 0.0], physicsClientId=cid)
             pb.changeVisualShape(body, -1, rgbaColor=_rgba(colour), physicsClientId=cid)
             out.append(body)
+    return out
+
+
+def _polygon_bodies(ob: ObstacleSpec, cid: int) -> list[int]:
+    """One static body per convex piece of a polygon obstacle: a convex mesh (PyBullet
+    collides with its hull) from the piece's prism, in the obstacle's frame."""
+    out: list[int] = []
+    for piece in convex_pieces(ob.points):
+        verts, tris = prism_mesh(piece, -ob.height_m / 2, ob.height_m / 2)
+        col = pb.createCollisionShape(pb.GEOM_MESH, vertices=verts, physicsClientId=cid)
+        vis = pb.createVisualShape(pb.GEOM_MESH, vertices=verts, indices=tris,
+                                   rgbaColor=_rgba(ob.colour), physicsClientId=cid)
+        out.append(pb.createMultiBody(
+            0.0, col, vis, [ob.pose.x, ob.pose.y, ob.base_m + ob.height_m / 2],
+            _quat_yaw(ob.pose.yaw), physicsClientId=cid))
     return out
 
 
@@ -186,9 +206,15 @@ def build_world(spec: WorldSpec, client: int) -> BodyIds:
     for r in spec.robots:
         body = r.body
         half = [body.length_m / 2, body.width_m / 2, body.height_m / 2]
-        col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=cid)
-        vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=_rgba(r.colour),
-                                   physicsClientId=cid)
+        if body.outline:  # the outline's prism: a convex mesh
+            verts, tris = prism_mesh(body.outline, -half[2], half[2])
+            col = pb.createCollisionShape(pb.GEOM_MESH, vertices=verts, physicsClientId=cid)
+            vis = pb.createVisualShape(pb.GEOM_MESH, vertices=verts, indices=tris,
+                                       rgbaColor=_rgba(r.colour), physicsClientId=cid)
+        else:
+            col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=cid)
+            vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=half,
+                                       rgbaColor=_rgba(r.colour), physicsClientId=cid)
         c, s = math.cos(r.pose.yaw), math.sin(r.pose.yaw)
         pos = [r.pose.x + body.offset_x_m * c, r.pose.y + body.offset_x_m * s, half[2] + 0.001]
         rid = pb.createMultiBody(body.mass_kg, col, vis, pos, _quat_yaw(r.pose.yaw),

@@ -1,16 +1,17 @@
 """The footprint ray cast as one compiled loop (numba): the caster the simulation uses.
 
 Every ray is tested against every footprint with the same geometry as the vectorised caster of
-``footprint_cast`` (its reference in the tests): the centre relative to the ray,
-``v = (c - o) conj(d)``, culls a footprint whose bounding circle misses the ray's half-line or
-lies wholly beyond the nearest hit found so far; a slab test finds the entry into a rectangle
-(none from inside it), a quadratic the near side of a circle; footprints lower than the ray
-pass under it; the room's walls bound every ray at most as tall as they are. Compiled on first
-use and cached on disk next to this module (``cache=True``); divisions by zero give inf/nan as
-in numpy (``error_model="numpy"``). The casts run without the interpreter lock (``nogil``):
-`CompiledCaster` splits a big batch between the calling thread and a helper of its own when
-the calling thread may run on two CPUs or more. Each ray's distance depends on that ray
-alone, so the split changes no reading.
+``footprint_cast`` (its reference in the tests): the centre relative to the ray, ``v = (c - o)
+conj(d)``, culls a footprint whose bounding circle misses the ray's half-line or lies wholly
+beyond the nearest hit found so far; a slab test finds the entry into a rectangle (none from
+inside it), a quadratic the near side of a circle, the half planes of its edges the entry into
+a convex polygon; footprints lower than the ray pass under it (and rays lower than a polygon's
+bottom pass under the polygon); the room's walls bound every ray at most as tall as they are.
+Compiled on first use and cached on disk next to this module (``cache=True``); divisions by
+zero give inf/nan as in numpy (``error_model="numpy"``). The casts run without the interpreter
+lock (``nogil``): `CompiledCaster` splits a big batch between the calling thread and a helper
+of its own when the calling thread may run on two CPUs or more. Each ray's distance depends on
+that ray alone, so the split changes no reading.
 """
 
 from __future__ import annotations
@@ -53,11 +54,47 @@ def _wall(ox: float, oy: float, dx: float, dy: float, hx: float, hy: float) -> f
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def _poly_hit(p: int, ox: float, oy: float, dx: float, dy: float, b: float,
+              poly_start: np.ndarray, poly_vert: np.ndarray) -> float:
+    """Distance along the unit ray to convex polygon p (anticlockwise vertices) when it is
+    nearer than b, else inf (also for a ray starting inside it): the ray clipped by the half
+    plane of every edge (Cyrus-Beck)."""
+    t_in = -np.inf
+    t_out = np.inf
+    lo = poly_start[p]
+    hi = poly_start[p + 1]
+    for k in range(lo, hi):
+        ax = poly_vert[k].real
+        ay = poly_vert[k].imag
+        nxt = k + 1 if k + 1 < hi else lo
+        nx = poly_vert[nxt].imag - ay  # the edge turned clockwise: outwards
+        ny = ax - poly_vert[nxt].real
+        num = (ax - ox) * nx + (ay - oy) * ny  # >= 0 where the origin is inside
+        den = dx * nx + dy * ny  # < 0 where the ray goes in
+        if den < 0.0:
+            t = num / den
+            if t > t_in:
+                t_in = t
+        elif den > 0.0:
+            t = num / den
+            if t < t_out:
+                t_out = t
+        elif num < 0.0:
+            return np.inf  # beside an edge it runs along
+    if t_in > 0.0 and t_in <= t_out and t_in < b:
+        return t_in
+    return np.inf
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def _hit(f: int, ox: float, oy: float, dx: float, dy: float, b: float, n_rect: int,
          centre: np.ndarray, head_conj: np.ndarray, half: np.ndarray,
-         radius: np.ndarray) -> float:
-    """Distance along the unit ray (origin ox + i oy, direction dx + i dy) to footprint f
-    when it is nearer than b, else inf (also for a ray starting inside it)."""
+         radius: np.ndarray, polys: tuple[np.ndarray, np.ndarray, np.ndarray], zi: float
+         ) -> float:
+    """Distance along the unit ray (origin ox + i oy, direction dx + i dy, height zi) to
+    footprint f when it is nearer than b, else inf (also for a ray starting inside it, or
+    passing under a polygon). polys: (start, vertices, bottom) of the polygons, the
+    footprints after the rectangles."""
     cx = centre[f].real - ox
     cy = centre[f].imag - oy
     vr = cx * dx + cy * dy  # along the ray
@@ -84,6 +121,11 @@ def _hit(f: int, ox: float, oy: float, dx: float, dy: float, b: float, n_rect: i
         if t_near > 0.0 and t_near <= min(ax + bx, ay + by) and t_near < b:
             return t_near
         return np.inf
+    if f < n_rect + polys[0].shape[0] - 1:
+        p = f - n_rect
+        if polys[2][p] > zi:
+            return np.inf
+        return _poly_hit(p, ox, oy, dx, dy, b, polys[0], polys[1])
     disc = r * r - vi * vi
     if disc < 0.0:
         disc = 0.0
@@ -96,13 +138,14 @@ def _hit(f: int, ox: float, oy: float, dx: float, dy: float, b: float, n_rect: i
 @njit(cache=True, error_model="numpy", inline="always")
 def _every_footprint(skip: int, zi: float, ox: float, oy: float, dx: float, dy: float,
                      b: float, n_rect: int, centre: np.ndarray, head_conj: np.ndarray,
-                     half: np.ndarray, radius: np.ndarray, top: np.ndarray) -> float:
+                     half: np.ndarray, radius: np.ndarray, top: np.ndarray,
+                     polys: tuple[np.ndarray, np.ndarray, np.ndarray]) -> float:
     """The nearest hit below `b` among every footprint at least as tall as the ray (except
     `skip`, the one it starts inside), else `b`."""
     for f in range(centre.shape[0]):
         if f == skip or top[f] < zi:
             continue
-        t = _hit(f, ox, oy, dx, dy, b, n_rect, centre, head_conj, half, radius)
+        t = _hit(f, ox, oy, dx, dy, b, n_rect, centre, head_conj, half, radius, polys, zi)
         if t < b:
             b = t
     return b
@@ -153,22 +196,26 @@ def _axis_step(o: float, d: float, lo: float, cell: float, at: int) -> tuple[int
 @njit(cache=True, error_model="numpy", nogil=True)
 def cast_rays(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarray,
               own: np.ndarray, centre: np.ndarray, head_conj: np.ndarray, half: np.ndarray,
-              radius: np.ndarray, top: np.ndarray, room: np.ndarray) -> np.ndarray:
+              radius: np.ndarray, top: np.ndarray, room: np.ndarray, poly_start: np.ndarray,
+              poly_vert: np.ndarray, poly_bottom: np.ndarray) -> np.ndarray:
     """Distance along each unit ray (complex origin o, direction d, height z) to the nearest
     footprint at least as tall as the ray or wall, else its limit.
 
-    Footprints: complex centres (rectangles first, then circles), head_conj exp(-i yaw) and
-    complex half extents of each rectangle, bounding radius and top of each. own (per ray):
-    a footprint the ray starts inside, which it cannot see, or -1. room: (half_x, half_y, top)
-    of the arena's walls, or empty for none.
+    Footprints: complex centres (rectangles first, then polygons, then circles), head_conj
+    exp(-i yaw) and complex half extents of each rectangle, bounding radius and top of each.
+    own (per ray): a footprint the ray starts inside, which it cannot see, or -1. room:
+    (half_x, half_y, top) of the arena's walls, or empty for none. Convex polygons come between
+    the rectangles and the circles (see `Footprints`: their vertex offsets, vertices and
+    bottoms).
     """
     n = o.shape[0]
     n_rect = head_conj.shape[0]
+    polys = (poly_start, poly_vert, poly_bottom)
     best = np.empty(n)
     for i in range(n):
         ox, oy, dx, dy, b = _ray(o[i], d[i], z[i], limit[i], room)
         best[i] = _every_footprint(own[i], z[i], ox, oy, dx, dy, b, n_rect, centre, head_conj,
-                                   half, radius, top)
+                                   half, radius, top, polys)
     return best
 
 
@@ -176,6 +223,7 @@ def cast_rays(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarray,
 def cast_rays_grid(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarray,
                    own: np.ndarray, centre: np.ndarray, head_conj: np.ndarray,
                    half: np.ndarray, radius: np.ndarray, top: np.ndarray, room: np.ndarray,
+                   poly_start: np.ndarray, poly_vert: np.ndarray, poly_bottom: np.ndarray,
                    gp: np.ndarray, start: np.ndarray, items: np.ndarray) -> np.ndarray:
     """As `cast_rays`, visiting only the footprints listed in the grid cells (`grid_index`)
     that each ray passes through, nearest first, until a cell begins beyond the nearest hit
@@ -183,6 +231,7 @@ def cast_rays_grid(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarra
     n = o.shape[0]
     k = centre.shape[0]
     n_rect = head_conj.shape[0]
+    polys = (poly_start, poly_vert, poly_bottom)
     x0 = gp[0]
     y0 = gp[1]
     cell = gp[2]
@@ -200,7 +249,7 @@ def cast_rays_grid(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarra
                 and math.isfinite(dy)) or (dx == 0.0 and dy == 0.0):
             # no cell to start from, or no way to go: every footprint
             best[i] = _every_footprint(skip, zi, ox, oy, dx, dy, b, n_rect, centre, head_conj,
-                                       half, radius, top)
+                                       half, radius, top, polys)
             continue
         # The part of the ray inside the grid's box.
         t_in, t_out = _slab(ox, dx, x0, x1, 0.0, b)
@@ -222,7 +271,8 @@ def cast_rays_grid(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarra
                 mark[f] = i
                 if f == skip or top[f] < zi:
                     continue
-                t = _hit(f, ox, oy, dx, dy, b, n_rect, centre, head_conj, half, radius)
+                t = _hit(f, ox, oy, dx, dy, b, n_rect, centre, head_conj, half, radius, polys,
+                         zi)
                 if t < b:
                     b = t
             if t_max_x < t_max_y:
@@ -274,7 +324,7 @@ class CompiledCaster:
                 np.ascontiguousarray(z, dtype=np.float64),
                 np.ascontiguousarray(own, dtype=np.int64))
         scene: tuple[np.ndarray, ...] = (fp.centre, fp.head_conj, fp.half, fp.radius, fp.top,
-                                         walls)
+                                         walls, fp.poly_start, fp.poly_vert, fp.poly_bottom)
         kernel: Any = cast_rays
         if fp.count >= self.grid_min and n > 0:
             grid = footprint_grid(fp, room)

@@ -4,18 +4,20 @@ The simulation casts with the compiled loop of ``cast_kernel``, which takes the 
 footprints and agrees with this caster to float64 noise (tested); this one is its vectorised
 reference.
 
-Footprints are oriented rectangles and circles, each with the height of its top, inside an
-optional rectangular room centred on the origin whose walls face inwards. Planar points and
-directions are complex numbers. A cast runs in three stages, each a handful of numpy calls
-however many rays and footprints there are:
+Footprints are oriented rectangles, circles and convex polygons, each with the height of its
+top (a polygon also with that of its bottom), inside an optional rectangular room centred on
+the origin whose walls face inwards. Planar points and directions are complex numbers. A cast
+runs in three stages, each a handful of numpy calls however many rays and footprints there
+are:
 
 1. the room: where each ray leaves the room's rectangle, in closed form per ray;
 2. culling: one matrix product gives, for every (footprint, ray) pair, how far the
    footprint's centre lies behind the ray origin and beside the ray; a pair is a candidate
    when its bounding circle touches the ray's half-line;
 3. the candidates only: a slab test per rectangle (a ray that starts inside a rectangle
-   leaves it unseen, as a sensor inside its own body must), a quadratic per circle, then the
-   nearest hit per ray (``np.minimum.at``).
+   leaves it unseen, as a sensor inside its own body must), a quadratic per circle, the
+   half planes of every edge per polygon (Cyrus-Beck), then the nearest hit per ray
+   (``np.minimum.at``).
 
 It agrees with the face caster of ``raycast`` (the reference in the tests) to that caster's
 float32 noise, and with brute-force float64 geometry to 1e-9 m. Its cost grows with
@@ -50,13 +52,20 @@ class Room:
     top: float
 
 
+def _no_polygons() -> I64:
+    return np.zeros(1, dtype=np.int64)
+
+
 @dataclass(frozen=True)
 class Footprints:
-    """n_rect rectangles then circles.
+    """n_rect rectangles, then n_poly convex polygons, then circles.
 
-    centre: complex centres (all); head_conj: exp(-i yaw) of each rectangle; half: complex
-    half extents hx + i hy of each rectangle; radius: bounding radius (all; the radius of a
-    circle); top: height of each top (all).
+    centre: complex centres (all; a polygon's is any point its bounding circle is centred
+    on); head_conj: exp(-i yaw) of each rectangle; half: complex half extents hx + i hy of
+    each rectangle; radius: bounding radius (all; the radius of a circle); top: height of
+    each top (all). Polygon p has the anticlockwise world vertices
+    poly_vert[poly_start[p]:poly_start[p + 1]] and stands from poly_bottom[p] (rectangles and
+    circles stand on the floor).
     """
 
     centre: C128
@@ -64,7 +73,34 @@ class Footprints:
     half: C128
     radius: F64
     top: F64
+    poly_start: I64 = field(default_factory=_no_polygons)
+    poly_vert: C128 = field(default_factory=lambda: np.zeros(0, dtype=np.complex128))
+    poly_bottom: F64 = field(default_factory=lambda: np.zeros(0, dtype=np.float64))
     _cull: dict[str, F64] = field(default_factory=dict, compare=False, repr=False)
+
+    @property
+    def n_poly(self) -> int:
+        return int(self.poly_start.shape[0]) - 1
+
+    def poly_edges(self) -> tuple[C128, C128]:
+        """(n_poly, most vertices) start points and outward normals of every polygon's
+        edges, padded with edges of no length (computed once per Footprints)."""
+        got = self._cull.get("edges")
+        if got is None:
+            start, vert = self.poly_start, self.poly_vert
+            sizes = np.diff(start)
+            m = int(sizes.max()) if sizes.size else 0
+            a = np.zeros((sizes.size, m), dtype=np.complex128)
+            nrm = np.zeros((sizes.size, m), dtype=np.complex128)
+            for p in range(sizes.size):
+                v = vert[start[p]:start[p + 1]]
+                k = v.size
+                a[p, :k] = v
+                a[p, k:] = v[-1]
+                nrm[p, :k] = -1j * (np.roll(v, -1) - v)  # the edge turned clockwise: outwards
+            got = np.stack([a, nrm])
+            self._cull["edges"] = got
+        return got[0], got[1]
 
     def cull_weights(self) -> F64:
         """(2 count, 4) weights of the culling product (computed once per Footprints)."""
@@ -100,6 +136,53 @@ class Footprints:
             radius=np.concatenate([np.hypot(rect_half_x, rect_half_y), circle_radius]),
             top=np.concatenate([rect_top, circle_top]),
         )
+
+    def with_polygons(self, polygons: Polygons) -> Footprints:
+        """These footprints (without polygons) with the convex polygons after the
+        rectangles."""
+        if polygons.count == 0:
+            return self
+        k = self.n_rect
+        return Footprints(
+            centre=np.concatenate([self.centre[:k], polygons.centre, self.centre[k:]]),
+            head_conj=self.head_conj, half=self.half,
+            radius=np.concatenate([self.radius[:k], polygons.radius, self.radius[k:]]),
+            top=np.concatenate([self.top[:k], polygons.top, self.top[k:]]),
+            poly_start=polygons.start, poly_vert=polygons.vert, poly_bottom=polygons.bottom)
+
+
+@dataclass(frozen=True)
+class Polygons:
+    """Convex polygons standing still: world vertices anticlockwise, polygon p's from
+    vert[start[p]] to vert[start[p + 1] - 1]; the centre and radius of a circle holding
+    each; the heights of each bottom and top."""
+
+    start: I64
+    vert: C128
+    centre: C128
+    radius: F64
+    bottom: F64
+    top: F64
+
+    @property
+    def count(self) -> int:
+        return int(self.start.shape[0]) - 1
+
+    @staticmethod
+    def build(polygons: list[tuple[list[complex], float, float]]) -> Polygons:
+        """From (anticlockwise convex vertices, bottom, top) of each polygon."""
+        sizes = [len(v) for v, _, _ in polygons]
+        start = np.zeros(len(polygons) + 1, dtype=np.int64)
+        start[1:] = np.cumsum(sizes, dtype=np.int64)
+        vert = np.array([z for v, _, _ in polygons for z in v], dtype=np.complex128)
+        centre = np.array([(min(z.real for z in v) + max(z.real for z in v)) / 2
+                           + 1j * (min(z.imag for z in v) + max(z.imag for z in v)) / 2
+                           for v, _, _ in polygons], dtype=np.complex128)
+        radius = np.array([max(abs(z - c) for z in v) for (v, _, _), c in
+                           zip(polygons, centre, strict=True)], dtype=np.float64)
+        return Polygons(start, vert, centre, radius,
+                        np.array([b for _, b, _ in polygons], dtype=np.float64),
+                        np.array([t for _, _, t in polygons], dtype=np.float64))
 
 
 def room_exit(o: C128, d: C128, room: Room) -> F64:
@@ -162,9 +245,11 @@ class FootprintCaster:
         chunk = max(1, _CHUNK_ELEMENTS // k)
         n_rect = fp.n_rect
         # Candidate pairs per chunk: (footprint, ray, v) with v = (c - o) conj(d), i.e.
-        # along the ray + i (o - c) x d; rectangles' pairs and circles' pairs apart.
+        # along the ray + i (o - c) x d; rectangles', polygons' and circles' pairs apart.
         rects: list[tuple[I64, I64, C128]] = []
         circles: list[tuple[I64, I64, C128]] = []
+        polys: list[tuple[I64, I64, C128]] = []
+        first_circle = n_rect + fp.n_poly
         for start in range(0, n, chunk):
             stop = min(n, start + chunk)
             m = np.matmul(w, feat[:, start:stop])
@@ -189,17 +274,26 @@ class FootprintCaster:
             split = int(np.searchsorted(fi, n_rect))
             if split:
                 rects.append((fi[:split], ri[:split], v[:split]))
-            if split < fi.shape[0]:
-                circles.append((fi[split:], ri[split:], v[split:]))
+            csplit = int(np.searchsorted(fi, first_circle))
+            if split < csplit:
+                polys.append((fi[split:csplit], ri[split:csplit], v[split:csplit]))
+            if csplit < fi.shape[0]:
+                circles.append((fi[csplit:], ri[csplit:], v[csplit:]))
         low = bool(fp.top.min() < z.max())  # footprints lower than a ray pass under it
-        for is_rect, parts in ((True, rects), (False, circles)):
+        for kind, parts in (("rect", rects), ("circle", circles), ("poly", polys)):
             if not parts:
                 continue
             if len(parts) == 1:
                 fi, ri, v = parts[0]
             else:
                 fi, ri, v = (np.concatenate([p[j] for p in parts]) for j in range(3))
-            dist = _rect_hits(d, fp, fi, ri, v) if is_rect else _circle_hits(fp, fi, v)
+            if kind == "rect":
+                dist = _rect_hits(d, fp, fi, ri, v)
+            elif kind == "circle":
+                dist = _circle_hits(fp, fi, v)
+            else:
+                dist = _poly_hits(o, d, fp, fi - n_rect, ri)
+                dist[fp.poly_bottom[fi - n_rect] > z[ri]] = np.inf
             if low:
                 dist[fp.top[fi] < z[ri]] = np.inf
             np.minimum.at(best, ri, dist)
@@ -236,3 +330,20 @@ def _circle_hits(fp: Footprints, fi: I64, v: C128) -> F64:
     np.maximum(disc, 0.0, out=disc)
     t = v.real - np.sqrt(disc)
     return np.where(t > 0.0, t, np.inf)
+
+
+def _poly_hits(o: C128, d: C128, fp: Footprints, pi: I64, ri: I64) -> F64:
+    """Entry distance of each ray into its convex polygon (clipped by every edge's half
+    plane, Cyrus-Beck); inf for a miss or for a ray that starts inside (or past) it."""
+    a, nrm = fp.poly_edges()
+    a, nrm = a[pi], nrm[pi]  # (pairs, edges)
+    rel = a - o[ri][:, None]
+    num = rel.real * nrm.real + rel.imag * nrm.imag  # >= 0 where the origin is inside
+    dd = d[ri][:, None]
+    den = dd.real * nrm.real + dd.imag * nrm.imag  # < 0 where the ray goes in
+    t = num / den
+    t_in = np.max(np.where(den < 0.0, t, -np.inf), axis=1)
+    t_out = np.min(np.where(den > 0.0, t, np.inf), axis=1)
+    ok = (t_in <= t_out) & (t_in > 0.0)
+    ok &= ~np.any((den == 0.0) & (num < 0.0), axis=1)  # beside an edge it runs along
+    return np.where(ok, t_in, np.inf)

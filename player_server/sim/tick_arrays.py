@@ -80,6 +80,7 @@ class TickArrays:
 
     def footprints(self) -> Footprints:
         """This tick's footprints: static obstacles, robots' bodies and boxes (rectangles),
+        the static polygon obstacles' convex pieces and the robots' outlines (polygons),
         static cylinders and the objects not held or stored (circles)."""
         w = self.world
 
@@ -92,7 +93,8 @@ class TickArrays:
             if vis.all():
                 circles, c_radius, c_top = pos[nb:], w.fp_radius, w.fp_top
             else:
-                keep = np.concatenate([np.ones(wa.static_circle_centre.size, dtype=bool), vis])
+                keep = np.concatenate([np.ones(wa.n_fp_rects + wa.static_circle_centre.size,
+                                               dtype=bool), vis])
                 circles = pos[nb:][vis]
                 c_radius, c_top = w.fp_radius[keep], w.fp_top[keep]
             return Footprints(
@@ -103,7 +105,7 @@ class TickArrays:
                 half=wa.fp_half,
                 radius=c_radius,
                 top=c_top,
-            )
+            ).with_polygons(wa.polygons(frame.body, frame.head))
 
         return w.cached("footprints", compute)  # type: ignore[return-value]
 

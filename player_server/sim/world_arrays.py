@@ -1,8 +1,11 @@
 """Constant arrays derived once from a world spec for vectorised sensing (pure numpy).
 
 Index conventions: footprint rectangles are the static box obstacles, then the robots' bodies,
-then the boxes; footprint circles are the static cylinders, then the objects; blob targets are
-robots, boxes, objects, markers, chargers in world-file order.
+then the boxes; footprint polygons (after the rectangles) are the convex pieces of the static
+polygon obstacles in world-file order, then the bodies of the robots with an outline (whose
+rectangles are then never hit: their top is -inf); footprint circles are the static
+cylinders, then the objects; blob targets are robots, boxes, objects, markers, chargers in
+world-file order.
 """
 
 from __future__ import annotations
@@ -13,8 +16,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from player_server.sim.blobs import Cameras
-from player_server.sim.footprint_cast import Room
-from worlds import WorldSpec
+from player_server.sim.footprint_cast import Polygons, Room
+from worlds import ObstacleSpec, RobotSpec, WorldSpec
+from worlds.polygon import convex_pieces
 
 F64 = NDArray[np.float64]
 
@@ -38,6 +42,13 @@ class WorldArrays:
     fp_rect_top: F64
     fp_circle_radius: F64  # static cylinders then objects
     fp_circle_top: F64
+    static_polygons: Polygons  # the polygon obstacles' convex pieces
+    outline_robot: NDArray[np.int64]  # the robots whose body is an outline polygon
+    outline_start: NDArray[np.int64]  # their vertices' offsets into outline_local
+    outline_local: NDArray[np.complex128]  # about the body centre, in the body frame
+    outline_radius: F64
+    outline_top: F64
+    own_footprint: NDArray[np.int64]  # per robot: the footprint of its body
     rect_half_x: F64  # robots then boxes
     body_offset: F64  # robots: body centre ahead of the axle centre
     rect_half_y: F64
@@ -94,6 +105,7 @@ class WorldArrays:
                 cam[i] = (c.pose.x, c.pose.y, c.pose.z, c.pose.yaw, c.tilt_rad, c.fov_h_rad,
                           c.width_px, c.height_px, c.max_range_m,
                           bf.min_area_px if bf is not None else 1)
+        static_polygons = polygon_footprints(a.obstacles)
         fp_hx = _arr([o.size_x_m / 2 for o in boxes_static] + half_x[:len(robots) + len(boxes)])
         fp_hy = _arr([o.size_y_m / 2 for o in boxes_static] + half_y[:len(robots) + len(boxes)])
         return WorldArrays(
@@ -110,10 +122,13 @@ class WorldArrays:
             fp_half=fp_hx + 1j * fp_hy,
             fp_rect_radius=np.hypot(fp_hx, fp_hy),
             fp_rect_top=_arr([o.height_m for o in boxes_static]
-                             + [r.body.height_m for r in robots] + [b.size_z_m for b in boxes]),
+                             + [-np.inf if r.body.outline else r.body.height_m for r in robots]
+                             + [b.size_z_m for b in boxes]),
             fp_circle_radius=_arr([o.radius_m for o in cyl_static]
                                   + [o.radius_m for o in objects]),
             fp_circle_top=_arr([o.height_m for o in cyl_static] + [o.height_m for o in objects]),
+            static_polygons=static_polygons,
+            **_outlines(robots, len(boxes_static), len(fp_hx), static_polygons.count),
             body_offset=_arr([r.body.offset_x_m for r in robots]),
             rect_half_x=_arr([r.body.length_m / 2 for r in robots]
                              + [b.size_x_m / 2 for b in boxes]),
@@ -136,6 +151,11 @@ class WorldArrays:
             channels=tuple(channels),
         )
 
+    @property
+    def n_fp_rects(self) -> int:
+        """Footprint rectangles: static boxes, robots' bodies and boxes."""
+        return int(self.fp_half.size)
+
     def own_body(self, robot: NDArray[np.int64], local: NDArray[np.complex128]
                  ) -> NDArray[np.int64]:
         """Footprint index of the body of each robot when the robot-frame point ``local``
@@ -143,7 +163,23 @@ class WorldArrays:
         p = local - self.body_offset[robot]
         inside = (np.abs(p.real) < self.rect_half_x[robot]) & \
             (np.abs(p.imag) < self.rect_half_y[robot])
-        return np.where(inside, self.n_static_rects + robot, -1).astype(np.int64)
+        return np.where(inside, self.own_footprint[robot], -1).astype(np.int64)
+
+    def polygons(self, body: NDArray[np.complex128], head: NDArray[np.complex128]) -> Polygons:
+        """This tick's footprint polygons: the static ones, then the outlines of the robots
+        with one, placed by every robot's body centre and heading exp(i yaw)."""
+        r = self.outline_robot
+        if r.size == 0:
+            return self.static_polygons
+        st = self.static_polygons
+        at = np.repeat(r, np.diff(self.outline_start))
+        return Polygons(
+            start=np.concatenate([st.start, st.start[-1] + self.outline_start[1:]]),
+            vert=np.concatenate([st.vert, body[at] + head[at] * self.outline_local]),
+            centre=np.concatenate([st.centre, body[r]]),
+            radius=np.concatenate([st.radius, self.outline_radius]),
+            bottom=np.concatenate([st.bottom, np.zeros(r.size)]),
+            top=np.concatenate([st.top, self.outline_top]))
 
     def cameras(self, idx: NDArray[np.int64], rx: F64, ry: F64, ryaw: F64,
                 pan: F64, tilt: F64, zoom: F64) -> Cameras:
@@ -162,3 +198,35 @@ class WorldArrays:
             max_range=m[:, 8],
             min_area=m[:, 9],
         )
+
+
+def polygon_footprints(obstacles: tuple[ObstacleSpec, ...]) -> Polygons:
+    """The convex pieces of the polygon obstacles, placed in the world."""
+    pieces = []
+    for o in obstacles:
+        if o.shape == "polygon":
+            for piece in convex_pieces(o.points):
+                pieces.append(([complex(x, y) for x, y in o.placed(piece)], o.base_m, o.top_m))
+    return Polygons.build(pieces)
+
+
+def _outlines(robots: tuple[RobotSpec, ...], n_static_rects: int, n_rects: int,
+              n_static_polygons: int) -> dict[str, np.ndarray]:
+    """The outline polygons of the robots with one, and the footprint of every robot's body
+    (its rectangle, or its polygon after the static ones)."""
+    which = [i for i, r in enumerate(robots) if r.body.outline]
+    local = [np.array([complex(x, y) for x, y in robots[i].body.outline]) for i in which]
+    start = np.zeros(len(which) + 1, dtype=np.int64)
+    start[1:] = np.cumsum([v.size for v in local], dtype=np.int64)
+    own = np.arange(len(robots), dtype=np.int64) + n_static_rects
+    for k, i in enumerate(which):
+        own[i] = n_rects + n_static_polygons + k
+    return {
+        "outline_robot": np.array(which, dtype=np.int64),
+        "outline_start": start,
+        "outline_local": (np.concatenate(local) if local
+                          else np.zeros(0, dtype=np.complex128)),
+        "outline_radius": _arr([float(np.abs(v).max()) for v in local]),
+        "outline_top": _arr([robots[i].body.height_m for i in which]),
+        "own_footprint": own,
+    }

@@ -103,10 +103,12 @@ def legend_entries(layout: scene.SceneLayout, *, trails: bool = False,
     if any(scene.needs_marker(c) for c in things):
         entries.append({"label": "ringed: a box or object in a robot-state colour",
                         "colours": [hex_colour(scene.MARKER_COLOUR)], "shape": "ring"})
-    if layout.obstacles or layout.posts:
+    if layout.obstacles or layout.posts or layout.prisms:
         entries.append({"label": "obstacle",
                         "colours": _distinct([*(b.colour or scene.OBSTACLE_COLOUR
                                                 for b in layout.obstacles),
+                                              *(p.colour or scene.OBSTACLE_COLOUR
+                                                for p in layout.prisms),
                                               *(p.colour for p in layout.posts)]),
                         "shape": "square"})
     entries.append({"label": "wall", "colours": _distinct(

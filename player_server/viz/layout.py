@@ -1,8 +1,8 @@
 """What the scene draws of a world: its shapes and their layout, from the world file.
 
-`layout_from_world` turns a `worlds.WorldSpec` into a `SceneLayout` (arena, obstacles,
-markers, chargers, boxes, objects, robots, lasers); `player_server.viz.scene` makes the
-viewer commands that draw it.
+`layout_from_world` turns a `worlds.WorldSpec` into a `SceneLayout` (arena, obstacles as
+boxes, posts and polygon prisms, markers, chargers, boxes, objects, robots, lasers);
+`player_server.viz.scene` makes the viewer commands that draw it.
 """
 
 from __future__ import annotations
@@ -32,6 +32,18 @@ class Block:
 
 
 @dataclass(frozen=True, slots=True)
+class Prism:
+    """An upright polygon prism (a polygon obstacle): its outline in world coordinates, the
+    heights of its bottom and top."""
+
+    name: str
+    points: tuple[tuple[float, float], ...]
+    bottom_m: float
+    top_m: float
+    colour: int
+
+
+@dataclass(frozen=True, slots=True)
 class Disc:
     """A flat round marker (charging station) or a round object."""
 
@@ -52,6 +64,7 @@ class RobotShape:
     y_m: float
     yaw_rad: float
     offset_x_m: float = 0.0  # body centre ahead of the robot's origin
+    outline: tuple[tuple[float, float], ...] = ()  # the body's outline about its centre
 
 
 @dataclass(frozen=True, slots=True)
@@ -80,6 +93,7 @@ class SceneLayout:
     walls: tuple[Block, ...] = ()
     obstacles: tuple[Block, ...] = ()
     posts: tuple[Disc, ...] = ()  # static upright cylinders (round obstacles)
+    prisms: tuple[Prism, ...] = ()  # static polygon obstacles
     markers: tuple[Disc, ...] = ()  # visual-only posts, which may be moved
     chargers: tuple[Disc, ...] = ()
     boxes: tuple[Block, ...] = ()
@@ -127,8 +141,10 @@ def layout_from_world(spec: WorldSpec) -> SceneLayout:
     posts = tuple(
         Disc(o.name, o.pose.x, o.pose.y, o.radius_m, o.height_m, o.colour)
         for o in arena.obstacles
-        if o.shape != "box"
+        if o.shape == "cylinder"
     )
+    prisms = tuple(Prism(o.name, o.placed(), o.base_m, o.top_m, o.colour)
+                   for o in arena.obstacles if o.shape == "polygon")
     markers = tuple(Disc(m.name, m.x, m.y, m.radius_m, m.height_m, m.colour) for m in spec.markers)
     return SceneLayout(
         x_min_m=-hx,
@@ -139,6 +155,7 @@ def layout_from_world(spec: WorldSpec) -> SceneLayout:
         walls=walls,
         obstacles=obstacles,
         posts=posts,
+        prisms=prisms,
         markers=markers,
         chargers=tuple(Disc(c.name, c.x, c.y, c.radius_m, 0.006, c.colour) for c in spec.chargers),
         boxes=tuple(
@@ -152,7 +169,7 @@ def layout_from_world(spec: WorldSpec) -> SceneLayout:
         ),
         robots=tuple(
             RobotShape(r.name, r.body.length_m, r.body.width_m, r.pose.x, r.pose.y, r.pose.yaw,
-                       r.body.offset_x_m)
+                       r.body.offset_x_m, r.body.outline)
             for r in spec.robots
             if r.mobile
         ),

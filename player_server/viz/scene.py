@@ -6,7 +6,8 @@ its ZeroMQ channel and the offline replay embeds in an HTML file.
 
 Scene tree (all under ``/murdoch``)::
 
-    floor, walls/<i>, obstacles/<i>, posts/<i>, chargers/<name>   static
+    floor, walls/<i>, obstacles/<i>, prisms/<i>, posts/<i>,
+    chargers/<name>                                           static
     boxes/<name>, objects/<name>, markers/<name>                  posed from snapshots
     robots/<name>                                             posed from snapshots
     robots/<name>/body/<state>                                one coloured body per state,
@@ -41,11 +42,13 @@ from player_server.viz.layout import (  # noqa: F401
     Block,
     Disc,
     LaserShape,
+    Prism,
     RobotShape,
     SceneLayout,
     layout_from_world,
     robot_path,
 )
+from worlds.polygon import prism_mesh
 
 Command = dict[str, Any]
 
@@ -151,6 +154,25 @@ def _cylinder_geometry(radius_m: float, height_m: float) -> dict[str, Any]:
         "radiusBottom": radius_m,
         "height": height_m,
         "radialSegments": 24,
+    }
+
+
+def _prism_geometry(p: Prism) -> dict[str, Any]:
+    """A polygon prism in world coordinates as a three.js buffer geometry."""
+    return _prism_buffer(p.points, p.bottom_m, p.top_m)
+
+
+def _prism_buffer(points: Sequence[tuple[float, float]], bottom: float, top: float
+                  ) -> dict[str, Any]:
+    verts, tris = prism_mesh(points, bottom, top)
+    return {
+        "type": "BufferGeometry",
+        "data": {
+            "attributes": {"position": {"itemSize": 3, "type": "Float32Array",
+                                        "array": [c for v in verts for c in v],
+                                        "normalized": False}},
+            "index": {"type": "Uint32Array", "array": tris},
+        },
     }
 
 
@@ -267,6 +289,10 @@ def static_scene(layout: SceneLayout, *, id_prefix: str = "s") -> list[Command]:
             geom = _box_geometry(b.size_x_m, b.size_y_m, b.size_z_m)
             cmds.append(set_object(path, _mesh(ids, geom, b.colour or default_colour)))
             cmds.append(set_transform(path, pose_matrix(b.x_m, b.y_m, b.size_z_m / 2, b.yaw_rad)))
+    for i, pr in enumerate(layout.prisms):
+        path = f"{ROOT}/prisms/{i}"
+        cmds.append(set_object(path, _mesh(ids, _prism_geometry(pr), pr.colour
+                                           or OBSTACLE_COLOUR)))
     for i, p in enumerate(layout.posts):
         path = f"{ROOT}/posts/{i}"
         upright = list(_CYLINDER_UPRIGHT)
@@ -313,6 +339,9 @@ def robot_commands(ids: IdSource, r: RobotShape) -> list[Command]:
     path = robot_path(r.name)
     lift = pose_matrix(r.offset_x_m, 0.0, ROBOT_HEIGHT_M / 2, 0.0)
     geom = _box_geometry(r.length_m, r.width_m, ROBOT_HEIGHT_M)
+    if r.outline:  # the outline's prism, about the body centre
+        lift = pose_matrix(r.offset_x_m, 0.0, 0.0, 0.0)
+        geom = _prism_buffer(r.outline, 0.0, ROBOT_HEIGHT_M)
     cmds: list[Command] = []
     for state in ROBOT_STATES:
         body = f"{path}/body/{state}"

@@ -68,6 +68,23 @@ def test_spots_keep_clear_of_walls_obstacles_and_chargers(spec: Any) -> None:
     assert side_spots(spec, 5.6, 4.6, random.Random(0)) is None
 
 
+def test_spots_keep_clear_of_polygon_obstacles_by_their_outline(spec: Any) -> None:
+    import dataclasses
+
+    from worlds import ObstacleSpec, Pose
+
+    # A low wedge, apex (0, -3), base from (-3, -4) to (3, -4): the spots 1.2 m either side
+    # of (0, -2.8) are 0.57 m from its slopes, but 0.2 m from its bounding box.
+    wedge = ObstacleSpec.polygon("wedge", Pose(0.0, -3.0, 0.0),
+                                 ((-3.0, -1.0), (3.0, -1.0), (0.0, 0.0)), 0.5, 0)
+    box = ObstacleSpec("box", Pose(0.0, -3.5, 0.0), "box", 6.0, 1.0, 0.5, 0)
+    for ob, want in ((wedge, ((1.2, -2.8), (-1.2, -2.8))), (box, None)):
+        arena = dataclasses.replace(spec.arena, obstacles=(ob,))
+        world = dataclasses.replace(spec, arena=arena, chargers=())
+        got = side_spots(world, 0.0, -2.8, random.Random(0))
+        assert got == want or (got is not None and set(got) == set(want or ()))
+
+
 def test_no_group_tasks_leaves_the_stream_exactly_as_it_was(spec: Any) -> None:
     plain = list(itertools.islice(longterm_tasks(spec, random.Random(2)), 30))
     mixed = list(itertools.islice(with_group_tasks(longterm_tasks(spec, random.Random(2)),

@@ -31,3 +31,22 @@ def test_turned_rectangles_use_their_own_axes() -> None:
     turned = (0.0, 0.0, 0.15, 0.3, math.pi / 2)
     assert rects_touch((0.3 + 0.22 + 0.01, 0.0, 0.22, 0.19, 0.0), turned)
     assert not rects_touch((0.3 + 0.22 + 0.01, 0.0, 0.22, 0.19, 0.0), DOCK)
+
+
+def test_an_outline_touches_where_its_own_edges_reach() -> None:
+    from player_server.sim.contact import corners, polygon_touches
+
+    # a wedge body pointing at the dock's +x face: its tip is at the centre's height, its
+    # back corners 0.4 m behind and 0.2 m to either side
+    for gap, touching in ((0.0, True), (MARGIN_M - 0.005, True), (MARGIN_M + 0.005, False)):
+        tip = 0.15 + gap
+        wedge = [(tip, 0.0), (tip + 0.4, -0.2), (tip + 0.4, 0.2)]
+        assert polygon_touches(wedge, DOCK) is touching, gap
+    # beside the dock's corner: its box would touch, the wedge's slanted side does not
+    wedge = [(0.56, 0.16), (0.56, 0.56), (0.16, 0.56)]  # the half away from the dock
+    assert rects_touch((0.36, 0.36, 0.2, 0.2, 0.0), DOCK)
+    assert not polygon_touches(wedge, DOCK)
+    # a rectangle's corners as a polygon agree with the rectangle test
+    for body in ((0.5, 0.1, 0.22, 0.19, 0.3), (0.2, 0.8, 0.22, 0.19, 1.0),
+                 (0.45, 0.0, 0.22, 0.19, math.pi / 4)):
+        assert polygon_touches(corners(body), DOCK) is rects_touch(body, DOCK), body

@@ -3,8 +3,8 @@
 Position models become robots (their children devices), models with `bitmap` become static
 wall boxes (runs of dark pixels merged), `gripper_return` models become grippable objects,
 `give_watts` / `take_watts` models chargers (or drains: a charger that takes), other solid
-models static obstacles (one box per block), and models that return nothing zones (named
-places, not simulated).
+models static obstacles (one per block: a box, or the block's polygon), and models that
+return nothing zones (named places, not simulated).
 """
 
 from __future__ import annotations
@@ -14,6 +14,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
+from worlds.polygon import is_axis_rectangle
+from worlds.polygon import problem as polygon_problem
 from worlds.spec import (
     ArenaSpec,
     ChargerSpec,
@@ -25,6 +27,7 @@ from worlds.spec import (
     WorldSpec,
 )
 from worlds.stage.bitmap import Rect, merge_runs, read_solid
+from worlds.stage.blocks import read_block
 from worlds.stage.colour import model_colour
 from worlds.stage.robots import COMMON_IGNORED, RangerRole, convert_position
 from worlds.stage.syntax import Document, StageError, Where, parse_file
@@ -159,47 +162,60 @@ def _place(at: tuple[float, float, float], lx: float, ly: float) -> tuple[float,
 
 def _solid(m: StageModel, r: Reader, at: tuple[float, float, float],
            size: tuple[float, float, float], colour: int, out: _Out, suffix: str = "") -> None:
-    """One box per block (scaled into the model's size, as Stage does), or the size box."""
+    """One obstacle per block (scaled into the model's size, as Stage does), or the size box.
+
+    A block that is a rectangle along the model's axes is a box standing on the floor; any
+    other block is a polygon prism over its scaled z extents."""
     ox, oy = (v * r.units.length for v in r.numbers("origin", 4, (0.0,) * 4)[:2])
-    boxes: list[tuple[float, float, float, float, float]] = []  # cx, cy, sx, sy, height
     blocks = [b for b in m.parts if b.kind == "block"]
-    polys = [_polygon(b, r) for b in blocks]
-    if polys:
-        xs = [p[0] for poly, _ in polys for p in poly]
-        ys = [p[1] for poly, _ in polys for p in poly]
-        zs = [z for _, z in polys]
-        w, h = max(xs) - min(xs) or 1.0, max(ys) - min(ys) or 1.0
-        top = max(hi for _, hi in zs) or 1.0
-        for poly, (_, hi) in polys:
-            bx = [(p[0] - min(xs)) / w * size[0] - size[0] / 2 for p in poly]
-            by = [(p[1] - min(ys)) / h * size[1] - size[1] / 2 for p in poly]
-            boxes.append(((min(bx) + max(bx)) / 2, (min(by) + max(by)) / 2,
-                          max(bx) - min(bx), max(by) - min(by), hi / top * size[2]))
-    else:
-        boxes.append((0.0, 0.0, size[0], size[1], size[2]))
+    polys = [read_block(b, r) for b in blocks]
     out.fixed[m.name + suffix] = Pose(*at)
-    for i, (cx, cy, sx, sy, height) in enumerate(boxes):
-        px, py = _place(at, cx + ox, cy + oy)
-        name = m.name + suffix if len(boxes) == 1 else f"{m.name}{suffix}.block{i}"
+    if not polys:
+        if size[0] > 0 and size[1] > 0:
+            _block(m.name + suffix, at, ((ox, oy, size[0], size[1]), ()), (0.0, size[2]),
+                   colour, out)
+        return
+    xs = [p[0] for poly, _ in polys for p in poly]
+    ys = [p[1] for poly, _ in polys for p in poly]
+    w, h = max(xs) - min(xs) or 1.0, max(ys) - min(ys) or 1.0
+    top = max(hi for _, (_, hi) in polys) or 1.0
+    for i, (b, (poly, (lo, hi))) in enumerate(zip(blocks, polys, strict=True)):
+        name = m.name + suffix if len(polys) == 1 else f"{m.name}{suffix}.block{i}"
+        bx = [(p[0] - min(xs)) / w * size[0] - size[0] / 2 for p in poly]
+        by = [(p[1] - min(ys)) / h * size[1] - size[1] / 2 for p in poly]
+        sx, sy = max(bx) - min(bx), max(by) - min(by)
         if sx <= 0 or sy <= 0:
             continue
-        out.obstacles.append(ObstacleSpec(name, Pose(px, py, at[2]), "box", sx, sy,
-                                          max(height, 0.01), colour))
-        for dx in (-sx / 2, sx / 2):
-            for dy in (-sy / 2, sy / 2):
-                out.extents.append(_place((px, py, at[2]), dx, dy))
+        local = tuple(zip(bx, by, strict=True))
+        box = ((min(bx) + max(bx)) / 2 + ox, (min(by) + max(by)) / 2 + oy, sx, sy)
+        pts: tuple[tuple[float, float], ...] = ()
+        if not is_axis_rectangle(local):
+            bad = polygon_problem(local)
+            if bad is not None:
+                raise StageError(b.where, "a block whose points outline an area without "
+                                 "crossing edges", bad)
+            pts = tuple((x + ox, y + oy) for x, y in local)
+        _block(name, at, (box, pts), (lo / top * size[2], hi / top * size[2]), colour, out)
 
 
-def _polygon(b: StageModel, r: Reader) -> tuple[list[tuple[float, float]], tuple[float, float]]:
-    br = Reader(f"block of {r.owner}", b.props, r.units, r.warnings)
-    n = int(br.number("points", 0))
-    pts = [br.numbers(f"point[{i}]", 2, (0.0, 0.0)) for i in range(n)]
-    z = br.numbers("z", 2, (0.0, 1.0))
-    br.has("color")
-    br.finish(b.where)
-    if n < 3:
-        raise StageError(b.where, "a block with points >= 3 and point[i] [x y]", f"points {n}")
-    return [(p[0], p[1]) for p in pts], (z[0], z[1])
+def _block(name: str, at: tuple[float, float, float],
+           shape: tuple[tuple[float, float, float, float], tuple[tuple[float, float], ...]],
+           z: tuple[float, float], colour: int, out: _Out) -> None:
+    """A box (centre, size in the model's frame) standing on the floor up to z[1], or, when
+    points are given, that polygon (in the model's frame) from z[0] to z[1]."""
+    (cx, cy, sx, sy), pts = shape
+    if pts:
+        base = max(z[0], 0.0)
+        ob = ObstacleSpec.polygon(name, Pose(*at), pts, max(z[1] - base, 0.01), colour, base)
+        out.obstacles.append(ob)
+        out.extents.extend(ob.placed())
+        return
+    px, py = _place(at, cx, cy)
+    out.obstacles.append(ObstacleSpec(name, Pose(px, py, at[2]), "box", sx, sy,
+                                      max(z[1], 0.01), colour))
+    for dx in (-sx / 2, sx / 2):
+        for dy in (-sy / 2, sy / 2):
+            out.extents.append(_place((px, py, at[2]), dx, dy))
 
 
 def _floorplan(m: StageModel, r: Reader, bitmap: str, file: Path,

@@ -24,6 +24,7 @@ from worlds.spec import (
     RobotSpec,
     SonarSpec,
 )
+from worlds.stage.blocks import body_outline
 from worlds.stage.colour import model_colour, stage_colour
 from worlds.stage.syntax import StageError, Where
 from worlds.stage.tree import Reader, StageModel, Units, Warnings
@@ -80,7 +81,7 @@ def convert_position(m: StageModel, units: Units, warnings: Warnings) -> RobotOu
     ox = r.numbers("origin", 4, (0.0, 0.0, 0.0, 0.0))[0] * units.length
     mass = r.number("mass", 9.0)
     body = BodySpec(length_m=sx, width_m=sy, height_m=max(sz, 0.05), offset_x_m=ox,
-                    mass_kg=mass if mass > 0 else 9.0)
+                    mass_kg=mass if mass > 0 else 9.0, outline=body_outline(m, r, (sx, sy)))
     loc = r.string("localization", "gps")
     if loc not in ("gps", "odom"):
         raise StageError(r.where("localization", m.where), 'localization "gps" or "odom"',

@@ -6,7 +6,7 @@ import math
 from typing import TYPE_CHECKING, ClassVar
 
 from player_server.sim.battery import Battery
-from player_server.sim.contact import Rect, rects_touch
+from player_server.sim.contact import Rect, polygon_touches, rects_touch
 from player_server.sim.readings import PowerState
 
 if TYPE_CHECKING:
@@ -89,9 +89,11 @@ def _contact(st: RobotState, models: list[tuple[Rect, float, float]],
     c, s = math.cos(st.yaw), math.sin(st.yaw)
     rect = (st.x + body.offset_x_m * c, st.y + body.offset_x_m * s, body.length_m / 2,
             body.width_m / 2, st.yaw)
+    outline = [(rect[0] + c * px - s * py, rect[1] + s * px + c * py)
+               for px, py in body.outline]
     taken = 0.0
     for footprint, give, take in models:
-        if rects_touch(rect, footprint):
+        if polygon_touches(outline, footprint) if outline else rects_touch(rect, footprint):
             if charge <= 0.0 and give > 0.0:
                 charge = give
             taken += take

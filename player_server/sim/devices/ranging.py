@@ -151,6 +151,14 @@ class RangeModel(StatelessModel):
             ty = np.where(np.abs(qy) > 1e-12, (np.sign(qy) * half_w - py) / qy, np.inf)
         inside = (np.abs(px) <= half_l) & (np.abs(py) <= half_w)
         skip = np.where(inside, np.maximum(np.minimum(tx, ty), 0.0) + 1e-3, 0.0)
+        wa = w.arrays
+        for k, robot in enumerate(wa.outline_robot.tolist()):  # bodies with an outline
+            rows = np.flatnonzero(r == robot)
+            if rows.size:
+                out_of = _outline_exit(p[rows], q[rows], wa.outline_local[
+                    wa.outline_start[k]:wa.outline_start[k + 1]])
+                # (past the convex mesh's collision margin, about 1 mm outside it)
+                skip[rows] = np.where(np.isfinite(out_of), out_of + 3e-3, 0.0)
         ox, oy, dx, dy = o.real, o.imag, d.real, d.imag
         max_r = plan.max_range
         z = plan.z
@@ -166,3 +174,16 @@ class RangeModel(StatelessModel):
                     k = i + j
                     out[k] = skip[k] + hit[2] * (max_r[k] - skip[k])
         return out
+
+
+def _outline_exit(p: np.ndarray, q: np.ndarray, outline: np.ndarray) -> np.ndarray:
+    """Where rays (origins p, directions q, in the body's frame about its centre) leave a
+    convex anticlockwise outline: inf for a ray starting outside it."""
+    e = np.roll(outline, -1) - outline
+    nrm = -1j * e  # outwards
+    rel = outline[None, :] - p[:, None]
+    num = rel.real * nrm.real + rel.imag * nrm.imag  # >= 0 on the inner side of an edge
+    den = q.real[:, None] * nrm.real + q.imag[:, None] * nrm.imag
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(den > 0.0, num / den, np.inf)
+    return np.where((num >= 0.0).all(axis=1), t.min(axis=1), np.inf)
