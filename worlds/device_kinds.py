@@ -45,7 +45,8 @@ def read_params(cls: type, t: Table, **given: Any) -> Any:
                                     positive=p.positive)
         elif p.kind == "integer":
             low = None if p.min is None else int(p.min)
-            values[name] = t.integer(key, default, min_value=low)
+            high = None if p.max is None else int(p.max)
+            values[name] = t.integer(key, default, min_value=low, max_value=high)
         elif p.kind == "angle":
             values[name] = t.angle(key, default, min_rad=p.min, max_rad=p.max)
         elif p.kind == "mount":

@@ -99,13 +99,16 @@ class Table:
         return f
 
     def integer(
-        self, name: str, default: int | None = None, *, min_value: int | None = None
+        self, name: str, default: int | None = None, *, min_value: int | None = None,
+        max_value: int | None = None,
     ) -> int:
         value = self.raw(name, _MISSING if default is None else default)
         if isinstance(value, bool) or not isinstance(value, int):
             raise self.error(name, "an integer", value)
         if min_value is not None and value < min_value:
             raise self.error(name, f"an integer >= {min_value}", value)
+        if max_value is not None and value > max_value:
+            raise self.error(name, f"an integer <= {max_value}", value)
         return value
 
     def string(

@@ -23,7 +23,7 @@ FILE = Path("x.toml")
 class _Beam:
     reach_m: float = param(0.5, "how far it reaches (m)", positive=True)
     spread_rad: float = param(0.25, "its spread", kind="angle", max=1.0)
-    beams: int = param(3, "how many", min=1)
+    beams: int = param(3, "how many", min=1, max=9)
     label: str = param("front", "its name")
 
 
@@ -40,6 +40,7 @@ def test_keys_drop_unit_suffixes_and_angles_take_deg_or_rad() -> None:
     ({"reach": 0}, "robots[0].beam.reach: expected a number > 0, found 0"),
     ({"spread_deg": 90}, "robots[0].beam.spread_deg: expected an angle <= 57.2958 deg, found 90"),
     ({"beams": 1.5}, "robots[0].beam.beams: expected an integer, found 1.5"),
+    ({"beams": 10}, "robots[0].beam.beams: expected an integer <= 9, found 10"),
     ({"label": 3}, "robots[0].beam.label: expected a string, found 3"),
 ])
 def test_bad_values_say_key_expected_and_found(data: dict[str, object], message: str) -> None:
