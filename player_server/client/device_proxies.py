@@ -1,5 +1,6 @@
 """Proxies of the devices beyond the drive and the range sensors: blobfinder, camera,
-gripper, bumper, power, PTZ, fiducial detector, simulation and opaque.
+gripper, bumper, power, PTZ, fiducial detector, inertial measurement unit, simulation and
+opaque.
 
 Each keeps its latest DATA body and typed accessors over it (see `proxies`); the blobfinder's
 blobs and the power state are taken from the receive buffer in one piece, with layouts from
@@ -8,11 +9,13 @@ the protocol's declarations.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from player_server.client.proxy import Proxy
 from player_server.protocol import actuator_msgs as am
 from player_server.protocol import constants as c
+from player_server.protocol import imu_msgs as im
 from player_server.protocol import sensor_msgs as sm
 from player_server.protocol import simulation_msgs as simm
 from player_server.protocol.common import Pose2d, Pose3d
@@ -328,6 +331,75 @@ class FiducialProxy(Proxy):
 
     def get_id(self) -> int:
         return int(self.request(c.PLAYER_FIDUCIAL_REQ_GET_ID, sm.FiducialId(0)).id)
+
+
+class ImuProxy(Proxy):
+    """An inertial measurement unit: ``state`` is the latest DATA body, of whichever of the
+    five layouts the device sends (``datatype``, its subtype); ``yaw``, ``gyro`` and ``accel``
+    read the ones it carries (None when it does not)."""
+
+    interf = int(Interface.IMU)
+
+    def __init__(self, client: Any, index: int = 0) -> None:
+        super().__init__(client, index)
+        self.datatype = 0
+        self.state: Any = None
+
+    def _update(self, subtype: int, body: Any) -> None:
+        self.datatype, self.state = subtype, body
+
+    @property
+    def yaw(self) -> float | None:
+        """The heading (rad), from any layout but CALIB."""
+        d = self.state
+        if isinstance(d, im.ImuDataState | im.ImuDataFullstate):
+            return float(d.pose.pyaw)
+        if isinstance(d, im.ImuDataEuler):
+            return float(d.orientation.pyaw)
+        if isinstance(d, im.ImuDataQuat):
+            return 2.0 * math.atan2(d.q3, d.q0)
+        return None
+
+    @property
+    def calib(self) -> im.ImuDataCalib | None:
+        """Accelerations, turn rates and magnetic field, from CALIB, QUAT or EULER."""
+        d = self.state
+        if isinstance(d, im.ImuDataCalib):
+            return d
+        if isinstance(d, im.ImuDataQuat | im.ImuDataEuler):
+            return d.calib_data
+        return None
+
+    @property
+    def gyro(self) -> tuple[float, float, float] | None:
+        """Turn rates about x, y, z (rad/s), from every layout but STATE."""
+        cal = self.calib
+        if cal is not None:
+            return (cal.gyro_x, cal.gyro_y, cal.gyro_z)
+        if isinstance(self.state, im.ImuDataFullstate):
+            v = self.state.vel
+            return (v.proll, v.ppitch, v.pyaw)
+        return None
+
+    @property
+    def accel(self) -> tuple[float, float, float] | None:
+        """Accelerations along x, y, z (m/s^2), from every layout but STATE."""
+        cal = self.calib
+        if cal is not None:
+            return (cal.accel_x, cal.accel_y, cal.accel_z)
+        if isinstance(self.state, im.ImuDataFullstate):
+            a = self.state.acc
+            return (a.px, a.py, a.pz)
+        return None
+
+    def set_datatype(self, datatype: int, timeout_s: float | None = None) -> None:
+        """Ask for DATA of subtype `datatype` (1 state, 2 calib, 3 quat, 4 Euler, 5 full)."""
+        self.request(c.PLAYER_IMU_REQ_SET_DATATYPE, im.ImuDatatypeConfig(datatype), timeout_s)
+
+    def reset_orientation(self, value: int = 0, timeout_s: float | None = None) -> None:
+        """Make the heading read 0 from now on."""
+        self.request(c.PLAYER_IMU_REQ_RESET_ORIENTATION,
+                     im.ImuResetOrientationConfig(value), timeout_s)
 
 
 class SimulationProxy(Proxy):

@@ -26,6 +26,7 @@ from player_server.client.device_proxies import (
     CameraProxy,
     FiducialProxy,
     GripperProxy,
+    ImuProxy,
     OpaqueProxy,
     PowerProxy,
     PtzProxy,
@@ -421,6 +422,7 @@ PROXIES: dict[str, type[Proxy]] = {
     "power": PowerProxy,
     "ptz": PtzProxy,
     "fiducial": FiducialProxy,
+    "imu": ImuProxy,
     "simulation": SimulationProxy,
     "opaque": OpaqueProxy,
 }

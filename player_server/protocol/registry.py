@@ -12,6 +12,7 @@ from typing import Any
 
 from player_server.protocol import actuator_msgs as am
 from player_server.protocol import constants as c
+from player_server.protocol import imu_msgs as imu
 from player_server.protocol import player_msgs as pm
 from player_server.protocol import sensor_msgs as sm
 from player_server.protocol import simulation_msgs as simm
@@ -120,6 +121,14 @@ _TABLE: dict[Key, Any] = {
     (If.CAMERA, _REQ, c.PLAYER_CAMERA_REQ_GET_SOURCE): sm.CameraSourceReq,
     (If.CAMERA, _REQ, c.PLAYER_CAMERA_REQ_SET_SOURCE): sm.CameraSourceReq,
     (If.CAMERA, _REQ, c.PLAYER_CAMERA_REQ_GET_IMAGE): sm.CameraData,
+    # imu
+    (If.IMU, _DATA, c.PLAYER_IMU_DATA_STATE): imu.ImuDataState,
+    (If.IMU, _DATA, c.PLAYER_IMU_DATA_CALIB): imu.ImuDataCalib,
+    (If.IMU, _DATA, c.PLAYER_IMU_DATA_QUAT): imu.ImuDataQuat,
+    (If.IMU, _DATA, c.PLAYER_IMU_DATA_EULER): imu.ImuDataEuler,
+    (If.IMU, _DATA, c.PLAYER_IMU_DATA_FULLSTATE): imu.ImuDataFullstate,
+    (If.IMU, _REQ, c.PLAYER_IMU_REQ_SET_DATATYPE): imu.ImuDatatypeConfig,
+    (If.IMU, _REQ, c.PLAYER_IMU_REQ_RESET_ORIENTATION): imu.ImuResetOrientationConfig,
     # ranger
     (If.RANGER, _DATA, c.PLAYER_RANGER_DATA_RANGE): sm.RangerDataRange,
     (If.RANGER, _DATA, c.PLAYER_RANGER_DATA_RANGESTAMPED): sm.RangerDataRangestamped,

@@ -15,6 +15,7 @@ import pytest
 from player_server.protocol import NEED_DATA, Decoder, Message, encode_message
 from player_server.protocol import actuator_msgs as am
 from player_server.protocol import constants as c
+from player_server.protocol import imu_msgs as imu
 from player_server.protocol import player_msgs as pm
 from player_server.protocol import sensor_msgs as sm
 from player_server.protocol import simulation_msgs as simm
@@ -85,6 +86,9 @@ def rg(w: W) -> W:
 def rc(w: W) -> W:
     return w.d(-1.5, 1.5, 0.5, 0.0, 5.0, 0.01, 10.0)
 
+
+CAL_VALUES = (0.5, -0.25, 9.75, 0.0, 0.0, 1.5, 0.125, 0.0, -0.5)
+CAL = imu.ImuDataCalib(*CAL_VALUES)
 
 D, CM, R, S = 1, 2, 3, 5
 CASES: list[tuple[str, int, int, int, Any, bytes]] = [
@@ -201,6 +205,16 @@ CASES: list[tuple[str, int, int, int, Any, bytes]] = [
     ("opaque_state", 51, D, 1, sm.OpaqueData(b'{"c":{}}'), W().raw(b'{"c":{}}').b),
     ("opaque_cmd", 51, CM, 2, sm.OpaqueData(b"abcde"), W().raw(b"abcde").b),
     ("opaque_req", 51, R, 1, sm.OpaqueData(b""), W().raw(b"").b),
+    ("imu_state", 60, D, 1, imu.ImuDataState(P3), p3(W()).b),
+    ("imu_calib", 60, D, 2, CAL, W().f(*CAL_VALUES).b),
+    ("imu_quat", 60, D, 3, imu.ImuDataQuat(CAL, 0.5, 0.0, 0.25, -0.75),
+     W().f(*CAL_VALUES).f(0.5, 0.0, 0.25, -0.75).b),
+    ("imu_euler", 60, D, 4, imu.ImuDataEuler(CAL, imu.Orientation3d(0.0, 0.25, -1.0)),
+     W().f(*CAL_VALUES).d(0.0, 0.25, -1.0).b),
+    ("imu_fullstate", 60, D, 5, imu.ImuDataFullstate(P3, P3, Pose3d()),
+     p3(p3(W())).d(*[0.0] * 6).b),
+    ("imu_datatype", 60, R, 1, imu.ImuDatatypeConfig(4), W().u(4).b),
+    ("imu_reset", 60, R, 2, imu.ImuResetOrientationConfig(7), W().u(7).b),
     ("ranger", 62, D, 1, sm.RangerDataRange((1.0, 2.0)), W().u(2, 2).d(1.0, 2.0).b),
     ("ranger_stamped", 62, D, 2,
      sm.RangerDataRangestamped(sm.RangerDataRange((1.0,)), 1, RG, 1, RC),
@@ -221,6 +235,7 @@ EMPTY_CASES = [
     (1, R, 4), (1, S, 1), (3, CM, 1), (3, CM, 2), (3, CM, 3), (3, CM, 4), (3, CM, 5),
     (4, R, 6), (31, CM, 1), (31, CM, 2), (31, CM, 3),
     (4, R, 1), (6, R, 1), (6, R, 3), (62, R, 1), (62, R, 5), (1, R, 1),  # empty requests
+    (60, R, 1), (60, R, 2),  # the imu's requests are answered with empty ACKs
 ]
 
 
