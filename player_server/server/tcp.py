@@ -23,7 +23,8 @@ from __future__ import annotations
 import contextlib
 import errno
 import logging
-import selectors
+import math
+import select
 import socket
 import struct
 import time
@@ -45,6 +46,8 @@ _ACCEPT_BACKOFF_MIN_S = 0.05
 _ACCEPT_BACKOFF_MAX_S = 2.0
 #: how often connections are checked for frames left incomplete too long
 _FRAME_CHECK_S = 0.5
+_IN = select.EPOLLIN
+_OUT = select.EPOLLOUT
 
 
 @dataclass(eq=False)
@@ -53,7 +56,8 @@ class _Conn:
     session: Session
     out: memoryview = field(default_factory=lambda: memoryview(b""))
     reading: bool = True
-    events: int = selectors.EVENT_READ
+    #: the epoll events the connection is registered for
+    events: int = _IN
     #: (clock, messages decoded) when bytes of an incomplete frame were first seen waiting
     partial: tuple[float, int] | None = None
 
@@ -76,17 +80,26 @@ class TcpFrontEnd:
         self.refused_connections = 0
         self.accept_failures = 0
         self.frame_timeouts = 0
-        self._sel = selectors.DefaultSelector()
+        # a bare epoll and file descriptor -> connection maps: a selector's key objects per
+        # event cost more than a round trip's own work
+        self._ep = select.epoll()
         self._listeners: list[socket.socket] = []
         self._listener_eps: list[Endpoint] = []
+        #: listening socket's descriptor -> (socket, endpoint), while accepting
+        self._listening: dict[int, tuple[socket.socket, Endpoint]] = {}
         self._conns: dict[int, _Conn] = {}
         self._by_session: dict[int, _Conn] = {}
+        #: connections whose last turn left input to handle (``core.has_backlog``)
+        self._backlogged: list[_Conn] = []
+        #: connections a poll read, wrote or worked on: the ones its flush looks at
+        self._touched: list[_Conn] = []
         core.round_ready = self._round_ready
         self._rview = memoryview(bytearray(_RECV_SIZE))
         self._wake_r, self._wake_w = socket.socketpair()
         self._wake_r.setblocking(False)
         self._wake_w.setblocking(False)
-        self._sel.register(self._wake_r, selectors.EVENT_READ, ("wake", None))
+        self._wake_fd = self._wake_r.fileno()
+        self._ep.register(self._wake_fd, _IN)
         self.closed_connections = 0
         self._closed = False
 
@@ -103,7 +116,7 @@ class TcpFrontEnd:
                 ep.port = ls.getsockname()[1]
                 self._listeners.append(ls)
                 self._listener_eps.append(ep)
-                self._sel.register(ls, selectors.EVENT_READ, ("listen", ep))
+                self._listen(ls, ep)
         except OSError:
             self.close()
             raise
@@ -115,16 +128,15 @@ class TcpFrontEnd:
         self._closed = True
         for conn in list(self._conns.values()):
             self._drop(conn, "server stopping")
+        self._stop_listening()
         for ls in self._listeners:
-            with contextlib.suppress(KeyError, ValueError):
-                self._sel.unregister(ls)
             ls.close()
         self._listeners.clear()
-        with contextlib.suppress(KeyError, ValueError):
-            self._sel.unregister(self._wake_r)
+        with contextlib.suppress(OSError, ValueError):
+            self._ep.unregister(self._wake_fd)
         self._wake_r.close()
         self._wake_w.close()
-        self._sel.close()
+        self._ep.close()
 
     def wake(self) -> None:
         """Interrupt a blocking ``poll`` from another thread."""
@@ -140,37 +152,65 @@ class TcpFrontEnd:
         """Wait up to ``timeout_s`` for I/O, handle it, then flush queued output.
 
         ``before_flush`` runs after input was handled and before output is written (so
-        replies and a round produced in it leave in one write).
+        replies and a round produced in it leave in one write). Only the connections this
+        poll read, wrote or worked on are flushed, unless a round was published meanwhile
+        (every connection may then have output): a request costs the same whatever the
+        number of other connections.
         """
-        self._resume_accepting()
-        if any(self.core.has_backlog(c.session) for c in self._conns.values()):
+        if self._accept_resume is not None:
+            self._resume_accepting()
+        if self._backlogged:
             timeout_s = 0.0  # input waits to be handled: just look for more I/O
         elif self._accept_resume is not None:
             timeout_s = min(timeout_s, max(0.0, self._accept_resume - self._clock()))
-        for key, mask in self._sel.select(max(0.0, timeout_s)):
-            kind, obj = key.data
-            if kind == "listen":
-                self._accept(key.fileobj, obj)  # type: ignore[arg-type]
-            elif kind == "wake":
-                with contextlib.suppress(OSError):
-                    self._wake_r.recv(4096)
-            else:
-                conn: _Conn = obj
-                if conn.sock.fileno() < 0:
-                    continue
-                if mask & selectors.EVENT_READ:
-                    self._read(conn)
-                if mask & selectors.EVENT_WRITE and conn.sock.fileno() >= 0:
-                    self._write(conn)
-        self._work_backlogs()
-        self._check_frames()
+        # whole milliseconds, rounded up (as selectors does): no busy wait below one
+        timeout_s = math.ceil(timeout_s * 1e3) * 1e-3 if timeout_s > 0 else 0.0
+        touched = self._touched
+        conns = self._conns
+        for fd, ev in self._ep.poll(timeout_s):
+            conn = conns.get(fd)
+            if conn is None:
+                self._other_event(fd)
+                continue
+            touched.append(conn)
+            # an error or hang-up counts as both readable and writable, for what the
+            # connection waits for (as selectors has it)
+            if ev & ~_OUT and conn.events & _IN:
+                self._read(conn)
+            if ev & ~_IN and conn.events & _OUT and conn.sock.fileno() >= 0:
+                self._write(conn)
+        if self._backlogged:
+            self._work_backlogs()
+        if self.core.config.frame_timeout_s > 0:
+            self._check_frames()
+        seq = self.core.round_seq
         if before_flush is not None:
             before_flush()
-        self.flush()
+        if self.core.round_seq != seq:
+            touched.clear()
+            self.flush()
+        elif touched:
+            self._flush_conns(touched)
+            touched.clear()
+
+    def _other_event(self, fd: int) -> None:
+        """A listening socket or the wake-up socket is readable."""
+        if fd == self._wake_fd:
+            with contextlib.suppress(OSError):
+                self._wake_r.recv(4096)
+            return
+        listening = self._listening.get(fd)
+        if listening is not None:
+            self._accept(*listening)
 
     def flush(self) -> None:
         """Write queued output of every connection (without blocking)."""
-        for conn in list(self._conns.values()):
+        self._flush_conns(list(self._conns.values()))
+
+    def _flush_conns(self, conns: list[_Conn]) -> None:
+        for conn in conns:
+            if conn.sock.fileno() < 0:
+                continue  # dropped meanwhile
             if conn.session.closing is not None:
                 self._drop(conn, conn.session.closing, abort=True)
                 continue
@@ -181,19 +221,23 @@ class TcpFrontEnd:
     # -- limits ---------------------------------------------------------------------------
     def _work_backlogs(self) -> None:
         """Give every client with input left over from its last turn another budget."""
-        for conn in list(self._conns.values()):
-            if self.core.has_backlog(conn.session):
-                self.core.process(conn.session)
-                if conn.session.closing is not None:
-                    self._drop(conn, conn.session.closing, abort=True)
-                elif not conn.session.round_pending:
-                    self._write(conn)
+        waiting, self._backlogged = self._backlogged, []
+        for conn in waiting:
+            if conn.sock.fileno() < 0 or not self.core.has_backlog(conn.session):
+                continue
+            self._touched.append(conn)
+            self.core.process(conn.session)
+            if conn.session.closing is not None:
+                self._drop(conn, conn.session.closing, abort=True)
+                continue
+            if conn.session.backlog:
+                self._backlogged.append(conn)
+            if not conn.session.round_pending:
+                self._write(conn)
 
     def _check_frames(self) -> None:
         """Close connections that left a frame incomplete for longer than allowed."""
         limit = self.core.config.frame_timeout_s
-        if limit <= 0:
-            return
         now = self._clock()
         if now < self._next_frame_check:
             return
@@ -219,9 +263,7 @@ class TcpFrontEnd:
         self._limiter.log("accept", logging.WARNING,
                           "accept failed on %s: %s; not accepting for %.2f s", ep.name, exc,
                           self._accept_backoff)
-        for ls in self._listeners:
-            with contextlib.suppress(KeyError, ValueError):
-                self._sel.unregister(ls)
+        self._stop_listening()
         self._accept_resume = self._clock() + self._accept_backoff
         self._accept_backoff = min(self._accept_backoff * 2.0, _ACCEPT_BACKOFF_MAX_S)
 
@@ -230,8 +272,19 @@ class TcpFrontEnd:
             return
         self._accept_resume = None
         for ls, ep in zip(self._listeners, self._listener_eps, strict=True):
-            with contextlib.suppress(KeyError, ValueError):
-                self._sel.register(ls, selectors.EVENT_READ, ("listen", ep))
+            self._listen(ls, ep)
+
+    def _listen(self, ls: socket.socket, ep: Endpoint) -> None:
+        fd = ls.fileno()
+        if fd >= 0 and fd not in self._listening:
+            self._ep.register(fd, _IN)
+            self._listening[fd] = (ls, ep)
+
+    def _stop_listening(self) -> None:
+        for fd in list(self._listening):
+            with contextlib.suppress(OSError, ValueError):
+                self._ep.unregister(fd)
+        self._listening.clear()
 
     # -- internals --------------------------------------------------------------------------
     def _accept(self, ls: socket.socket, ep: Endpoint) -> None:
@@ -271,7 +324,7 @@ class TcpFrontEnd:
             conn = _Conn(sock, session)
             self._conns[sock.fileno()] = conn
             self._by_session[session.id] = conn
-            self._sel.register(sock, selectors.EVENT_READ, ("conn", conn))
+            self._ep.register(sock.fileno(), _IN)
             self._conn_log.log("connect", logging.INFO, "client %s connected to %s (port %d)",
                                peer, ep.name, ep.port)
 
@@ -292,6 +345,8 @@ class TcpFrontEnd:
         if conn.session.closing is not None:
             self._drop(conn, conn.session.closing, abort=True)
             return
+        if conn.session.backlog:
+            self._backlogged.append(conn)
         if conn.session.round_pending:
             return  # its ACK leaves with the round, and the client waits for that anyway
         if not self._write(conn) and _QUICKACK is not None:  # replies leave at once
@@ -330,14 +385,14 @@ class TcpFrontEnd:
             return
         want = 0
         if self.core.accepting_input(conn.session):
-            want |= selectors.EVENT_READ
+            want |= _IN
         if conn.out or self.core.has_output(conn.session):
-            want |= selectors.EVENT_WRITE
+            want |= _OUT
         if want != conn.events:
             if want == 0:
                 # a client whose replies pile up unread: wait for it to drain
-                want = selectors.EVENT_WRITE
-            self._sel.modify(conn.sock, want, ("conn", conn))
+                want = _OUT
+            self._ep.modify(conn.sock.fileno(), want)
             conn.events = want
 
     def _drop(self, conn: _Conn, reason: str, *, abort: bool = False) -> None:
@@ -349,8 +404,8 @@ class TcpFrontEnd:
                 conn.sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER,
                                      struct.pack("ii", 1, 0))
         if fd >= 0:
-            with contextlib.suppress(KeyError, ValueError):
-                self._sel.unregister(conn.sock)
+            with contextlib.suppress(OSError, ValueError):
+                self._ep.unregister(fd)
         for k, v in list(self._conns.items()):
             if v is conn:
                 del self._conns[k]
