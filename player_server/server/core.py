@@ -155,44 +155,52 @@ class ServerCore(PlayerRequests):
         a loop turn: a client flooding requests cannot starve the others)."""
         budget = self.config.input_budget if self.config.input_budget > 0 else 1 << 62
         session.backlog = False
-        while session.closing is None:
-            if budget <= 0:
-                session.backlog = session.decoder.buffered > 0
-                session.counters.budget_exhausted += session.backlog
-                return
-            try:
-                ev = session.decoder.next_event()
-            except FrameError as exc:
-                self._bad(session, None, str(exc))
-                session.closing = str(exc)
-                self.counters.sessions_closed_bad_input += 1
-                self.limiter.log("closing", logging.WARNING, "closing client %s on %s: %s",
-                                 session.peer, session.endpoint.name, exc)
-                return
-            if ev is NEED_DATA:
-                return
-            budget -= 1
-            session.counters.messages_in += 1
-            self.watchdog.heard(session.id, self._sim_time_s())
-            if isinstance(ev, Undecodable):
-                self._bad(session, ev.header, ev.reason)
-                if ev.header.type == _REQ:
-                    self._reply(session, ev.header.interf, ev.header.index,
-                                ev.header.subtype, None, ack=False)
-                continue
-            assert isinstance(ev, Message)
-            replies_before = session.counters.replies
-            try:
-                self._dispatch(session, ev)
-            except Exception as exc:  # a driver bug must not take the server down
-                self.counters.internal_errors += 1
-                self.limiter.log("internal error", logging.ERROR,
-                                 "error handling %s from %s on %s: %r", ev.header,
-                                 session.peer, session.endpoint.name, exc, exc_info=True)
-                self._bad(session, ev.header, "internal error")
-                if ev.type == _REQ and session.counters.replies == replies_before:
-                    self._reply(session, ev.interf, ev.index, ev.subtype, None, ack=False)
-            self._check_output(session)
+        next_event = session.decoder.next_event
+        handled = 0
+        try:
+            while session.closing is None:
+                if budget <= 0:
+                    session.backlog = session.decoder.buffered > 0
+                    session.counters.budget_exhausted += session.backlog
+                    return
+                try:
+                    ev = next_event()
+                except FrameError as exc:
+                    self._bad(session, None, str(exc))
+                    session.closing = str(exc)
+                    self.counters.sessions_closed_bad_input += 1
+                    self.limiter.log("closing", logging.WARNING, "closing client %s on %s: %s",
+                                     session.peer, session.endpoint.name, exc)
+                    return
+                if ev is NEED_DATA:
+                    return
+                budget -= 1
+                handled += 1
+                if isinstance(ev, Undecodable):
+                    self._bad(session, ev.header, ev.reason)
+                    if ev.header.type == _REQ:
+                        self._reply(session, ev.header.interf, ev.header.index,
+                                    ev.header.subtype, None, ack=False)
+                    continue
+                assert isinstance(ev, Message)
+                replies_before = session.counters.replies
+                try:
+                    self._dispatch(session, ev)
+                except Exception as exc:  # a driver bug must not take the server down
+                    self.counters.internal_errors += 1
+                    self.limiter.log("internal error", logging.ERROR,
+                                     "error handling %s from %s on %s: %r", ev.header,
+                                     session.peer, session.endpoint.name, exc, exc_info=True)
+                    self._bad(session, ev.header, "internal error")
+                    if ev.type == _REQ and session.counters.replies == replies_before:
+                        self._reply(session, ev.interf, ev.index, ev.subtype, None,
+                                    ack=False)
+                self._check_output(session)
+        finally:
+            if handled:
+                # the turn's messages were all heard at the same simulation time
+                session.counters.messages_in += handled
+                self.watchdog.heard(session.id, self._sim_time_s())
 
     def _bad(self, session: Session, header: Any, reason: str) -> None:
         session.counters.bad_messages += 1
@@ -438,8 +446,11 @@ class ServerCore(PlayerRequests):
 
     def rounds_wanted(self) -> bool:
         """Is some PULL client waiting for a round newer than the current one?"""
-        return any(s.round_pending and s.last_round >= self.round_seq and s.closing is None
-                   for s in self.sessions.values())
+        seq = self.round_seq
+        for s in self.sessions.values():
+            if s.round_pending and s.last_round >= seq and s.closing is None:
+                return True
+        return False
 
     # -- lockstep ---------------------------------------------------------------------------
     def is_participant(self, s: Session) -> bool:

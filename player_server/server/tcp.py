@@ -29,7 +29,7 @@ import socket
 import struct
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from player_server.server.core import ServerCore, Session
 from player_server.server.endpoint import Endpoint
@@ -54,7 +54,8 @@ _OUT = select.EPOLLOUT
 class _Conn:
     sock: socket.socket
     session: Session
-    out: memoryview = field(default_factory=lambda: memoryview(b""))
+    #: bytes taken from the session's queue and not yet sent
+    out: bytes | memoryview = b""
     reading: bool = True
     #: the epoll events the connection is registered for
     events: int = _IN
@@ -172,13 +173,13 @@ class TcpFrontEnd:
             if conn is None:
                 self._other_event(fd)
                 continue
-            touched.append(conn)
             # an error or hang-up counts as both readable and writable, for what the
             # connection waits for (as selectors has it)
             if ev & ~_OUT and conn.events & _IN:
                 self._read(conn)
             if ev & ~_IN and conn.events & _OUT and conn.sock.fileno() >= 0:
                 self._write(conn)
+                self._settle(conn)
         if self._backlogged:
             self._work_backlogs()
         if self.core.config.frame_timeout_s > 0:
@@ -214,9 +215,19 @@ class TcpFrontEnd:
             if conn.session.closing is not None:
                 self._drop(conn, conn.session.closing, abort=True)
                 continue
-            if not conn.out and self.core.has_output(conn.session):
+            if not conn.out:
                 self._write(conn)
             self._update_interest(conn)
+
+    def _settle(self, conn: _Conn) -> None:
+        """After a connection's own I/O: close it if its session ended, else wait for
+        what it now needs (its output was written as far as the socket took it)."""
+        if conn.sock.fileno() < 0:
+            return
+        if conn.session.closing is not None:
+            self._drop(conn, conn.session.closing, abort=True)
+            return
+        self._update_interest(conn)
 
     # -- limits ---------------------------------------------------------------------------
     def _work_backlogs(self) -> None:
@@ -345,15 +356,25 @@ class TcpFrontEnd:
         if conn.session.closing is not None:
             self._drop(conn, conn.session.closing, abort=True)
             return
-        if conn.session.backlog:
-            self._backlogged.append(conn)
-        if conn.session.round_pending:
-            return  # its ACK leaves with the round, and the client waits for that anyway
+        session = conn.session
+        if session.round_pending:
+            # its ACK leaves with the round, and the client waits for that anyway; what
+            # is still queued after this poll's rounds leaves in its flush
+            self._touched.append(conn)
+            if session.backlog:
+                self._backlogged.append(conn)
+            return
         if not self._write(conn) and _QUICKACK is not None:  # replies leave at once
             # nothing went back to carry the TCP ACK: acknowledge now, not after the
             # delayed-ACK timer (a Nagle client's next message waits for this ACK)
             with contextlib.suppress(OSError):
                 conn.sock.setsockopt(socket.IPPROTO_TCP, _QUICKACK, 1)
+        if session.backlog:
+            # the rest of its input is handled later in this poll, then it is flushed
+            self._backlogged.append(conn)
+            self._touched.append(conn)
+        else:
+            self._settle(conn)
 
     def _round_ready(self, session: Session) -> None:
         conn = self._by_session.get(session.id)
@@ -361,24 +382,32 @@ class TcpFrontEnd:
             self._write(conn)
 
     def _write(self, conn: _Conn) -> bool:
-        """Send what the connection has queued, without blocking; True if bytes left."""
+        """Send what the connection has queued, without blocking; True if bytes left.
+
+        What the socket did not take stays in ``conn.out`` (and the connection then waits
+        until it can write)."""
         sent = False
+        out = conn.out
         while True:
-            if not conn.out:
-                if not self.core.has_output(conn.session):
+            if not out:
+                out = self.core.take_output(conn.session)
+                if not out:
+                    conn.out = out
                     return sent
-                conn.out = memoryview(self.core.take_output(conn.session))
             try:
-                n = conn.sock.send(conn.out)
+                n = conn.sock.send(out)
             except (BlockingIOError, InterruptedError):
+                conn.out = out
                 return sent
             except OSError as exc:
+                conn.out = b""
                 self._drop(conn, f"write error: {exc}")
                 return sent
             sent = sent or n > 0
-            conn.out = conn.out[n:]
-            if conn.out:
+            if n < len(out):
+                conn.out = memoryview(out)[n:]
                 return sent
+            out = b""
 
     def _update_interest(self, conn: _Conn) -> None:
         if conn.sock.fileno() < 0:
