@@ -198,37 +198,6 @@ class PlayerClient:
                 return  # not supported: every arrival wakes the reader, which is only slower
             self._lowat = lowat
 
-    def _next(self, deadline: float | None, round_wait: bool = False) -> Message:
-        """The next decoded message from the server (blocking until ``deadline``)."""
-        if not self._events:
-            self._fill(deadline, round_wait)
-        return self._events.popleft()
-
-    def _fill(self, deadline: float | None, round_wait: bool = False) -> None:
-        """Receive until at least one decoded message is queued in ``_events``."""
-        events = self._events
-        frames = self._frames
-        while not events:
-            buf, pos, end = frames.buf, frames.start, frames.end
-            while end - pos >= _HEADER_SIZE:
-                h = _HEADER.unpack_from(buf, pos)
-                stop = pos + _HEADER_SIZE + self._frame_size(h)
-                if stop > end:
-                    frames.reserve(stop - pos)
-                    break
-                frames.start = stop
-                msg = decode_frame(h, buf, pos + _HEADER_SIZE, stop)
-                pos = stop
-                if type(msg) is Message:
-                    events.append(msg)
-                    continue
-                assert isinstance(msg, Undecodable)
-                self._skip(msg.reason)
-                if msg.header.type in (_ACK, _NACK):
-                    events.append(Message(msg.header, None))
-            if not events:
-                self._receive(deadline, round_wait)
-
     def _frame_size(self, header: tuple[Any, ...]) -> int:
         size: int = header[8]
         if size > _MAX_SIZE:
@@ -258,8 +227,9 @@ class PlayerClient:
                 raise PlayerConnectionError("not connected")
             if deadline is not None and deadline - self._clock() <= 0:
                 raise PlayerTimeout("timed out waiting for the server")
-            self._set_lowat(sock, 1 if not round_wait or frames.end > frames.start
-                            else _ROUND_LOWAT)
+            lowat = _ROUND_LOWAT if round_wait and frames.end == frames.start else 1
+            if lowat != self._lowat:
+                self._set_lowat(sock, lowat)
             try:
                 # a blocking recv bounded by SO_RCVTIMEO slices: one system call per
                 # receive (a Python socket timeout would add a poll() to each), into a
@@ -296,20 +266,50 @@ class PlayerClient:
 
         Raises ``PlayerNack`` on a NACK and ``PlayerTimeout`` when no reply comes in time.
         """
-        wire = encode_message(interf, index, _REQ, subtype, body, timestamp=self._clock())
+        now = self._clock()
+        wire = encode_message(interf, index, _REQ, subtype, body, timestamp=now)
+        t = self.timeout_s if timeout_s is None else timeout_s
+        deadline = None if t <= 0 else now + t
+        events = self._events
+        frames = self._frames
         with self._io_lock:
             self._send(wire)
-            deadline = self._deadline(timeout_s, self.timeout_s)
             while True:
-                msg = self._next(deadline)
-                h = msg.header
-                if h.type in (_ACK, _NACK):
-                    if (h.interf, h.index, h.subtype) != (interf, index, subtype):
+                if events:
+                    msg = events.popleft()
+                    h = msg.header
+                    reply = msg.body
+                else:
+                    # the reply where it lies in the receive buffer, without queueing
+                    # it first (what precedes it is decoded and kept in the backlog)
+                    buf, pos = frames.buf, frames.start
+                    if frames.end - pos < _HEADER_SIZE:
+                        self._receive(deadline)
+                        continue
+                    head = _HEADER.unpack_from(buf, pos)
+                    stop = pos + _HEADER_SIZE + self._frame_size(head)
+                    if stop > frames.end:
+                        frames.reserve(stop - pos)
+                        self._receive(deadline)
+                        continue
+                    frames.start = stop
+                    frame = decode_frame(head, buf, pos + _HEADER_SIZE, stop)
+                    if type(frame) is not Message:
+                        assert isinstance(frame, Undecodable)
+                        self._skip(frame.reason)
+                        if frame.header.type not in (_ACK, _NACK):
+                            continue
+                        frame = Message(frame.header, None)
+                    h = frame.header
+                    reply = frame.body
+                    msg = frame
+                if h.type == _ACK or h.type == _NACK:
+                    if h.interf != interf or h.index != index or h.subtype != subtype:
                         log.warning("discarding an unclaimed reply %s", h)
                         continue
                     if h.type == _NACK:
-                        raise PlayerNack(interf, index, subtype, msg.body)
-                    return msg.body
+                        raise PlayerNack(interf, index, subtype, reply)
+                    return reply
                 self._backlog.append(msg)
 
     def clock(self) -> float:
