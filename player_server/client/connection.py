@@ -39,7 +39,7 @@ from player_server.client.errors import (
     PlayerNack,
     PlayerTimeout,
 )
-from player_server.client.framing import FrameBuffer, decode_frame
+from player_server.client.framing import FrameBuffer, decode_frame, decode_reply
 from player_server.client.proxy import Proxy
 from player_server.protocol import constants as c
 from player_server.protocol import player_msgs as pm
@@ -287,22 +287,33 @@ class PlayerClient:
                         self._receive(deadline)
                         continue
                     head = _HEADER.unpack_from(buf, pos)
-                    stop = pos + _HEADER_SIZE + self._frame_size(head)
+                    start = pos + _HEADER_SIZE
+                    stop = start + self._frame_size(head)
                     if stop > frames.end:
                         frames.reserve(stop - pos)
                         self._receive(deadline)
                         continue
                     frames.start = stop
-                    frame = decode_frame(head, buf, pos + _HEADER_SIZE, stop)
+                    t = head[4]
+                    if (t in (_ACK, _NACK) and head[2] == interf and head[3] == index
+                            and head[5] == subtype):
+                        reply = decode_reply(head, buf, start, stop)
+                        if isinstance(reply, Undecodable):
+                            self._skip(reply.reason)
+                            reply = None  # a reply still answers its request
+                        if t == _NACK:
+                            raise PlayerNack(interf, index, subtype, reply)
+                        return reply
+                    frame = decode_frame(head, buf, start, stop)
                     if type(frame) is not Message:
                         assert isinstance(frame, Undecodable)
                         self._skip(frame.reason)
                         if frame.header.type not in (_ACK, _NACK):
                             continue
                         frame = Message(frame.header, None)
+                    msg = frame
                     h = frame.header
                     reply = frame.body
-                    msg = frame
                 if h.type == _ACK or h.type == _NACK:
                     if h.interf != interf or h.index != index or h.subtype != subtype:
                         log.warning("discarding an unclaimed reply %s", h)

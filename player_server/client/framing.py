@@ -92,5 +92,34 @@ def decode_frame(header: tuple[Any, ...], buf: Any, start: int, end: int
     return Message(head, body)
 
 
+#: (interface, type, subtype) -> the body class's raw decoder, for replies seen before
+_REPLY_DECODERS: dict[tuple[int, int, int], Any] = {}
+
+
+def decode_reply(header: tuple[Any, ...], buf: Any, start: int, end: int) -> Any:
+    """The body of a reply frame decoded in place (``None`` if empty), or `Undecodable`.
+
+    The same result as `decode_frame` without building a `Message`: a request's reply is
+    all its caller wants, once per request.
+    """
+    if start == end:
+        return None
+    key = (header[2], header[4], header[5])
+    decode = _REPLY_DECODERS.get(key)
+    if decode is not None:
+        try:
+            body, stop = decode(buf, start)
+        except (struct.error, UnicodeDecodeError, TypeError, ValueError):
+            pass
+        else:
+            if stop == end:
+                return body
+    frame = decode_frame(header, buf, start, end)  # what is wrong with it, if anything
+    if isinstance(frame, Undecodable):
+        return frame
+    _REPLY_DECODERS[key] = lookup(*key).xdr_decode_raw
+    return frame.body
+
+
 HEADER = HEADER_STRUCT
 HEADER_LEN = HEADER_SIZE
