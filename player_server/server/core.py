@@ -195,7 +195,7 @@ class ServerCore(PlayerRequests):
                     if ev.type == _REQ and session.counters.replies == replies_before:
                         self._reply(session, ev.interf, ev.index, ev.subtype, None,
                                     ack=False)
-                self._check_output(session)
+                # (whatever queued output checked the output limit: _reply, _try_round)
         finally:
             if handled:
                 # the turn's messages were all heard at the same simulation time

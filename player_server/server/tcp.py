@@ -220,14 +220,20 @@ class TcpFrontEnd:
             self._update_interest(conn)
 
     def _settle(self, conn: _Conn) -> None:
-        """After a connection's own I/O: close it if its session ended, else wait for
-        what it now needs (its output was written as far as the socket took it)."""
+        """After a connection's own ``_write``: close it if its session ended, else wait
+        for what it now needs. The write left bytes in ``conn.out`` if, and only if, the
+        socket did not take all of its queue."""
         if conn.sock.fileno() < 0:
             return
-        if conn.session.closing is not None:
-            self._drop(conn, conn.session.closing, abort=True)
+        session = conn.session
+        if session.closing is not None:
+            self._drop(conn, session.closing, abort=True)
             return
-        self._update_interest(conn)
+        want = _IN if self.core.accepting_input(session) else 0
+        if conn.out:
+            want |= _OUT
+        if want != conn.events:
+            self._set_interest(conn, want)
 
     # -- limits ---------------------------------------------------------------------------
     def _work_backlogs(self) -> None:
@@ -408,6 +414,9 @@ class TcpFrontEnd:
                 conn.out = memoryview(out)[n:]
                 return sent
             out = b""
+            if not self.core.has_output(conn.session):
+                conn.out = out
+                return sent
 
     def _update_interest(self, conn: _Conn) -> None:
         if conn.sock.fileno() < 0:
@@ -418,11 +427,16 @@ class TcpFrontEnd:
         if conn.out or self.core.has_output(conn.session):
             want |= _OUT
         if want != conn.events:
-            if want == 0:
-                # a client whose replies pile up unread: wait for it to drain
-                want = _OUT
-            self._ep.modify(conn.sock.fileno(), want)
-            conn.events = want
+            self._set_interest(conn, want)
+
+    def _set_interest(self, conn: _Conn, want: int) -> None:
+        if want == 0:
+            # a client whose replies pile up unread: wait for it to drain
+            want = _OUT
+            if conn.events == want:
+                return
+        self._ep.modify(conn.sock.fileno(), want)
+        conn.events = want
 
     def _drop(self, conn: _Conn, reason: str, *, abort: bool = False) -> None:
         """Close a connection; ``abort`` resets it, discarding whatever the kernel still
