@@ -202,10 +202,11 @@ class PlayerServer:
         simulation here, so that its ACK and the new round leave in one write and the
         step does not wait for another pass of the loop.
         """
-        self._paused_rounds()
-        core = self.core
-        if (self._eager_step and not self.sim.paused and not self._stop.is_set()
-                and core.lockstep_ready(self._clock())):
+        if self.sim.paused:  # (a paused simulation takes no eager step)
+            if self.speedup == 0:
+                self._paused_rounds()
+        elif (self._eager_step and not self._stop.is_set()
+                and self.core.lockstep_ready(self._clock())):
             self._step_and_publish()
             self._eager_steps += 1
 
@@ -216,8 +217,9 @@ class PlayerServer:
         self._drivers = [d for ep in self.endpoints for d in ep.drivers.values()]
         self._eager_step = lockstep and period == 0.0
         next_due = self._clock()
+        quits = self.quit_time_s > 0
         while not self._stop.is_set():
-            if self._quit_reached():
+            if quits and self._quit_reached():
                 return
             now = self._clock()
             due = period == 0.0 or now >= next_due
@@ -227,7 +229,7 @@ class PlayerServer:
             if ready:
                 self._step_and_publish()
                 tcp.flush()
-                if self._quit_reached():
+                if quits and self._quit_reached():
                     return
                 if period:
                     next_due += period
