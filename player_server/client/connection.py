@@ -93,7 +93,6 @@ class PlayerClient:
         self._frames = FrameBuffer(_RECV_SIZE)
         self._lowat = 1
         self._backlog: deque[Message] = deque()
-        self._events: deque[Message] = deque()
         self._io_lock = threading.RLock()
         self._send_lock = threading.Lock()
         self._pending: list[bytes] = []
@@ -270,58 +269,42 @@ class PlayerClient:
         wire = encode_message(interf, index, _REQ, subtype, body, timestamp=now)
         t = self.timeout_s if timeout_s is None else timeout_s
         deadline = None if t <= 0 else now + t
-        events = self._events
         frames = self._frames
         with self._io_lock:
             self._send(wire)
             while True:
-                if events:
-                    msg = events.popleft()
-                    h = msg.header
-                    reply = msg.body
+                # the reply where it lies in the receive buffer; what precedes it is
+                # decoded and kept in the backlog for the next read()
+                buf, pos = frames.buf, frames.start
+                if frames.end - pos < _HEADER_SIZE:
+                    self._receive(deadline)
+                    continue
+                head = _HEADER.unpack_from(buf, pos)
+                start = pos + _HEADER_SIZE
+                stop = start + self._frame_size(head)
+                if stop > frames.end:
+                    frames.reserve(stop - pos)
+                    self._receive(deadline)
+                    continue
+                frames.start = stop
+                t = head[4]
+                if t not in (_ACK, _NACK):
+                    msg = decode_frame(head, buf, start, stop)
+                    if isinstance(msg, Undecodable):
+                        self._skip(msg.reason)
+                    else:
+                        self._backlog.append(msg)
+                    continue
+                reply = decode_reply(head, buf, start, stop)
+                if isinstance(reply, Undecodable):
+                    self._skip(reply.reason)
+                    reply = None  # a reply still answers its request
+                if head[2] != interf or head[3] != index or head[5] != subtype:
+                    log.warning("discarding an unclaimed reply %s", Header._make(head))
+                elif t == _NACK:
+                    raise PlayerNack(interf, index, subtype, reply)
                 else:
-                    # the reply where it lies in the receive buffer, without queueing
-                    # it first (what precedes it is decoded and kept in the backlog)
-                    buf, pos = frames.buf, frames.start
-                    if frames.end - pos < _HEADER_SIZE:
-                        self._receive(deadline)
-                        continue
-                    head = _HEADER.unpack_from(buf, pos)
-                    start = pos + _HEADER_SIZE
-                    stop = start + self._frame_size(head)
-                    if stop > frames.end:
-                        frames.reserve(stop - pos)
-                        self._receive(deadline)
-                        continue
-                    frames.start = stop
-                    t = head[4]
-                    if (t in (_ACK, _NACK) and head[2] == interf and head[3] == index
-                            and head[5] == subtype):
-                        reply = decode_reply(head, buf, start, stop)
-                        if isinstance(reply, Undecodable):
-                            self._skip(reply.reason)
-                            reply = None  # a reply still answers its request
-                        if t == _NACK:
-                            raise PlayerNack(interf, index, subtype, reply)
-                        return reply
-                    frame = decode_frame(head, buf, start, stop)
-                    if type(frame) is not Message:
-                        assert isinstance(frame, Undecodable)
-                        self._skip(frame.reason)
-                        if frame.header.type not in (_ACK, _NACK):
-                            continue
-                        frame = Message(frame.header, None)
-                    msg = frame
-                    h = frame.header
-                    reply = frame.body
-                if h.type == _ACK or h.type == _NACK:
-                    if h.interf != interf or h.index != index or h.subtype != subtype:
-                        log.warning("discarding an unclaimed reply %s", h)
-                        continue
-                    if h.type == _NACK:
-                        raise PlayerNack(interf, index, subtype, reply)
                     return reply
-                self._backlog.append(msg)
 
     def clock(self) -> float:
         """The client's clock (header timestamps of what it sends)."""
@@ -437,13 +420,12 @@ class PlayerClient:
                 self.flush()
             rnd = _Round(pull, ack_wait)
             updated = rnd.updated
-            events = self._events
             frames = self._frames
             unpack_header = _HEADER.unpack_from
             while True:
                 # messages decoded while a request waited for its reply come first
-                while backlog or events:
-                    msg = backlog.popleft() if backlog else events.popleft()
+                while backlog:
+                    msg = backlog.popleft()
                     head = msg.header
                     if head[4] == _DATA:
                         proxy = self._data_proxy(rnd, head)

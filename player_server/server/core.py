@@ -73,6 +73,39 @@ _POSITION2D = int(Interface.POSITION2D)
 _SYNCH_OK = encode_message(_PLAYER, 0, int(MsgType.SYNCH), c.PLAYER_SYNCH_OK)
 _FIRST_ROUND_GRACE = 4.0
 
+
+def _rule(s: Session, key: DataKey) -> int:
+    """The replace rule the client's first matching rule gives this DATA (REPLACE if none)."""
+    hit = s.rule_of.get(key)
+    if hit is not None:
+        return hit
+    interf, index, mtype, subtype = key
+    rule = c.PLAYER_PLAYER_MSG_REPLACE_RULE_REPLACE
+    for r in s.rules:
+        if ((r.interf in (-1, interf)) and (r.index in (-1, index))
+                and (r.type in (-1, mtype)) and (r.subtype in (-1, subtype))):
+            rule = r.replace
+            break
+    s.rule_of[key] = rule
+    return rule
+
+
+def _device_ignored(s: Session, key: tuple[int, int]) -> bool:
+    """Does the client's first rule for this device's DATA ignore every subtype?"""
+    hit = s.ignored.get(key)
+    if hit is not None:
+        return hit
+    interf, index = key
+    ignored = False
+    for r in s.rules:
+        if r.interf in (-1, interf) and r.index in (-1, index) and r.type in (-1, _DATA):
+            ignored = (r.subtype == -1
+                       and r.replace == c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE)
+            break
+    s.ignored[key] = ignored
+    return ignored
+
+
 class ServerCore(PlayerRequests):
     def __init__(
         self,
@@ -166,11 +199,7 @@ class ServerCore(PlayerRequests):
                 try:
                     ev = next_event()
                 except FrameError as exc:
-                    self._bad(session, None, str(exc))
-                    session.closing = str(exc)
-                    self.counters.sessions_closed_bad_input += 1
-                    self.limiter.log("closing", logging.WARNING, "closing client %s on %s: %s",
-                                     session.peer, session.endpoint.name, exc)
+                    self._unframeable(session, exc)
                     return
                 if ev is NEED_DATA:
                     return
@@ -201,6 +230,13 @@ class ServerCore(PlayerRequests):
                 # the turn's messages were all heard at the same simulation time
                 session.counters.messages_in += handled
                 self.watchdog.heard(session.id, self._sim_time_s())
+
+    def _unframeable(self, session: Session, exc: FrameError) -> None:
+        self._bad(session, None, str(exc))
+        session.closing = str(exc)
+        self.counters.sessions_closed_bad_input += 1
+        self.limiter.log("closing", logging.WARNING, "closing client %s on %s: %s",
+                         session.peer, session.endpoint.name, exc)
 
     def _bad(self, session: Session, header: Any, reason: str) -> None:
         session.counters.bad_messages += 1
@@ -286,21 +322,6 @@ class ServerCore(PlayerRequests):
             return Reply(False)
 
     # -- data -------------------------------------------------------------------------------
-    @staticmethod
-    def _rule(s: Session, key: DataKey) -> int:
-        hit = s.rule_of.get(key)
-        if hit is not None:
-            return hit
-        interf, index, mtype, subtype = key
-        rule = c.PLAYER_PLAYER_MSG_REPLACE_RULE_REPLACE
-        for r in s.rules:
-            if ((r.interf in (-1, interf)) and (r.index in (-1, index))
-                    and (r.type in (-1, mtype)) and (r.subtype in (-1, subtype))):
-                rule = r.replace
-                break
-        s.rule_of[key] = rule
-        return rule
-
     def _device_data(self, ep: Endpoint, key: tuple[int, int], driver: Driver,
                      version: tuple[float, int] | None = None) -> list[tuple[DataKey, bytes]]:
         # data depends only on simulation state: the same tick and no request or command
@@ -331,7 +352,7 @@ class ServerCore(PlayerRequests):
         ep = s.endpoint
         rules = s.rules
         for key, driver in s.subs.items():
-            if rules and self._device_ignored(s, key):
+            if rules and _device_ignored(s, key):
                 continue  # declined by the client: not even computed
             if driver.live:
                 continue  # read when the round goes out (_live_bytes)
@@ -352,22 +373,6 @@ class ServerCore(PlayerRequests):
                 log.exception("driver %s failed to produce data", driver.driver_name)
         return b"".join(out)
 
-    @staticmethod
-    def _device_ignored(s: Session, key: tuple[int, int]) -> bool:
-        """Does the client's first rule for this device's DATA ignore every subtype?"""
-        hit = s.ignored.get(key)
-        if hit is not None:
-            return hit
-        interf, index = key
-        ignored = False
-        for r in s.rules:
-            if r.interf in (-1, interf) and r.index in (-1, index) and r.type in (-1, _DATA):
-                ignored = (r.subtype == -1
-                           and r.replace == c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE)
-                break
-        s.ignored[key] = ignored
-        return ignored
-
     def _round_bytes(self, s: Session) -> bytes | None:
         """A PULL round's DATA and SYNCH as one write; None when it has no DATA. Built once
         per data version (`prepare` builds it ahead of `publish`)."""
@@ -375,7 +380,7 @@ class ServerCore(PlayerRequests):
         built = s.built
         if built is not None and built[0] == version:
             return built[1]
-        reads = s.round_reads(self._device_ignored)
+        reads = s.round_reads(_device_ignored)
         device_data = self._device_data
         ep = s.endpoint
         wires: list[bytes] = []
@@ -383,7 +388,7 @@ class ServerCore(PlayerRequests):
             ignore = c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE
             for key, driver in reads:
                 wires.extend(wire for dkey, wire in device_data(ep, key, driver, version)
-                             if self._rule(s, dkey) != ignore)
+                             if _rule(s, dkey) != ignore)
         else:
             for key, driver in reads:
                 for _dkey, wire in device_data(ep, key, driver, version):
@@ -427,7 +432,7 @@ class ServerCore(PlayerRequests):
                 self._try_round(s)
             else:
                 for dkey, wire in self._round_items(s):
-                    rule = self._rule(s, dkey)
+                    rule = _rule(s, dkey)
                     if rule != c.PLAYER_PLAYER_MSG_REPLACE_RULE_IGNORE:
                         s.queue.push_data(
                             dkey, wire, rule == c.PLAYER_PLAYER_MSG_REPLACE_RULE_REPLACE)
