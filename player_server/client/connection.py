@@ -267,8 +267,8 @@ class PlayerClient:
         """
         now = self._clock()
         wire = encode_message(interf, index, _REQ, subtype, body, timestamp=now)
-        t = self.timeout_s if timeout_s is None else timeout_s
-        deadline = None if t <= 0 else now + t
+        limit = self.timeout_s if timeout_s is None else timeout_s
+        deadline = None if limit <= 0 else now + limit
         frames = self._frames
         with self._io_lock:
             self._send(wire)
