@@ -14,6 +14,14 @@ the ``simple`` world in its own process, then measures with our client:
   Nagle's algorithm on and writes a velocity command (no reply) and then REQ DATA as two
   separate sends (the server's prompt ACK keeps the second from waiting ~40 ms).
 
+Where the processes run matters on an idle virtual machine: a process woken on another,
+idle core waits for that core to come out of its idle state (about 65 us per round trip on
+the 2-core test machine, for the bare echo as for the server), while one woken on the
+waker's core does not. The kernel often places the echo beside the client and the server
+(several threads) elsewhere, which compares unlike with unlike. ``--cpus same`` runs the
+client, the server and the echo on one CPU; ``--cpus split`` the client on one and the
+server and the echo on another; ``--cpus free`` (the default) leaves placement to the kernel.
+
 Each figure is the median over several runs (each run's own median for latencies).
 The last line reads ``req_rtt_us_median=<x> pull_round_us_median=<y> msgs_per_s=<z>
 raw_tcp_rtt_us_median=<r> rtt_ratio=<q> nagle_tick_ms_median=<t>``.
@@ -22,6 +30,7 @@ raw_tcp_rtt_us_median=<r> rtt_ratio=<q> nagle_tick_ms_median=<t>``.
 from __future__ import annotations
 
 import argparse
+import os
 import socket
 import statistics
 import struct
@@ -44,12 +53,32 @@ from player_server.protocol import encode_message
 from player_server.protocol import player_msgs as pm
 from player_server.protocol.common import DevAddr, Pose2d
 
+#: CPUs for (this client, the server and the echo), set by --cpus; None: not pinned
+_PLACE: dict[str, set[int] | None] = {"client": None, "peer": None}
+
+
+def _pin_peer() -> None:
+    """In a child before it runs: the placement --cpus chose for the server and the echo."""
+    if _PLACE["peer"] is not None:
+        os.sched_setaffinity(0, _PLACE["peer"])
+
+
+def place(mode: str) -> None:
+    cpus = sorted(os.sched_getaffinity(0))
+    if mode == "free":
+        return
+    if mode == "split" and len(cpus) < 2:
+        raise SystemExit("--cpus split needs two CPUs")
+    _PLACE["client"] = {cpus[0]}
+    _PLACE["peer"] = {cpus[0]} if mode == "same" else {cpus[1]}
+    os.sched_setaffinity(0, _PLACE["client"])
+
 
 def start_server(world: str, *mode: str) -> tuple[subprocess.Popen[str], int]:
     proc = subprocess.Popen(
         [sys.executable, "-m", "player_server.server", world, "-p", "0", "--speedup", "0",
          "-q", *(mode or ("--paused",))],
-        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, preexec_fn=_pin_peer)
     assert proc.stdout is not None
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline:
@@ -86,7 +115,7 @@ class RawEcho:
 
     def __init__(self) -> None:
         self.proc = subprocess.Popen([sys.executable, "-c", _ECHO], stdout=subprocess.PIPE,
-                                     text=True)
+                                     text=True, preexec_fn=_pin_peer)
         assert self.proc.stdout is not None
         port = int(self.proc.stdout.readline())
         self.sock = socket.create_connection(("127.0.0.1", port))
@@ -200,7 +229,10 @@ def main() -> int:
     ap.add_argument("--runs", type=int, default=5)
     ap.add_argument("-n", type=int, default=1000, help="operations per run")
     ap.add_argument("--world", default="simple")
+    ap.add_argument("--cpus", choices=("free", "same", "split"), default="free",
+                    help="where the client, the server and the echo run (see above)")
     args = ap.parse_args()
+    place(args.cpus)
     proc, port = start_server(args.world)
     try:
         cl = PlayerClient("127.0.0.1", port, lockstep=False).connect()
