@@ -62,6 +62,8 @@ _RECV_SIZE = 256 * 1024
 #: wake a reader waiting for a round only for more than a lone reply header
 _ROUND_LOWAT = c.HEADER_SIZE + 1
 _HEADER = HEADER_STRUCT
+_pack_header = HEADER_STRUCT.pack
+_unpack_header = HEADER_STRUCT.unpack_from
 _HEADER_SIZE = c.HEADER_SIZE
 _MAX_SIZE = c.MAX_MESSAGE_SIZE
 _REQ_DATA = c.PLAYER_REQ_DATA
@@ -266,7 +268,14 @@ class PlayerClient:
         Raises ``PlayerNack`` on a NACK and ``PlayerTimeout`` when no reply comes in time.
         """
         now = self._clock()
-        wire = encode_message(interf, index, _REQ, subtype, body, timestamp=now)
+        try:
+            # a request without a body (the common case) is its header alone
+            wire = (_pack_header(0, 0, interf, index, _REQ, subtype, now, 0, 0)
+                    if body is None else None)
+        except struct.error:
+            wire = None  # encode_message says what is wrong
+        if wire is None:
+            wire = encode_message(interf, index, _REQ, subtype, body, timestamp=now)
         limit = self.timeout_s if timeout_s is None else timeout_s
         deadline = None if limit <= 0 else now + limit
         frames = self._frames
@@ -279,9 +288,10 @@ class PlayerClient:
                 if frames.end - pos < _HEADER_SIZE:
                     self._receive(deadline)
                     continue
-                head = _HEADER.unpack_from(buf, pos)
+                head = _unpack_header(buf, pos)
                 start = pos + _HEADER_SIZE
-                stop = start + self._frame_size(head)
+                size = head[8]
+                stop = start + (size if size <= _MAX_SIZE else self._frame_size(head))
                 if stop > frames.end:
                     frames.reserve(stop - pos)
                     self._receive(deadline)
