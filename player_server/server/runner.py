@@ -187,11 +187,12 @@ class PlayerServer:
                                       "the step: %r", d.driver_name, exc, exc_info=True)
             self.sim.step()
 
-    def _paused_rounds(self) -> None:
-        """While paused, serve waiting rounds at once (in the same write as their ACK)."""
+    def _serve_waiting_rounds(self) -> None:
+        """While paused at full speed, serve waiting rounds at once (in the same write as
+        their ACK)."""
         core = self.core
-        if (self.sim.paused and self.speedup == 0 and core.rounds_wanted()
-                and (not core.config.lockstep or core.lockstep_ready(self._clock()))):
+        if core.rounds_wanted() and (not core.config.lockstep
+                                     or core.lockstep_ready(self._clock())):
             core.publish()
             self.ticks += 1
 
@@ -204,7 +205,7 @@ class PlayerServer:
         """
         if self.sim.paused:  # (a paused simulation takes no eager step)
             if self.speedup == 0:
-                self._paused_rounds()
+                self._serve_waiting_rounds()
         elif (self._eager_step and not self._stop.is_set()
                 and self.core.lockstep_ready(self._clock())):
             self._step_and_publish()
@@ -218,10 +219,14 @@ class PlayerServer:
         self._eager_step = lockstep and period == 0.0
         next_due = self._clock()
         quits = self.quit_time_s > 0
-        while not self._stop.is_set():
+        clock = self._clock
+        #: the time matters to a period or to lockstep's stall timer only
+        timed = period != 0.0 or lockstep
+        stopping = self._stop.is_set
+        while not stopping():
             if quits and self._quit_reached():
                 return
-            now = self._clock()
+            now = clock() if timed else 0.0
             due = period == 0.0 or now >= next_due
             ready = due and (core.lockstep_ready(now) if lockstep else True)
             if ready and sim.paused and not core.rounds_wanted():
