@@ -74,6 +74,7 @@ _POSITION2D = int(Interface.POSITION2D)
 _SYNCH_OK = encode_message(_PLAYER, 0, int(MsgType.SYNCH), c.PLAYER_SYNCH_OK)
 _FIRST_ROUND_GRACE = 4.0
 _pack_header = HEADER_STRUCT.pack
+_SET_BOOLPROP_REQ = c.PLAYER_SET_BOOLPROP_REQ
 
 
 def _rule(s: Session, key: DataKey) -> int:
@@ -207,13 +208,13 @@ class ServerCore(PlayerRequests):
                     return
                 budget -= 1
                 handled += 1
-                if isinstance(ev, Undecodable):
+                if type(ev) is not Message:
+                    assert isinstance(ev, Undecodable)
                     self._bad(session, ev.header, ev.reason)
                     if ev.header.type == _REQ:
                         self._reply(session, ev.header.interf, ev.header.index,
                                     ev.header.subtype, None, ack=False)
                     continue
-                assert isinstance(ev, Message)
                 replies_before = session.counters.replies
                 try:
                     self._dispatch(session, ev)
@@ -273,31 +274,32 @@ class ServerCore(PlayerRequests):
 
     def _dispatch(self, s: Session, msg: Message) -> None:
         h = msg.header
-        if h.interf == _PLAYER:
-            if h.type == _REQ:
+        interf, index, mtype, subtype = h[2], h[3], h[4], h[5]
+        if interf == _PLAYER:
+            if mtype == _REQ:
                 s.counters.requests += 1
                 self._player_request(s, msg)
             else:
                 self._bad(s, h, "only requests go to the player device")
             return
-        key = (h.interf, h.index)
+        key = (interf, index)
         driver = s.endpoint.drivers.get(key)
-        if h.type != _CMD or driver is None or h.subtype not in driver.deferred_commands:
+        if mtype != _CMD or driver is None or subtype not in driver.deferred_commands:
             self._mutations += 1  # state may have changed: data is read afresh
-        if h.type == _REQ:
+        if mtype == _REQ:
             s.counters.requests += 1
             if driver is None:
                 self._bad(s, h, "request to an unknown device")
-                self._reply(s, h.interf, h.index, h.subtype, None, ack=False)
+                self._reply(s, interf, index, subtype, None, ack=False)
             elif key not in s.subs:
                 self._bad(s, h, "request to a device not subscribed")
-                self._reply(s, h.interf, h.index, h.subtype, None, ack=False)
-            elif h.subtype >= c.PLAYER_SET_BOOLPROP_REQ:
+                self._reply(s, interf, index, subtype, None, ack=False)
+            elif subtype >= _SET_BOOLPROP_REQ:
                 self._universal_request(s, driver, msg)
             else:
-                reply = self._call_driver_request(driver, h.subtype, msg.body)
-                self._reply(s, h.interf, h.index, h.subtype, reply.body, ack=reply.ack)
-        elif h.type == _CMD:
+                reply = self._call_driver_request(driver, subtype, msg.body)
+                self._reply(s, interf, index, subtype, reply.body, ack=reply.ack)
+        elif mtype == _CMD:
             s.counters.commands += 1
             if driver is None or key not in s.subs:
                 self._bad(s, h, "command to an unknown or unsubscribed device")
