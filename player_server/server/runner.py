@@ -82,6 +82,8 @@ class PlayerServer:
         self.ticks = 0
         self._drivers: list[Driver] = []
         self._eager_step = False
+        #: the last poll found no client waiting for a round (paused, at full speed)
+        self._none_wanted = False
         #: pipelined lockstep: the simulation is one step ahead of the last round published
         self._ahead = False
         #: ticks stepped right after the input that completed them (lockstep)
@@ -191,8 +193,11 @@ class PlayerServer:
         """While paused at full speed, serve waiting rounds at once (in the same write as
         their ACK)."""
         core = self.core
-        if core.rounds_wanted() and (not core.config.lockstep
-                                     or core.lockstep_ready(self._clock())):
+        if not core.rounds_wanted():
+            # nothing until the next input can change that: the loop's next pass need not
+            # ask again (only output is written in between)
+            self._none_wanted = True
+        elif not core.config.lockstep or core.lockstep_ready(self._clock()):
             core.publish()
             self.ticks += 1
 
@@ -229,8 +234,9 @@ class PlayerServer:
             now = clock() if timed else 0.0
             due = period == 0.0 or now >= next_due
             ready = due and (core.lockstep_ready(now) if lockstep else True)
-            if ready and sim.paused and not core.rounds_wanted():
+            if ready and sim.paused and (self._none_wanted or not core.rounds_wanted()):
                 ready = False  # paused: publish only when a client waits for a round
+            self._none_wanted = False
             if ready:
                 self._step_and_publish()
                 tcp.flush()
