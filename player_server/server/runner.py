@@ -228,6 +228,7 @@ class PlayerServer:
         #: the time matters to a period or to lockstep's stall timer only
         timed = period != 0.0 or lockstep
         stopping = self._stop.is_set
+        after_input = self._after_input
         while not stopping():
             if quits and self._quit_reached():
                 return
@@ -251,7 +252,7 @@ class PlayerServer:
                 timeout = min(next_due - now, 0.1)
             else:
                 timeout = 0.05  # waiting for clients; their I/O wakes the selector
-            tcp.poll(timeout, self._after_input)
+            tcp.poll(timeout, after_input)
 
     def _quit_reached(self) -> bool:
         if self.quit_time_s > 0 and self.sim.time_s >= self.quit_time_s - 1e-9:
