@@ -118,6 +118,7 @@ class ServerCore(PlayerRequests):
     ) -> None:
         self.endpoints = list(endpoints)
         self.config = config or CoreConfig()
+        self._output_limit = self.config.output_limit_bytes
         self._sim_time_s = sim_time_s
         self._ids = itertools.count(1)
         self.sessions: dict[int, Session] = {}
@@ -269,8 +270,10 @@ class ServerCore(PlayerRequests):
         except EncodeError:
             log.exception("cannot encode the reply to %d:%d subtype %d", interf, index, subtype)
             wire = encode_message(interf, index, _NACK, subtype, None, timestamp=t, robot=robot)
-        s.queue.push_reply(wire)
-        self._check_output(s)
+        queue = s.queue
+        queue.push_reply(wire)
+        if queue.nbytes > self._output_limit > 0:
+            self._check_output(s)
 
     def _dispatch(self, s: Session, msg: Message) -> None:
         h = msg.header

@@ -184,7 +184,7 @@ class TcpFrontEnd:
                 self._settle(conn)
         if self._backlogged:
             self._work_backlogs()
-        if self._frames_timed:
+        if self._frames_timed and self._clock() >= self._next_frame_check:
             self._check_frames()
         core = self.core
         seq = core.round_seq
