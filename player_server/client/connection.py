@@ -62,6 +62,19 @@ _RECV_SIZE = 256 * 1024
 #: wake a reader waiting for a round only for more than a lone reply header
 _ROUND_LOWAT = c.HEADER_SIZE + 1
 _HEADER = HEADER_STRUCT
+_pack_header = HEADER_STRUCT.pack
+_unpack_header = HEADER_STRUCT.unpack_from
+
+
+def _request_wire(interf: int, index: int, subtype: int, body: Any, now: float) -> bytes:
+    """A REQ as `encode_message` makes it; one without a body (the common case) is its
+    header alone, packed at once."""
+    if body is None:
+        try:
+            return _pack_header(0, 0, interf, index, _REQ, subtype, now, 0, 0)
+        except struct.error:
+            pass  # encode_message says what is wrong
+    return encode_message(interf, index, _REQ, subtype, body, timestamp=now)
 _HEADER_SIZE = c.HEADER_SIZE
 _MAX_SIZE = c.MAX_MESSAGE_SIZE
 _REQ_DATA = c.PLAYER_REQ_DATA
@@ -266,7 +279,7 @@ class PlayerClient:
         Raises ``PlayerNack`` on a NACK and ``PlayerTimeout`` when no reply comes in time.
         """
         now = self._clock()
-        wire = encode_message(interf, index, _REQ, subtype, body, timestamp=now)
+        wire = _request_wire(interf, index, subtype, body, now)
         limit = self.timeout_s if timeout_s is None else timeout_s
         deadline = None if limit <= 0 else now + limit
         frames = self._frames
@@ -279,9 +292,10 @@ class PlayerClient:
                 if frames.end - pos < _HEADER_SIZE:
                     self._receive(deadline)
                     continue
-                head = _HEADER.unpack_from(buf, pos)
+                head = _unpack_header(buf, pos)
                 start = pos + _HEADER_SIZE
-                stop = start + self._frame_size(head)
+                size = head[8]
+                stop = start + (size if size <= _MAX_SIZE else self._frame_size(head))
                 if stop > frames.end:
                     frames.reserve(stop - pos)
                     self._receive(deadline)

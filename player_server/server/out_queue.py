@@ -118,9 +118,15 @@ class OutQueue:
 
     def take(self, max_bytes: int = 1 << 20) -> bytes:
         """Remove and return queued messages, whole, up to about ``max_bytes``."""
+        entries = self._entries
+        if len(entries) == 1 and entries[0].key is None:
+            # one reply alone (a request's answer): no join
+            wire = entries.popleft().wire
+            self._reply_count -= 1
+            self.nbytes -= len(wire)
+            return wire
         parts: list[bytes] = []
         total = 0
-        entries = self._entries
         while entries and total < max_bytes:
             e = entries.popleft()
             if not e.alive:

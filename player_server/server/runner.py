@@ -82,6 +82,8 @@ class PlayerServer:
         self.ticks = 0
         self._drivers: list[Driver] = []
         self._eager_step = False
+        #: the last poll found no client waiting for a round (paused, at full speed)
+        self._none_wanted = False
         #: pipelined lockstep: the simulation is one step ahead of the last round published
         self._ahead = False
         #: ticks stepped right after the input that completed them (lockstep)
@@ -187,11 +189,15 @@ class PlayerServer:
                                       "the step: %r", d.driver_name, exc, exc_info=True)
             self.sim.step()
 
-    def _paused_rounds(self) -> None:
-        """While paused, serve waiting rounds at once (in the same write as their ACK)."""
+    def _serve_waiting_rounds(self) -> None:
+        """While paused at full speed, serve waiting rounds at once (in the same write as
+        their ACK)."""
         core = self.core
-        if (self.sim.paused and self.speedup == 0 and core.rounds_wanted()
-                and (not core.config.lockstep or core.lockstep_ready(self._clock()))):
+        if not core.rounds_wanted():
+            # nothing until the next input can change that: the loop's next pass need not
+            # ask again (only output is written in between)
+            self._none_wanted = True
+        elif not core.config.lockstep or core.lockstep_ready(self._clock()):
             core.publish()
             self.ticks += 1
 
@@ -204,7 +210,7 @@ class PlayerServer:
         """
         if self.sim.paused:  # (a paused simulation takes no eager step)
             if self.speedup == 0:
-                self._paused_rounds()
+                self._serve_waiting_rounds()
         elif (self._eager_step and not self._stop.is_set()
                 and self.core.lockstep_ready(self._clock())):
             self._step_and_publish()
@@ -218,14 +224,20 @@ class PlayerServer:
         self._eager_step = lockstep and period == 0.0
         next_due = self._clock()
         quits = self.quit_time_s > 0
-        while not self._stop.is_set():
+        clock = self._clock
+        #: the time matters to a period or to lockstep's stall timer only
+        timed = period != 0.0 or lockstep
+        stopping = self._stop.is_set
+        after_input = self._after_input
+        while not stopping():
             if quits and self._quit_reached():
                 return
-            now = self._clock()
+            now = clock() if timed else 0.0
             due = period == 0.0 or now >= next_due
             ready = due and (core.lockstep_ready(now) if lockstep else True)
-            if ready and sim.paused and not core.rounds_wanted():
+            if ready and sim.paused and (self._none_wanted or not core.rounds_wanted()):
                 ready = False  # paused: publish only when a client waits for a round
+            self._none_wanted = False
             if ready:
                 self._step_and_publish()
                 tcp.flush()
@@ -240,7 +252,7 @@ class PlayerServer:
                 timeout = min(next_due - now, 0.1)
             else:
                 timeout = 0.05  # waiting for clients; their I/O wakes the selector
-            tcp.poll(timeout, self._after_input)
+            tcp.poll(timeout, after_input)
 
     def _quit_reached(self) -> bool:
         if self.quit_time_s > 0 and self.sim.time_s >= self.quit_time_s - 1e-9:

@@ -78,6 +78,8 @@ class TcpFrontEnd:
         self._accept_resume: float | None = None
         self._accept_backoff = _ACCEPT_BACKOFF_MIN_S
         self._next_frame_check = 0.0
+        #: frames are timed at all (the core's configuration is frozen)
+        self._frames_timed = core.config.frame_timeout_s > 0
         self.refused_connections = 0
         self.accept_failures = 0
         self.frame_timeouts = 0
@@ -182,12 +184,13 @@ class TcpFrontEnd:
                 self._settle(conn)
         if self._backlogged:
             self._work_backlogs()
-        if self.core.config.frame_timeout_s > 0:
+        if self._frames_timed and self._clock() >= self._next_frame_check:
             self._check_frames()
-        seq = self.core.round_seq
+        core = self.core
+        seq = core.round_seq
         if before_flush is not None:
             before_flush()
-        if self.core.round_seq != seq:
+        if core.round_seq != seq:
             touched.clear()
             self.flush()
         elif touched:
@@ -358,11 +361,11 @@ class TcpFrontEnd:
         if not n:
             self._drop(conn, "closed by peer")
             return
-        self.core.receive(conn.session, view[:n])
-        if conn.session.closing is not None:
-            self._drop(conn, conn.session.closing, abort=True)
-            return
         session = conn.session
+        self.core.receive(session, view[:n])
+        if session.closing is not None:
+            self._drop(conn, session.closing, abort=True)
+            return
         if session.round_pending:
             # its ACK leaves with the round, and the client waits for that anyway; what
             # is still queued after this poll's rounds leaves in its flush
@@ -394,14 +397,17 @@ class TcpFrontEnd:
         until it can write)."""
         sent = False
         out = conn.out
+        core = self.core
+        session = conn.session
+        send = conn.sock.send
         while True:
             if not out:
-                out = self.core.take_output(conn.session)
+                out = core.take_output(session)
                 if not out:
                     conn.out = out
                     return sent
             try:
-                n = conn.sock.send(out)
+                n = send(out)
             except (BlockingIOError, InterruptedError):
                 conn.out = out
                 return sent
@@ -414,7 +420,7 @@ class TcpFrontEnd:
                 conn.out = memoryview(out)[n:]
                 return sent
             out = b""
-            if not self.core.has_output(conn.session):
+            if not core.has_output(session):
                 conn.out = out
                 return sent
 
