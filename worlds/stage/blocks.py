@@ -6,6 +6,8 @@ bounds, centred on the model; z as a share of the tallest block's top.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from worlds.polygon import convex_hull, is_axis_rectangle
 from worlds.stage.syntax import StageError
 from worlds.stage.tree import Reader, StageModel
@@ -27,17 +29,25 @@ def read_block(b: StageModel, r: Reader) -> tuple[list[tuple[float, float]],
     return [(p[0], p[1]) for p in pts], (z[0], z[1])
 
 
+def scale_into(polys: Sequence[Sequence[tuple[float, float]]], size: tuple[float, float]
+               ) -> list[list[tuple[float, float]]]:
+    """Stage's rule for a model's blocks: their joint bounds scaled to `size` (x, y),
+    centred on the model; each polygon's points in the model's frame."""
+    xs = [p[0] for poly in polys for p in poly]
+    ys = [p[1] for poly in polys for p in poly]
+    x0, y0 = min(xs), min(ys)
+    w, h = max(xs) - x0 or 1.0, max(ys) - y0 or 1.0
+    return [[((x - x0) / w * size[0] - size[0] / 2, (y - y0) / h * size[1] - size[1] / 2)
+             for x, y in poly] for poly in polys]
+
+
 def body_outline(m: StageModel, r: Reader, size: tuple[float, float]) -> Points:
     """The convex hull of a robot's blocks scaled into its size (x, y), about the size box's
     centre; empty when it has no blocks or the hull is that box (a rectangular body)."""
     polys = [read_block(b, r)[0] for b in m.parts if b.kind == "block"]
-    pts = [p for poly in polys for p in poly]
-    if not pts:
+    if not any(polys):
         return ()
-    xs, ys = [p[0] for p in pts], [p[1] for p in pts]
-    w, h = max(xs) - min(xs) or 1.0, max(ys) - min(ys) or 1.0
-    hull = convex_hull([((x - min(xs)) / w * size[0] - size[0] / 2,
-                         (y - min(ys)) / h * size[1] - size[1] / 2) for x, y in pts])
+    hull = convex_hull([p for poly in scale_into(polys, size) for p in poly])
     if len(hull) < 3 or is_axis_rectangle(hull):
         return ()
     return hull

@@ -27,7 +27,7 @@ from worlds.spec import (
     WorldSpec,
 )
 from worlds.stage.bitmap import Rect, merge_runs, read_solid
-from worlds.stage.blocks import read_block
+from worlds.stage.blocks import read_block, scale_into
 from worlds.stage.colour import model_colour
 from worlds.stage.robots import COMMON_IGNORED, RangerRole, convert_position
 from worlds.stage.syntax import Document, StageError, Where, parse_file
@@ -175,14 +175,12 @@ def _solid(m: StageModel, r: Reader, at: tuple[float, float, float],
             _block(m.name + suffix, at, ((ox, oy, size[0], size[1]), ()), (0.0, size[2]),
                    colour, out)
         return
-    xs = [p[0] for poly, _ in polys for p in poly]
-    ys = [p[1] for poly, _ in polys for p in poly]
-    w, h = max(xs) - min(xs) or 1.0, max(ys) - min(ys) or 1.0
     top = max(hi for _, (_, hi) in polys) or 1.0
-    for i, (b, (poly, (lo, hi))) in enumerate(zip(blocks, polys, strict=True)):
+    scaled = scale_into([poly for poly, _ in polys], (size[0], size[1]))
+    for i, (b, (_, (lo, hi)), poly) in enumerate(zip(blocks, polys, scaled, strict=True)):
         name = m.name + suffix if len(polys) == 1 else f"{m.name}{suffix}.block{i}"
-        bx = [(p[0] - min(xs)) / w * size[0] - size[0] / 2 for p in poly]
-        by = [(p[1] - min(ys)) / h * size[1] - size[1] / 2 for p in poly]
+        bx = [p[0] for p in poly]
+        by = [p[1] for p in poly]
         sx, sy = max(bx) - min(bx), max(by) - min(by)
         if sx <= 0 or sy <= 0:
             continue
