@@ -184,8 +184,10 @@ class TcpFrontEnd:
                 self._settle(conn)
         if self._backlogged:
             self._work_backlogs()
-        if self._frames_timed and self._clock() >= self._next_frame_check:
-            self._check_frames()
+        if self._frames_timed:
+            now = self._clock()
+            if now >= self._next_frame_check:
+                self._check_frames(now)
         core = self.core
         seq = core.round_seq
         if before_flush is not None:
@@ -255,12 +257,10 @@ class TcpFrontEnd:
             if not conn.session.round_pending:
                 self._write(conn)
 
-    def _check_frames(self) -> None:
-        """Close connections that left a frame incomplete for longer than allowed."""
+    def _check_frames(self, now: float) -> None:
+        """Close connections that left a frame incomplete for longer than allowed (called
+        when the check is due)."""
         limit = self.core.config.frame_timeout_s
-        now = self._clock()
-        if now < self._next_frame_check:
-            return
         self._next_frame_check = now + _FRAME_CHECK_S
         for conn in list(self._conns.values()):
             dec = conn.session.decoder
