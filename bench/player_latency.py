@@ -47,6 +47,7 @@ from player_server.client import (
     RangerProxy,
     SonarProxy,
 )
+from player_server.client.proxy import Proxy
 from player_server.protocol import actuator_msgs as am
 from player_server.protocol import constants as c
 from player_server.protocol import encode_message
@@ -59,8 +60,9 @@ _PLACE: dict[str, set[int] | None] = {"client": None, "peer": None}
 
 def _pin_peer() -> None:
     """In a child before it runs: the placement --cpus chose for the server and the echo."""
-    if _PLACE["peer"] is not None:
-        os.sched_setaffinity(0, _PLACE["peer"])
+    peer = _PLACE["peer"]
+    if peer is not None:
+        os.sched_setaffinity(0, peer)
 
 
 def place(mode: str) -> None:
@@ -131,6 +133,26 @@ class RawEcho:
     def close(self) -> None:
         self.sock.close()
         self.proc.wait(10)
+
+
+#: the devices both benches subscribe
+DEVICES = (Position2dProxy, SonarProxy, LaserProxy, RangerProxy, BumperProxy, PowerProxy)
+
+
+def warmed_up(port: int, rounds: int) -> tuple[PlayerClient, list[Proxy], RawEcho]:
+    """An observer client of the server on `port` subscribed to DEVICES, and a bare echo,
+    both through `rounds` round trips first (the position2d proxy is the list's first)."""
+    cl = PlayerClient("127.0.0.1", port, lockstep=False).connect()
+    proxies = [cl.subscribe(p) for p in DEVICES]
+    pos = proxies[0]
+    assert isinstance(pos, Position2dProxy)
+    for _ in range(rounds):
+        cl.read()
+        pos.get_geometry()
+    echo = RawEcho()
+    for _ in range(rounds):
+        echo.round_trip()
+    return cl, proxies, echo
 
 
 def nagle_ticks(world: str, runs: int, n: int) -> float:
@@ -208,8 +230,7 @@ def lockstep_rounds(world: str, runs: int, n: int) -> float:
     proc, port = start_server(world, "--lockstep")
     try:
         cl = PlayerClient("127.0.0.1", port).connect()
-        for p in (Position2dProxy, SonarProxy, LaserProxy, RangerProxy, BumperProxy,
-                  PowerProxy):
+        for p in DEVICES:
             cl.subscribe(p)
         for _ in range(20):
             cl.read()
@@ -235,17 +256,10 @@ def main() -> int:
     place(args.cpus)
     proc, port = start_server(args.world)
     try:
-        cl = PlayerClient("127.0.0.1", port, lockstep=False).connect()
-        proxies = [cl.subscribe(p) for p in (Position2dProxy, SonarProxy, LaserProxy,
-                                               RangerProxy, BumperProxy, PowerProxy)]
+        cl, proxies, echo = warmed_up(port, 200)
         pos = proxies[0]
-        for _ in range(200):
-            cl.read()
-            pos.get_geometry()
+        assert isinstance(pos, Position2dProxy)
         req, pull, rate, raw = [], [], [], []
-        echo = RawEcho()
-        for _ in range(200):
-            echo.round_trip()
         for run in range(args.runs):
             w = statistics.median(timed(echo.round_trip, args.n)) * 1e6
             r = statistics.median(timed(pos.get_geometry, args.n)) * 1e6

@@ -34,16 +34,10 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from player_latency import RawEcho, start_server
+from player_latency import start_server, warmed_up
 
 from player_server.client import (
-    BumperProxy,
-    LaserProxy,
-    PlayerClient,
     Position2dProxy,
-    PowerProxy,
-    RangerProxy,
-    SonarProxy,
 )
 
 
@@ -92,19 +86,10 @@ def main() -> int:
     args = ap.parse_args()
     proc, port = start_server(args.world)
     try:
-        cl = PlayerClient("127.0.0.1", port, lockstep=False).connect()
-        for p in (Position2dProxy, SonarProxy, LaserProxy, RangerProxy, BumperProxy,
-                  PowerProxy):
-            cl.subscribe(p)
-        pos = cl.proxies[(Position2dProxy.interf, 0)]
+        cl, proxies, echo = warmed_up(port, 500)
+        pos = proxies[0]
         assert isinstance(pos, Position2dProxy)
-        for _ in range(500):
-            cl.read()
-            pos.get_geometry()
         server, client, echo_srv, echo_cli = [], [], [], []
-        echo = RawEcho()
-        for _ in range(500):
-            echo.round_trip()
         for run in range(args.runs):
             t0, s0 = time.perf_counter(), process_cpu_ns(proc.pid)
             time.sleep(0.5)
