@@ -54,26 +54,26 @@ from player_server.protocol import encode_message
 from player_server.protocol import player_msgs as pm
 from player_server.protocol.common import DevAddr, Pose2d
 
-#: CPUs for (this client, the server and the echo), set by --cpus; None: not pinned
-_PLACE: dict[str, set[int] | None] = {"client": None, "peer": None}
+#: the CPUs --cpus chose for the server and the echo (None: not pinned)
+_peer_cpus: set[int] | None = None
 
 
 def _pin_peer() -> None:
     """In a child before it runs: the placement --cpus chose for the server and the echo."""
-    peer = _PLACE["peer"]
-    if peer is not None:
-        os.sched_setaffinity(0, peer)
+    if _peer_cpus is not None:
+        os.sched_setaffinity(0, _peer_cpus)
 
 
 def place(mode: str) -> None:
+    """Pin this client (and choose the server's and echo's CPUs) as --cpus says."""
+    global _peer_cpus
     cpus = sorted(os.sched_getaffinity(0))
     if mode == "free":
         return
     if mode == "split" and len(cpus) < 2:
         raise SystemExit("--cpus split needs two CPUs")
-    _PLACE["client"] = {cpus[0]}
-    _PLACE["peer"] = {cpus[0]} if mode == "same" else {cpus[1]}
-    os.sched_setaffinity(0, _PLACE["client"])
+    _peer_cpus = {cpus[0]} if mode == "same" else {cpus[1]}
+    os.sched_setaffinity(0, {cpus[0]})
 
 
 def start_server(world: str, *mode: str) -> tuple[subprocess.Popen[str], int]:
