@@ -19,7 +19,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
-from player_server.children import end_child
+from experiments.robot_launcher import LauncherGone, RobotLauncher
+from player_server.children import ChildProcess, end_child
 
 log = logging.getLogger("murdoch.run")
 
@@ -117,7 +118,7 @@ def robot_process(name: str, *, world: str, bus: BusPlace, seed: int, logs: Path
 class RobotProcess:
     name: str
     port: int
-    proc: subprocess.Popen[bytes] | None = None
+    proc: ChildProcess | None = None
     log_file: IO[bytes] | None = None
 
 
@@ -127,7 +128,11 @@ def start_robot(rp: RobotProcess, args: list[str], log_path: Path, nice: int = 0
         rp.log_file = log_path.open("ab")
     rp.proc = subprocess.Popen(args, stdout=rp.log_file, stderr=subprocess.STDOUT,
                                stdin=subprocess.DEVNULL, env=env)
-    if nice > 0:
+    _lower_priority(rp, nice)
+
+
+def _lower_priority(rp: RobotProcess, nice: int) -> None:
+    if nice > 0 and rp.proc is not None:
         # a lower priority than the simulator's serving thread, which every robot waits on
         try:
             os.setpriority(os.PRIO_PROCESS, rp.proc.pid, nice)
@@ -155,6 +160,15 @@ class RobotSupervisor:
         self.robots: dict[str, RobotProcess] = {}
         self._starts: dict[str, int] = {}
         self._lock = threading.Lock()
+        self._launcher: RobotLauncher | None = None
+        if any(self._launchable(spec) for spec in self.specs.values()):
+            self._launcher = RobotLauncher(env)
+
+    @staticmethod
+    def _launchable(spec: ProcessSpec) -> bool:
+        """A robot run here by the `murdoch-robot` of this installation is forked by the
+        launcher; one placed elsewhere (`launch`) or another program is started by exec."""
+        return not spec.launch and spec.command == tuple(robot_command())
 
     def add(self, name: str, port: int) -> None:
         self.robots[name] = RobotProcess(name, port)
@@ -167,10 +181,25 @@ class RobotSupervisor:
             rp = self.robots[name]
             start = self._starts.get(name, 0)
             self._starts[name] = start + 1
-            argv = self.specs[name].argv(port=rp.port, instance=start)
+            spec = self.specs[name]
+            if self._launcher is not None and self._launchable(spec):
+                try:
+                    rp.proc = self._launcher.start(
+                        spec.arguments(port=rp.port, instance=start), self._log_path(name),
+                        self._nice)
+                    return rp.proc.pid
+                except LauncherGone as exc:
+                    log.warning("robots are started by exec from here on: %s", exc)
+                    self._close_launcher()
+            argv = spec.argv(port=rp.port, instance=start)
             start_robot(rp, argv, self._log_path(name), self._nice, self._env)
             assert rp.proc is not None
             return rp.proc.pid
+
+    def _close_launcher(self) -> None:
+        if self._launcher is not None:
+            self._launcher.close()
+            self._launcher = None
 
     def kill(self, name: str) -> int | None:
         with self._lock:
@@ -185,8 +214,9 @@ class RobotSupervisor:
         with self._lock:
             for name, rp in self.robots.items():
                 proc = rp.proc
-                if proc is not None and proc.poll() is not None:
-                    out.append((name, proc.pid, int(proc.returncode)))
+                code = None if proc is None else proc.poll()
+                if proc is not None and code is not None:
+                    out.append((name, proc.pid, code))
                     stop_robot(rp)
                     rp.proc = None
         return out
@@ -222,3 +252,4 @@ class RobotSupervisor:
         with self._lock:
             for rp in self.robots.values():
                 stop_robot(rp)
+            self._close_launcher()

@@ -7,9 +7,31 @@ from __future__ import annotations
 
 import signal
 import subprocess
+from typing import Protocol
 
 
-def end_child(proc: subprocess.Popen[bytes], timeout_s: float = 5.0, *,
+class ChildProcess(Protocol):
+    """What ending a child needs of it: `subprocess.Popen`, or a robot the run's launcher
+    forked (`experiments.robot_launcher.LaunchedRobot`)."""
+
+    @property
+    def pid(self) -> int: ...
+
+    @property
+    def returncode(self) -> int | None: ...
+
+    def poll(self) -> int | None: ...
+
+    def wait(self, timeout: float | None = None) -> int: ...
+
+    def send_signal(self, sig: int) -> None: ...
+
+    def terminate(self) -> None: ...
+
+    def kill(self) -> None: ...
+
+
+def end_child(proc: ChildProcess, timeout_s: float = 5.0, *,
               kill: bool = False) -> None:
     """End `proc` if it still runs: SIGTERM (after SIGCONT, since a stopped process could not
     act on it), or SIGKILL right away with `kill`; SIGKILL if it has not ended within
