@@ -50,7 +50,7 @@ PRELOADED = (behaviors.murdoch_link, murdoch.auth, murdoch.endpoint, murdoch.los
              murdoch.multicast, murdoch.transport, murdoch.transport_choice)
 
 
-def _run_child(argv: list[str], log: str, nice: int, fds: tuple[int, ...]) -> None:
+def _run_child(argv: list[str], log: str, fds: tuple[int, ...]) -> None:
     """In the forked child: become `murdoch-robot argv`, writing to `log`; never returns."""
     code = 1
     try:
@@ -65,9 +65,6 @@ def _run_child(argv: list[str], log: str, nice: int, fds: tuple[int, ...]) -> No
         os.dup2(out, 2)
         os.close(out)
         os.close(null)
-        if nice > 0:
-            with contextlib.suppress(OSError):
-                os.nice(nice)
         sys.argv = ["murdoch-robot", *argv]
         code = robot_main.main(argv)
     except SystemExit as exc:
@@ -95,7 +92,10 @@ def _start(request: dict[str, Any], fds: tuple[int, ...]) -> dict[str, Any]:
     except OSError as exc:
         return {"id": rid, "error": f"fork failed: {exc}"}
     if pid == 0:
-        _run_child(argv, log, nice, fds)
+        _run_child(argv, log, fds)
+    if nice > 0:  # before the pid is handed back, as the runner does for a robot it execs
+        with contextlib.suppress(OSError):
+            os.setpriority(os.PRIO_PROCESS, pid, nice)
     return {"id": rid, "pid": pid}
 
 
