@@ -466,7 +466,9 @@ def _watch(parts: RunParts) -> None:
     next_memory_wall = time.monotonic() + 2.0
     last_progress = (sim_now(), time.monotonic())
     waiting_for_robots = not lockstep
-    while not server.finished.wait(0.25):
+    # a fast run samples memory more often than the progress cadence when asked to
+    period = min(0.25, parts.settings.extras.memory_every_s)
+    while not server.finished.wait(period):
         rec.tick()
         wall = time.monotonic()
         if waiting_for_robots and _robots_ready(server, parts.ports):

@@ -411,17 +411,21 @@ def memory_slopes(samples: Iterable[Mapping[str, Any]], end_t: float,
                   limit_mib_per_h: float) -> tuple[Verdict, dict[str, dict[str, Any]]]:
     """From `process` samples (name, pid, rss_bytes, t): for each process name, the slope of
     its longest-lived pid's RSS over the second half of the run (and after its first
-    `WARMUP_S`), in MiB per simulated hour."""
+    `WARMUP_S`, counted from its `process_note` "started", or from 0 for a process there
+    from the start, such as the runner), in MiB per simulated hour."""
     series: dict[tuple[str, int], list[tuple[float, float]]] = {}
+    started: dict[int, float] = {}
     for s in samples:
+        if s.get("kind") == "process_note" and s.get("what") == "started":
+            started[int(s["pid"])] = float(s["t"])
         if s.get("kind") != "process":
             continue
         series.setdefault((str(s["name"]), int(s["pid"])), []).append(
             (float(s["t"]), float(s["rss_bytes"]) / (1 << 20)))
     by_name: dict[str, list[tuple[float, float]]] = {}
-    for (name, _pid), pts in sorted(series.items()):
+    for (name, pid), pts in sorted(series.items()):
         # a process restarted late in the run is judged after it has warmed up
-        since = max(end_t / 2.0, pts[0][0] + WARMUP_S)
+        since = max(end_t / 2.0, started.get(pid, 0.0) + WARMUP_S)
         pts = [p for p in pts if p[0] >= since]
         if len(pts) > len(by_name.get(name, ())):
             by_name[name] = pts

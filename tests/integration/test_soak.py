@@ -5,9 +5,9 @@ non-zero.
 The faults are drawn from the seed as in any soak, at rates that put every kind (kill and
 restart, freeze and thaw, a switch-off, a charger outage, a burst) into the first ten
 minutes; the robots' tiny batteries send them to charge within the first minute and a half;
-memory is sampled every half wall second, so the five minutes after the warm-up (600 s)
-hold enough samples to judge. The two-hour soak of the six-robot world is opt-in:
-`tests/soak/test_longterm_soak.py`."""
+memory is sampled every tenth of a wall second, so the five minutes after the warm-up (600 s),
+a few wall seconds in lockstep, hold enough samples to judge. The two-hour soak of the
+six-robot world is opt-in: `tests/soak/test_longterm_soak.py`."""
 
 from __future__ import annotations
 
@@ -30,7 +30,7 @@ SHORT_SOAK = ["--sim-hours", "0.25", "--seed", "11", "--world", "test_lowbattery
               "--faults", "random", "--task-interval", "20",
               "--kills-per-hour", "20", "--kill-down", "20s-40s", "--freezes-per-hour", "20",
               "--freeze-for", "5s-20s", "--charger-outages-per-hour", "12",
-              "--charger-outage", "1m-2m", "--burst-size", "15", "--memory-every", "0.5",
+              "--charger-outage", "1m-2m", "--burst-size", "15", "--memory-every", "0.1",
               # as in the two-hour soak: a short window cannot tell slow growth from warming
               # up (memory is judged from 600 s, the warm-up, to the end)
               "--memory-slope-limit", "30"]

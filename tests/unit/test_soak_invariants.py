@@ -210,11 +210,19 @@ def test_memory_slope_over_the_second_half() -> None:
     v, _ = memory_slopes(flat[:3], 7200.0, 2.0)
     assert not v.checked and v.held
     # a robot restarted late warms up (its first simulated minutes are not judged)
-    restarted = [{"kind": "process", "t": float(t), "name": "robot-p1", "pid": 7,
-                  "rss_bytes": (20 << 20) + min(t - 5400, 300) * 10_000}
-                 for t in range(5400, 7200, 30)]
+    restarted = [{"kind": "process_note", "what": "started", "t": 5400.0, "robot": "p1",
+                  "pid": 7},
+                 *({"kind": "process", "t": float(t), "name": "robot-p1", "pid": 7,
+                    "rss_bytes": (20 << 20) + min(t - 5400, 300) * 10_000}
+                   for t in range(5400, 7200, 30))]
     v, per = memory_slopes([*flat, *restarted], 7200.0, 2.0)
     assert v.held and abs(per["robot-p1"]["slope_mib_per_h"]) < 0.1
+    # a process there from the start is judged from WARMUP_S, however late its first
+    # sample came (a fast run's first wall seconds cover simulated minutes)
+    late = [{"kind": "process", "t": t, "name": "runner", "pid": 1, "rss_bytes": 200 << 20}
+            for t in (300.0, 650.0, 700.0, 800.0, 900.0)]
+    v, per = memory_slopes(late, 900.0, 2.0)
+    assert v.checked and per["runner"]["samples"] == 4
 
 
 def test_the_random_schedule_is_seeded_and_its_robot_episodes_never_overlap() -> None:
