@@ -53,7 +53,63 @@ def _wall(ox: float, oy: float, dx: float, dy: float, hx: float, hy: float) -> f
     return t
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+# The helpers below take scalars only, and the casts index the arrays themselves: an array
+# handed to a compiled function is reference-counted at every call, which in a loop over
+# footprints made the cast ten times slower (bench/sim_speed.py; docs/performance.md).
+
+
+@njit(cache=True, error_model="numpy")
+def _beside(c: complex, r: float, ox: float, oy: float, dx: float, dy: float, b: float
+            ) -> tuple[float, float, bool]:
+    """A footprint's centre c relative to the unit ray: (along it, beside it, whether its
+    bounding circle of radius r can hold a hit nearer than b)."""
+    cx = c.real - ox
+    cy = c.imag - oy
+    vr = cx * dx + cy * dy
+    vi = cy * dx - cx * dy
+    return vr, vi, not (-vr > r or abs(vi) > r or vr - r > b)
+
+
+@njit(cache=True, error_model="numpy")
+def _rect_hit(vr: float, vi: float, dx: float, dy: float, head_conj: complex, half: complex,
+              b: float) -> float:
+    """Distance along the unit ray to the rectangle whose centre is (vr, vi) in the ray's
+    frame (head_conj exp(-i yaw), complex half extents) when nearer than b, else inf (also
+    for a ray starting inside it): the slab test in the rectangle's frame."""
+    hr = head_conj.real
+    hi = head_conj.imag
+    qx = dx * hr - dy * hi  # the direction in the rectangle's frame
+    qy = dx * hi + dy * hr
+    px = vr * qx - vi * qy  # the centre relative to the origin, same frame
+    py = vr * qy + vi * qx
+    qx += math.copysign(_PARALLEL, qx)
+    qy += math.copysign(_PARALLEL, qy)
+    ix = 1.0 / qx
+    iy = 1.0 / qy
+    ax = px * ix
+    ay = py * iy
+    bx = abs(ix) * half.real
+    by = abs(iy) * half.imag
+    t_near = max(ax - bx, ay - by)
+    if t_near > 0.0 and t_near <= min(ax + bx, ay + by) and t_near < b:
+        return t_near
+    return np.inf
+
+
+@njit(cache=True, error_model="numpy")
+def _circle_hit(vr: float, vi: float, r: float, b: float) -> float:
+    """Distance along the unit ray to the near side of the circle of radius r centred at
+    (vr, vi) in the ray's frame when nearer than b, else inf."""
+    disc = r * r - vi * vi
+    if disc < 0.0:
+        disc = 0.0
+    t = vr - math.sqrt(disc)
+    if t > 0.0 and t < b:
+        return t
+    return np.inf
+
+
+@njit(cache=True, error_model="numpy")
 def _poly_hit(p: int, ox: float, oy: float, dx: float, dy: float, b: float,
               poly_start: np.ndarray, poly_vert: np.ndarray) -> float:
     """Distance along the unit ray to convex polygon p (anticlockwise vertices) when it is
@@ -86,89 +142,25 @@ def _poly_hit(p: int, ox: float, oy: float, dx: float, dy: float, b: float,
     return np.inf
 
 
-@njit(cache=True, error_model="numpy", inline="always")
-def _hit(f: int, ox: float, oy: float, dx: float, dy: float, b: float, n_rect: int,
-         centre: np.ndarray, head_conj: np.ndarray, half: np.ndarray,
-         radius: np.ndarray, polys: tuple[np.ndarray, np.ndarray, np.ndarray], zi: float
-         ) -> float:
-    """Distance along the unit ray (origin ox + i oy, direction dx + i dy, height zi) to
-    footprint f when it is nearer than b, else inf (also for a ray starting inside it, or
-    passing under a polygon). polys: (start, vertices, bottom) of the polygons, the
-    footprints after the rectangles."""
-    cx = centre[f].real - ox
-    cy = centre[f].imag - oy
-    vr = cx * dx + cy * dy  # along the ray
-    vi = cy * dx - cx * dy  # beside it
-    r = radius[f]
-    if -vr > r or abs(vi) > r or vr - r > b:
-        return np.inf
-    if f < n_rect:
-        hr = head_conj[f].real
-        hi = head_conj[f].imag
-        qx = dx * hr - dy * hi  # the direction in the rectangle's frame
-        qy = dx * hi + dy * hr
-        px = vr * qx - vi * qy  # the centre relative to the origin, same frame
-        py = vr * qy + vi * qx
-        qx += math.copysign(_PARALLEL, qx)
-        qy += math.copysign(_PARALLEL, qy)
-        ix = 1.0 / qx
-        iy = 1.0 / qy
-        ax = px * ix
-        ay = py * iy
-        bx = abs(ix) * half[f].real
-        by = abs(iy) * half[f].imag
-        t_near = max(ax - bx, ay - by)
-        if t_near > 0.0 and t_near <= min(ax + bx, ay + by) and t_near < b:
-            return t_near
-        return np.inf
-    if f < n_rect + polys[0].shape[0] - 1:
-        p = f - n_rect
-        if polys[2][p] > zi:
-            return np.inf
-        return _poly_hit(p, ox, oy, dx, dy, b, polys[0], polys[1])
-    disc = r * r - vi * vi
-    if disc < 0.0:
-        disc = 0.0
-    t = vr - math.sqrt(disc)
-    if t > 0.0 and t < b:
-        return t
-    return np.inf
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _every_footprint(skip: int, zi: float, ox: float, oy: float, dx: float, dy: float,
-                     b: float, n_rect: int, centre: np.ndarray, head_conj: np.ndarray,
-                     half: np.ndarray, radius: np.ndarray, top: np.ndarray,
-                     polys: tuple[np.ndarray, np.ndarray, np.ndarray]) -> float:
-    """The nearest hit below `b` among every footprint at least as tall as the ray (except
-    `skip`, the one it starts inside), else `b`."""
-    for f in range(centre.shape[0]):
-        if f == skip or top[f] < zi:
-            continue
-        t = _hit(f, ox, oy, dx, dy, b, n_rect, centre, head_conj, half, radius, polys, zi)
-        if t < b:
-            b = t
-    return b
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _ray(o: complex, d: complex, z: float, limit: float, room: np.ndarray
-         ) -> tuple[float, float, float, float, float]:
+@njit(cache=True, error_model="numpy")
+def _ray(o: complex, d: complex, z: float, limit: float, has_room: bool, hx: float,
+         hy: float, wall_top: float) -> tuple[float, float, float, float, float]:
     """A ray's origin and direction as (ox, oy, dx, dy), and how far it may go: its limit, or
-    the arena's wall if nearer and the ray is no higher than the wall."""
+    the arena's wall (half sizes hx, hy, height wall_top) if nearer and the ray is no higher
+    than the wall."""
     ox = o.real
     oy = o.imag
     dx = d.real
     dy = d.imag
     b = limit
-    if room.shape[0] == 3 and z <= room[2]:
-        w = _wall(ox, oy, dx, dy, room[0], room[1])
+    if has_room and z <= wall_top:
+        w = _wall(ox, oy, dx, dy, hx, hy)
         if w < b:
             b = w
     return ox, oy, dx, dy, b
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _slab(o: float, d: float, lo: float, hi: float, t_in: float, t_out: float
           ) -> tuple[float, float]:
     """(t_in, t_out) narrowed to where a ray along one axis (origin o, direction d) lies
@@ -182,7 +174,7 @@ def _slab(o: float, d: float, lo: float, hi: float, t_in: float, t_out: float
     return t_in, t_out
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _axis_step(o: float, d: float, lo: float, cell: float, at: int) -> tuple[int, float, float]:
     """Along one axis, for a ray in cell `at` (cells of side `cell` from `lo`): the cell step
     (-1, 0, 1), the ray parameter at the next cell boundary, and between boundaries."""
@@ -210,12 +202,31 @@ def cast_rays(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarray,
     """
     n = o.shape[0]
     n_rect = head_conj.shape[0]
-    polys = (poly_start, poly_vert, poly_bottom)
+    poly_end = n_rect + poly_start.shape[0] - 1
+    has_room = room.shape[0] == 3
+    hx, hy, wall_top = (room[0], room[1], room[2]) if has_room else (0.0, 0.0, 0.0)
     best = np.empty(n)
     for i in range(n):
-        ox, oy, dx, dy, b = _ray(o[i], d[i], z[i], limit[i], room)
-        best[i] = _every_footprint(own[i], z[i], ox, oy, dx, dy, b, n_rect, centre, head_conj,
-                                   half, radius, top, polys)
+        ox, oy, dx, dy, b = _ray(o[i], d[i], z[i], limit[i], has_room, hx, hy, wall_top)
+        zi = z[i]
+        skip = own[i]
+        for f in range(centre.shape[0]):
+            if f == skip or top[f] < zi:
+                continue
+            vr, vi, near = _beside(centre[f], radius[f], ox, oy, dx, dy, b)
+            if not near:
+                continue
+            if f < n_rect:
+                t = _rect_hit(vr, vi, dx, dy, head_conj[f], half[f], b)
+            elif f < poly_end:
+                if poly_bottom[f - n_rect] > zi:
+                    continue  # the ray passes under the polygon
+                t = _poly_hit(f - n_rect, ox, oy, dx, dy, b, poly_start, poly_vert)
+            else:
+                t = _circle_hit(vr, vi, radius[f], b)
+            if t < b:
+                b = t
+        best[i] = b
     return best
 
 
@@ -231,7 +242,9 @@ def cast_rays_grid(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarra
     n = o.shape[0]
     k = centre.shape[0]
     n_rect = head_conj.shape[0]
-    polys = (poly_start, poly_vert, poly_bottom)
+    poly_end = n_rect + poly_start.shape[0] - 1
+    has_room = room.shape[0] == 3
+    hx, hy, wall_top = (room[0], room[1], room[2]) if has_room else (0.0, 0.0, 0.0)
     x0 = gp[0]
     y0 = gp[1]
     cell = gp[2]
@@ -242,14 +255,15 @@ def cast_rays_grid(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarra
     mark = np.full(k, -1, np.int64)  # the last ray that tested each footprint
     best = np.empty(n)
     for i in range(n):
-        ox, oy, dx, dy, b = _ray(o[i], d[i], z[i], limit[i], room)
+        ox, oy, dx, dy, b = _ray(o[i], d[i], z[i], limit[i], has_room, hx, hy, wall_top)
         zi = z[i]
         skip = own[i]
         if not (math.isfinite(ox) and math.isfinite(oy) and math.isfinite(dx)
                 and math.isfinite(dy)) or (dx == 0.0 and dy == 0.0):
-            # no cell to start from, or no way to go: every footprint
-            best[i] = _every_footprint(skip, zi, ox, oy, dx, dy, b, n_rect, centre, head_conj,
-                                       half, radius, top, polys)
+            # no cell to start from, or no way to go: every footprint, as cast_rays does
+            best[i] = cast_rays(o[i:i + 1], d[i:i + 1], limit[i:i + 1], z[i:i + 1],
+                                own[i:i + 1], centre, head_conj, half, radius, top, room,
+                                poly_start, poly_vert, poly_bottom)[0]
             continue
         # The part of the ray inside the grid's box.
         t_in, t_out = _slab(ox, dx, x0, x1, 0.0, b)
@@ -271,8 +285,17 @@ def cast_rays_grid(o: np.ndarray, d: np.ndarray, limit: np.ndarray, z: np.ndarra
                 mark[f] = i
                 if f == skip or top[f] < zi:
                     continue
-                t = _hit(f, ox, oy, dx, dy, b, n_rect, centre, head_conj, half, radius, polys,
-                         zi)
+                vr, vi, near = _beside(centre[f], radius[f], ox, oy, dx, dy, b)
+                if not near:
+                    continue
+                if f < n_rect:
+                    t = _rect_hit(vr, vi, dx, dy, head_conj[f], half[f], b)
+                elif f < poly_end:
+                    if poly_bottom[f - n_rect] > zi:
+                        continue
+                    t = _poly_hit(f - n_rect, ox, oy, dx, dy, b, poly_start, poly_vert)
+                else:
+                    t = _circle_hit(vr, vi, radius[f], b)
                 if t < b:
                     b = t
             if t_max_x < t_max_y:
