@@ -1,8 +1,10 @@
-"""The per-tick sensing pass: every active range sensor and blobfinder read together.
+"""The per-tick sensing pass: the range sensors and blobfinders read in a tick, together.
 
 The first reading of a range sensor or a blobfinder in a tick computes the readings of every
-one that has been read before (`RangeModel.active`, `CameraModel.active`) in one go, and the
-world caches them until the next tick. In the fast fidelity that is one batched ray cast of
+one expected to be read in that tick (`RangeModel.reads`, `CameraModel.reads`: those read
+every tick, those read every k ticks when their turn comes; `read_schedule`) in one go, and
+the world caches them until the next tick; one read when it was not expected is computed
+then. In the fast fidelity that is one batched ray cast of
 the range sensors' rays and the blobfinders' occlusion rays; in the render fidelity each
 model renders its own.
 """
@@ -39,24 +41,21 @@ class SensingPass:
         self.timings = timings
         self.caster = CompiledCaster()
         self._zeros = np.zeros(256)
-        self._rkeys: tuple[tuple[int, str], ...] = ()
-        self._cams: tuple[int, ...] = ()
         # the world's cache key of this tick's readings (the fidelity is fixed)
         self.key = ("sensed", world.fidelity)
 
     def sensed(self) -> dict[str, dict[Any, Any]]:
-        """This tick's readings of every active range sensor and blobfinder, computed together
-        on first use."""
+        """This tick's readings of the range sensors and blobfinders expected in it,
+        computed together on first use."""
         cache = self.world.cached(self.key, lambda: {"ranges": {}, "blobs": {}})
         assert isinstance(cache, dict)
+        tick = self.world.tick
+        rkeys = self.ranging.reads.expected(tick)
         if cache["ranges"]:
-            rkeys = tuple(sorted(k for k in self.ranging.active if k not in cache["ranges"]))
-        else:
-            rkeys = self._all_rkeys()
+            rkeys = tuple(k for k in rkeys if k not in cache["ranges"])
+        cams = list(self.camera.reads.expected(tick))
         if cache["blobs"]:
-            cams = sorted(i for i in self.camera.active if i not in cache["blobs"])
-        else:
-            cams = list(self._all_cams())
+            cams = [i for i in cams if i not in cache["blobs"]]
         if rkeys or cams:
             if self.world.fidelity == "render":
                 self._render(rkeys, cams, cache)
@@ -69,7 +68,7 @@ class SensingPass:
         casts with and without the footprint grid, the blobfinders' pending pairs and boxes),
         by one pass over every range sensor and blobfinder of the world on its own arrays,
         so that the first round a client asks for does not wait seconds for a compiler on a
-        fresh clone. Keeps nothing: no reading is cached and no sensor becomes active. The
+        fresh clone. Keeps nothing: no reading is cached and no read is noted. The
         render fidelity has nothing to compile."""
         if self.world.fidelity != "fast":
             return
@@ -91,18 +90,6 @@ class SensingPass:
             bplan, pending = self.camera.fast_pending(some, self.tick_arrays.frame())
             for pairs in ([0, 0], [0]) if pending.slot.size else ([],):
                 bplan.boxes(pending, np.array(pairs, dtype=np.int64), tilt, zoom)
-
-    def _all_rkeys(self) -> tuple[tuple[int, str], ...]:
-        """Every active range sensor, sorted (the active sets only grow: their size tells
-        whether the last sort still holds)."""
-        if len(self.ranging.active) != len(self._rkeys):
-            self._rkeys = tuple(sorted(self.ranging.active))
-        return self._rkeys
-
-    def _all_cams(self) -> tuple[int, ...]:
-        if len(self.camera.active) != len(self._cams):
-            self._cams = tuple(sorted(self.camera.active))
-        return self._cams
 
     def _now(self) -> float:
         return self._clock() if self._clock is not None else 0.0

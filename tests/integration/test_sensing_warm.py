@@ -25,7 +25,8 @@ sim = Simulation(load_world(world_path("longterm")), seed=2)
 before = signatures()
 sim.warm()
 warmed = signatures()
-kept = {"active_ranges": len(sim.range_model.active), "active_cams": len(sim.camera_model.active),
+kept = {"active_ranges": len(sim.range_model.reads.known()),
+        "active_cams": len(sim.camera_model.reads.known()),
         "cached": sim.sensed_now() is not None}
 # the real pass: every robot's range sensors and blobfinder read over a few ticks
 for _ in range(3):

@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 from player_server.sim import blobs as blobmod
 from player_server.sim.devices.base import StatelessModel
 from player_server.sim.fastsense import BlobPlan, BlobRow, Frame, make_blobs
+from player_server.sim.read_schedule import ReadSchedule
 from player_server.sim.readings import Blob
 
 if TYPE_CHECKING:
@@ -31,7 +32,7 @@ class CameraModel(StatelessModel):
 
     def __init__(self, world: DeviceWorld) -> None:
         self.world = world
-        self.active: set[int] = set()
+        self.reads: ReadSchedule[int] = ReadSchedule()  # which a sensing pass looks for
 
     def build(self) -> None:
         self.plans: dict[tuple[int, ...], BlobPlan] = {}
@@ -42,10 +43,10 @@ class CameraModel(StatelessModel):
     def blobs(self, robot: str) -> tuple[Blob, ...]:
         w = self.world
         st = w.device(robot, "blobfinder")
+        self.reads.note(st.index, w.tick)
         done = w.sensed_now()
         if done is not None and st.index in done["blobs"]:
             return done["blobs"][st.index]
-        self.active.add(st.index)
         return w.sense()["blobs"][st.index]
 
     def camera_image(self, robot: str) -> NDArray[np.uint8]:

@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 
 from player_server.sim.devices.base import StatelessModel
 from player_server.sim.fastsense import Frame, RangePlan
+from player_server.sim.read_schedule import ReadSchedule
 
 if TYPE_CHECKING:
     from player_server.sim.devices.world import DeviceWorld
@@ -30,7 +31,7 @@ class RangeModel(StatelessModel):
 
     def __init__(self, world: DeviceWorld) -> None:
         self.world = world
-        self.active: set[RangeKey] = set()
+        self.reads: ReadSchedule[RangeKey] = ReadSchedule()  # which a sensing pass casts for
         # lasers and rangers cast at angles of their own (first, spacing, count; `set_fan`),
         # kept across rebuilds (a reset): they are the configuration their drivers hold
         self.fans: dict[RangeKey, tuple[float, float, int]] = {}
@@ -45,10 +46,10 @@ class RangeModel(StatelessModel):
         w = self.world
         st = w.device(robot, kind)
         key = (st.index, kind)
+        self.reads.note(key, w.tick)
         done = w.sensed_now()
         if done is not None and key in done["ranges"]:
             return done["ranges"][key]
-        self.active.add(key)
         return w.sense()["ranges"][key]
 
     def sonar(self, robot: str) -> NDArray[np.float32]:
