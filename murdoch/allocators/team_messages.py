@@ -32,10 +32,23 @@ SESSION = "team"
 
 
 @dataclass(frozen=True)
-class TaskOffer:
-    KIND: ClassVar[str] = "team-offer"
+class OfferMessage:
+    """What every message about an offer starts with: the task and the offer's number."""
+
     task_id: str
     offer: int
+
+
+@dataclass(frozen=True)
+class RobotOfferMessage(OfferMessage):
+    """A message about an offer that names the robot it comes from or goes to."""
+
+    robot: str
+
+
+@dataclass(frozen=True)
+class TaskOffer(OfferMessage):
+    KIND: ClassVar[str] = "team-offer"
     name: str
     subjects: tuple[str, ...]
     params: Mapping[str, Any]
@@ -46,12 +59,9 @@ class TaskOffer:
 
 
 @dataclass(frozen=True)
-class TaskClaim:
+class TaskClaim(RobotOfferMessage):
     KIND: ClassVar[str] = "team-claim"
     REPLY: ClassVar[bool] = True
-    task_id: str
-    offer: int
-    robot: str
     bid: float
 
 
@@ -67,11 +77,8 @@ class SeatClaim(TaskClaim):
 
 
 @dataclass(frozen=True)
-class TaskGrant:
+class TaskGrant(RobotOfferMessage):
     KIND: ClassVar[str] = "team-grant"
-    task_id: str
-    offer: int
-    robot: str
 
 
 @dataclass(frozen=True)
@@ -83,20 +90,15 @@ class SeatGrant(TaskGrant):
 
 
 @dataclass(frozen=True)
-class TaskWithdraw:
+class TaskWithdraw(OfferMessage):
     KIND: ClassVar[str] = "team-withdraw"
-    task_id: str
-    offer: int
     reason: str
 
 
 @dataclass(frozen=True)
-class TaskReport:
+class TaskReport(RobotOfferMessage):
     KIND: ClassVar[str] = "team-report"
     REPLY: ClassVar[bool] = True
-    task_id: str
-    offer: int
-    robot: str
     status: str
     """progress, completed, failed or abandoned"""
     fraction: float = 0.0

@@ -70,10 +70,23 @@ def _frozen_mapping(value: Mapping[str, Any]) -> Mapping[str, Any]:
 
 
 @dataclass(frozen=True)
-class Announce:
-    KIND: ClassVar[str] = "announce"
+class RoundMessage:
+    """What every auction message starts with: the task and its auction round."""
+
     task_id: str
     attempt: int
+
+
+@dataclass(frozen=True)
+class ContractMessage(RoundMessage):
+    """A message about the contract of a round's winner."""
+
+    winner: str
+
+
+@dataclass(frozen=True)
+class Announce(RoundMessage):
+    KIND: ClassVar[str] = "announce"
     name: str
     subjects: tuple[str, ...]
     params: Mapping[str, Any]
@@ -99,11 +112,9 @@ class Announce:
 
 
 @dataclass(frozen=True)
-class Bid:
+class Bid(RoundMessage):
     KIND: ClassVar[str] = "bid"
     REPLY: ClassVar[bool] = True
-    task_id: str
-    attempt: int
     bidder: str
     score: float
 
@@ -113,11 +124,9 @@ class Bid:
 
 
 @dataclass(frozen=True)
-class Award:
+class Award(RoundMessage):
     KIND: ClassVar[str] = "award"
     REPLY: ClassVar[bool] = True
-    task_id: str
-    attempt: int
     winner: str | None
     score: float | None
     bids: int
@@ -125,32 +134,23 @@ class Award:
 
 
 @dataclass(frozen=True)
-class Renew:
+class Renew(ContractMessage):
     KIND: ClassVar[str] = "renew"
-    task_id: str
-    attempt: int
-    winner: str
     n: int
 
 
 @dataclass(frozen=True)
-class Progress:
+class Progress(ContractMessage):
     KIND: ClassVar[str] = "progress"
     REPLY: ClassVar[bool] = True
-    task_id: str
-    attempt: int
-    winner: str
     fraction: float
     note: str
 
 
 @dataclass(frozen=True)
-class Report:
+class Report(ContractMessage):
     KIND: ClassVar[str] = "report"
     REPLY: ClassVar[bool] = True
-    task_id: str
-    attempt: int
-    winner: str
     status: str
     reason: str
 
@@ -160,11 +160,8 @@ class Report:
 
 
 @dataclass(frozen=True)
-class Revoke:
+class Revoke(ContractMessage):
     KIND: ClassVar[str] = "revoke"
-    task_id: str
-    attempt: int
-    winner: str
     reason: str
 
 
