@@ -5,9 +5,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from behaviors.basis.colour import seen
+from behaviors.basis.colour import sighting, steer_at
 from behaviors.basis.speed_limits import ForwardSpeedLimit
-from behaviors.proposal import INACTIVE, Proposal, clamp
+from behaviors.proposal import INACTIVE, Proposal
 from behaviors.snapshot import RangeScan, Snapshot, wrap_angle
 
 
@@ -139,12 +139,11 @@ class GoalFromCamera(ForwardSpeedLimit):
     name: str = "goal-from-camera"
 
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
-        view = snapshot.camera
-        blob = seen(view, now, self.max_age_s, self.colour)
-        if blob is None or view is None:
+        sight = sighting(snapshot.camera, now, self.max_age_s, self.colour)
+        if sight is None:
             return INACTIVE
-        bearing = view.bearing_of_px(blob.x_px)
-        turn = clamp(self.turn_gain * bearing, self.max_turn_radps)
+        view, blob = sight
+        bearing, turn = steer_at(view, blob.x_px, self.turn_gain, self.max_turn_radps)
         if blob.range_m <= self.arrive_range_m:
             return Proposal(True, 0.0, turn, self.weight, "goal-reached", bearing)
         speed = self.speed_mps * max(0.0, math.cos(bearing))

@@ -47,10 +47,19 @@ def fresh_view(view: BlobView | None, now: float, max_age_s: float) -> BlobView 
     return view
 
 
-def seen(view: BlobView | None, now: float, max_age_s: float, colour: int) -> Blob | None:
-    """The largest blob of `colour` in a fresh view (None when stale or not in view)."""
+def sighting(view: BlobView | None, now: float, max_age_s: float,
+             colour: int) -> tuple[BlobView, Blob] | None:
+    """A fresh view and its largest blob of `colour` (None when stale or not in view)."""
     view = fresh_view(view, now, max_age_s)
-    return None if view is None else view.largest(colour)
+    blob = None if view is None else view.largest(colour)
+    return None if view is None or blob is None else (view, blob)
+
+
+def steer_at(view: BlobView, px: float, turn_gain: float,
+             max_turn_radps: float) -> tuple[float, float]:
+    """The bearing of image column `px` and the turn rate towards it (gain, then limit)."""
+    bearing = view.bearing_of_px(px)
+    return bearing, clamp(turn_gain * bearing, max_turn_radps)
 
 
 @dataclass(frozen=True, slots=True)
@@ -76,19 +85,19 @@ class VisualServoToColour(ForwardSpeedLimit):
 
     def inputs_key(self, snapshot: Snapshot, now: float) -> object:
         """What `decide` looks at: the freshest largest blob of the colour (see `runner`)."""
-        view = snapshot.camera
-        blob = seen(view, now, self.max_age_s, self.colour)
-        if blob is None or view is None:
+        sight = sighting(snapshot.camera, now, self.max_age_s, self.colour)
+        if sight is None:
             return 0
+        view, blob = sight
         return (blob, view.width_px, view.fov_rad)
 
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
-        view = snapshot.camera
-        blob = seen(view, now, self.max_age_s, self.colour)
-        if blob is None or view is None:
+        sight = sighting(snapshot.camera, now, self.max_age_s, self.colour)
+        if sight is None:
             return INACTIVE
-        bearing = view.bearing_of_px(aim_px(blob, self.aim_fraction, view.width_px))
-        turn = clamp(self.turn_gain * bearing, self.max_turn_radps)
+        view, blob = sight
+        bearing, turn = steer_at(view, aim_px(blob, self.aim_fraction, view.width_px),
+                                 self.turn_gain, self.max_turn_radps)
         if blob.range_m <= self.stop_range_m:
             aligned = abs(bearing) <= self.align_tolerance_rad
             return Proposal(True, 0.0, turn, self.weight, "reached" if aligned else "seen",
@@ -116,19 +125,18 @@ class KeepDistanceToColour:
 
     def inputs_key(self, snapshot: Snapshot, now: float) -> object:
         """What `decide` looks at: the freshest largest blob of the colour (see `runner`)."""
-        view = snapshot.camera
-        blob = seen(view, now, self.max_age_s, self.colour)
-        if blob is None or view is None:
+        sight = sighting(snapshot.camera, now, self.max_age_s, self.colour)
+        if sight is None:
             return 0
+        view, blob = sight
         return (blob.x_px, blob.range_m, view.width_px, view.fov_rad)
 
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
-        view = snapshot.camera
-        blob = seen(view, now, self.max_age_s, self.colour)
-        if blob is None or view is None:
+        sight = sighting(snapshot.camera, now, self.max_age_s, self.colour)
+        if sight is None:
             return INACTIVE
-        bearing = view.bearing_of_px(blob.x_px)
-        turn = clamp(self.turn_gain * bearing, self.max_turn_radps)
+        view, blob = sight
+        bearing, turn = steer_at(view, blob.x_px, self.turn_gain, self.max_turn_radps)
         error = blob.range_m - self.distance_m
         if not math.isfinite(error):
             return Proposal(True, 0.0, turn, self.weight, "tracking", 0.0)
