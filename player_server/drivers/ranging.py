@@ -9,7 +9,15 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from player_server.drivers.base import ACK, Driver, Reply, Unsupported, ack, declared
+from player_server.drivers.base import (
+    ACK,
+    Driver,
+    PropValue,
+    Reply,
+    Unsupported,
+    ack,
+    declared,
+)
 from player_server.drivers.geometry import mount_pose
 from player_server.drivers.scan_config import ConfiguredScan, ScanRequest
 from player_server.protocol import constants as c
@@ -37,6 +45,23 @@ def _ranges(values: Any) -> tuple[float, ...]:
     return tuple(v if v >= 0.0 and v - v == 0.0 else 0.0 for v in out)
 
 
+def max_range_property(
+    max_range_m: float,
+) -> tuple[dict[str, PropValue], dict[str, tuple[float, float]]]:
+    """A range sensor's universal properties and their limits: "max_range", its own range,
+    which a client may set from 0 up to that."""
+    top = float(max_range_m)
+    return {"max_range": top}, {"max_range": (0.0, top)}
+
+
+def apply_scan(sim: SimPort, robot: RobotSpec, source: str, scan: ConfiguredScan,
+               request: ScanRequest) -> None:
+    """Put a SET_CONFIG in force (ValueError: NACKed, nothing changed) and have the
+    simulation cast the scanner's rays over the fan it configures."""
+    scan.set(request)
+    sim.set_scan_fan(robot.name, source, scan.config.fan)
+
+
 _MAKE_SONAR = sm.SonarData.xdr_make  # type: ignore[attr-defined]
 _MAKE_LASER = sm.LaserData.xdr_make  # type: ignore[attr-defined]
 
@@ -52,8 +77,7 @@ class SonarDriver(Driver):
         self.robot = robot
         self.spec = declared(robot.devices.sonar, f"robot {robot.name!r}", "sonar")
         self.powered = True
-        self.properties = {"max_range": float(self.spec.max_range_m)}
-        self.property_limits = {"max_range": (0.0, float(self.spec.max_range_m))}
+        self.properties, self.property_limits = max_range_property(self.spec.max_range_m)
         self._geom = self.geometry()
         # the last reading and what was made of it: the simulator hands back the same array
         # while the reading is unchanged, and then so does this driver
@@ -105,8 +129,7 @@ class LaserDriver(Driver):
         self.spec = declared(robot.devices.laser, f"robot {robot.name!r}", "laser")
         self.serial_number = serial_number
         self.powered = True
-        self.properties = {"max_range": float(self.spec.max_range_m)}
-        self.property_limits = {"max_range": (0.0, float(self.spec.max_range_m))}
+        self.properties, self.property_limits = max_range_property(self.spec.max_range_m)
         self._geom = sm.LaserGeom(mount_pose(self.spec.pose), LASER_SIZE)
         self.scan = scan or ConfiguredScan(self.spec, float(sim.spec.sim.interval_sim_s))
         self._last: tuple[Any, tuple[float, ...]] = (None, ())  # reading, its ranges
@@ -141,8 +164,7 @@ class LaserDriver(Driver):
         if subtype == c.PLAYER_LASER_REQ_GET_CONFIG:
             return ack(self.config())
         if subtype == c.PLAYER_LASER_REQ_SET_CONFIG and body is not None:
-            self.scan.set(scan_request(body))  # ValueError: NACKed, nothing changed
-            self.sim.set_scan_fan(self.robot.name, "laser", self.scan.config.fan)
+            apply_scan(self.sim, self.robot, "laser", self.scan, scan_request(body))
             return ack(self.config())
         if subtype == c.PLAYER_LASER_REQ_POWER and body is not None:
             self.powered = bool(body.state)
@@ -168,8 +190,7 @@ class RangerDriver(Driver):
         self.spec = declared(getattr(robot.devices, source), f"robot {robot.name!r}", source)
         self.source = source
         self._read = sim.laser if source == "laser" else sim.ranger
-        self.properties = {"max_range": float(self.spec.max_range_m)}
-        self.property_limits = {"max_range": (0.0, float(self.spec.max_range_m))}
+        self.properties, self.property_limits = max_range_property(self.spec.max_range_m)
         self.scan = scan or ConfiguredScan(self.spec, float(sim.spec.sim.interval_sim_s))
         self._geom = self.geometry()
 
@@ -203,8 +224,7 @@ class RangerDriver(Driver):
             return ack(self.config())
         if subtype == c.PLAYER_RANGER_REQ_SET_CONFIG and body is not None:
             req = replace(scan_request(body), intensity=self.scan.config.intensity)
-            self.scan.set(req)  # ValueError: NACKed, nothing changed
-            self.sim.set_scan_fan(self.robot.name, self.source, self.scan.config.fan)
+            apply_scan(self.sim, self.robot, self.source, self.scan, req)
             return ack(self.config())
         if subtype == c.PLAYER_RANGER_REQ_INTNS and body is not None:
             self.scan.set_intensity(bool(body.state))
@@ -228,8 +248,7 @@ class SonarRangerDriver(Driver):
         self.sim = sim
         self.robot = robot
         self.spec = declared(robot.devices.sonar, f"robot {robot.name!r}", "sonar")
-        self.properties = {"max_range": float(self.spec.max_range_m)}
-        self.property_limits = {"max_range": (0.0, float(self.spec.max_range_m))}
+        self.properties, self.property_limits = max_range_property(self.spec.max_range_m)
         poses = tuple(mount_pose(m) for m in self.spec.poses)
         self._geom = sm.RangerGeom(Pose3d(0.0, 0.0, 0.0, 0.0, 0.0, 0.0), SONAR_SIZE, poses,
                                    tuple(SONAR_SIZE for _ in poses))
