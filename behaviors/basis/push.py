@@ -33,10 +33,8 @@ class PushWithBumpers(ReversibleSpeedLimit):
         return 2 if odo is not None and odo.stall and now - odo.time_s <= self.max_age_s else 1
 
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
-        bumpers = snapshot.bumpers
-        if bumpers is None or now - bumpers.time_s > self.max_age_s or not bumpers.front_pressed:
+        contact = self.inputs_key(snapshot, now)
+        if contact == 0:
             return INACTIVE
-        odo = snapshot.odometry
-        if odo is not None and odo.stall and now - odo.time_s <= self.max_age_s:
-            return Proposal(True, self.speed_mps, 0.0, self.weight, "blocked", 0.0)
-        return Proposal(True, self.speed_mps, 0.0, self.weight, "contact", 0.0)
+        signal = "blocked" if contact == 2 else "contact"
+        return Proposal(True, self.speed_mps, 0.0, self.weight, signal, 0.0)
