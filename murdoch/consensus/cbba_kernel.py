@@ -38,6 +38,7 @@ from murdoch.consensus.kernel_parts import (
     cut_bundle,
     forget_gains,
     gain,
+    held_tasks,
     insert_task,
     merge_stamps,
     new_tally,
@@ -49,7 +50,7 @@ from murdoch.consensus.kernel_parts import (
     settled,
 )
 
-PARTS_SHA256 = "6ca3022cd459a5aafb4c96e0d700677d315f9911b9bd9ef56fc5426bad08afb1"
+PARTS_SHA256 = "f1952ff2214775fe1d4fa861cefea92756eec6b93b6862e443f9698da403b198"
 """The `kernel_parts.py` this module was written against (see its notes on numba's cache)."""
 
 
@@ -75,14 +76,12 @@ def _build(i: int, y: np.ndarray, z: np.ndarray, bundle: np.ndarray, blen: np.nd
     y, z, bundle, path, times, gain_* are agent i's rows."""
     m = y.shape[0]
     blocked = np.zeros(m, dtype=np.bool_)
-    held = np.zeros(m, dtype=np.bool_)
+    held = held_tasks(i, bundle, blen, m)
     cand_ub = np.zeros(m)
     cand_j = np.zeros(m, dtype=np.int64)
     new_path = np.zeros(m + 1, dtype=np.int64)
     new_times = np.zeros(m + 1)
     pos_of = np.zeros(m, dtype=np.int64)
-    for b in range(blen[i]):
-        held[bundle[b]] = True
     while blen[i] < max_depth:
         n_path = plen[i]
         late = prepare(at_row, tt, tasks, speed, avail, path, times, n_path, work, pos_of)

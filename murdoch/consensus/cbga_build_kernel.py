@@ -21,13 +21,14 @@ from numba import njit
 from murdoch.consensus.kernel_parts import (
     commit_path,
     gain,
+    held_tasks,
     insert_task,
     path_starts,
     prepare,
     row_winner,
 )
 
-PARTS_SHA256 = "6ca3022cd459a5aafb4c96e0d700677d315f9911b9bd9ef56fc5426bad08afb1"
+PARTS_SHA256 = "f1952ff2214775fe1d4fa861cefea92756eec6b93b6862e443f9698da403b198"
 """The `kernel_parts.py` this module was written against (see its notes on numba's cache)."""
 
 
@@ -386,9 +387,7 @@ def _build(i: int, now: float, xi: np.ndarray, ti: np.ndarray, bundle: np.ndarra
     `CbgaAgent._add_best`); the arrays are agent i's rows."""
     m, n = xi.shape
     blocked = np.zeros(m, dtype=np.bool_)
-    held = np.zeros(m, dtype=np.bool_)
-    for b in range(blen[i]):
-        held[bundle[b]] = True
+    held = held_tasks(i, bundle, blen, m)
     cand_j = np.zeros(m, dtype=np.int64)
     cand_ub = np.zeros(m)
     cand_nb = np.zeros(m)

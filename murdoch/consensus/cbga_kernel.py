@@ -76,11 +76,11 @@ from murdoch.consensus.kernel_parts import (
     settled,
 )
 
-PARTS_SHA256 = "6ca3022cd459a5aafb4c96e0d700677d315f9911b9bd9ef56fc5426bad08afb1"
+PARTS_SHA256 = "f1952ff2214775fe1d4fa861cefea92756eec6b93b6862e443f9698da403b198"
 """The `kernel_parts.py` this module was written against (see its notes on numba's cache)."""
-BUILD_SHA256 = "1945c867d49e9c74942a9229522fb9bca2255fe471e5044c283a160025c8105f"
+BUILD_SHA256 = "f781a29946a859aa1cc8bdb669f0f4a82b3e3a4bffa1af0f90a7578ac2df1ee8"
 """The `cbga_build_kernel.py` this module was written against."""
-ROUND_SHA256 = "b38a51ec63d48e78e8289c3f1ff0658d95c4b69d6a12956118c73ad58188fa36"
+ROUND_SHA256 = "d6238080944b3f39e1522d92367444499b29fc02123d7dc6d7c2ea9ead4207ec"
 """The `cbga_round_kernel.py` this module was written against."""
 
 

@@ -19,7 +19,7 @@ from numba import njit
 from murdoch.consensus.cbga_build_kernel import _complete, _copy
 from murdoch.consensus.kernel_parts import bundles_changed, count_sends, remember_bundles
 
-PARTS_SHA256 = "6ca3022cd459a5aafb4c96e0d700677d315f9911b9bd9ef56fc5426bad08afb1"
+PARTS_SHA256 = "f1952ff2214775fe1d4fa861cefea92756eec6b93b6862e443f9698da403b198"
 """The `kernel_parts.py` this module was written against (see its notes on numba's cache)."""
 
 

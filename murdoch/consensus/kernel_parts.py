@@ -295,6 +295,15 @@ def row_winner(row: np.ndarray) -> tuple[float, int]:
 
 
 @njit(cache=True)
+def held_tasks(i: int, bundle: np.ndarray, blen: np.ndarray, m: int) -> np.ndarray:
+    """Which of the m tasks agent i's bundle holds (`bundle` is agent i's row)."""
+    held = np.zeros(m, dtype=np.bool_)
+    for b in range(blen[i]):
+        held[bundle[b]] = True
+    return held
+
+
+@njit(cache=True)
 def forget_gains(gain_ok: np.ndarray) -> None:
     """The agent's path changed: none of its cached insertion gains holds any more."""
     for j in range(gain_ok.shape[0]):
