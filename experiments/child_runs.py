@@ -59,6 +59,20 @@ def run_child(args: Sequence[str], run_out: Path, log_name: str
     return code, run_dir, summary
 
 
+def run_experiment(experiment: str, run_out: Path, *, until_s: float, seed: int,
+                   options: Sequence[str], extra: Sequence[str], pin: bool, log_name: str
+                   ) -> tuple[int, Path | None, dict[str, Any] | None]:
+    """`murdoch run EXPERIMENT` once into `run_out` (made if missing) for `until_s` simulated
+    seconds with `seed`, its `options` and the caller's `extra` ones, without a replay and,
+    unless `pin`, without pinning CPUs; what `run_child` returns."""
+    run_out.mkdir(parents=True, exist_ok=True)
+    args = ["run", experiment, "--until", f"{until_s:g}s", *options, "--seed", str(seed),
+            "--out", str(run_out), "--no-replay", *extra]
+    if not pin:
+        args.append("--no-pin-cpus")
+    return run_child(args, run_out, log_name)
+
+
 def write_rows(rows: Sequence[Mapping[str, Any]], path: Path, columns: Sequence[str]) -> None:
     """The rows as CSV, one column per name in `columns` (missing values left empty)."""
     with path.open("w", newline="", encoding="utf-8") as f:

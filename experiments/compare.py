@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import click
 
 from experiments import events as ev
-from experiments.child_runs import parse_seeds, run_child, write_rows
+from experiments.child_runs import parse_seeds, run_experiment, write_rows
 from experiments.option_params import add_passthrough_params, passthrough_args
 from experiments.registry import experiments, supporting
 from experiments.run_cli import parse_at, parse_duration_s
@@ -342,14 +342,9 @@ def _reused_row(job: Job, out: Path, until_s: float, task_interval: float,
 def run_one(job: Job, *, out: Path, until_s: float, extra: Sequence[str],
             pin: bool, experiment: str = "longterm") -> dict[str, Any]:
     """Run the experiment once as its own process; its row."""
-    run_out = out / job.label()
-    run_out.mkdir(parents=True, exist_ok=True)
-    args = ["run", experiment, "--until", f"{until_s:g}s",
-            *job.allocator_args(), "--seed", str(job.seed), "--out", str(run_out),
-            "--no-replay", *extra]
-    if not pin:
-        args.append("--no-pin-cpus")
-    code, run_dir, summary = run_child(args, run_out, "compare.log")
+    code, run_dir, summary = run_experiment(
+        experiment, out / job.label(), until_s=until_s, seed=job.seed,
+        options=job.allocator_args(), extra=extra, pin=pin, log_name="compare.log")
     events: list[dict[str, Any]] = []
     if run_dir is not None and summary is not None:
         events = ev.read_events(run_dir / "events.jsonl")

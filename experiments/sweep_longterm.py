@@ -26,7 +26,7 @@ from typing import Any
 
 import click
 
-from experiments.child_runs import parse_seeds, run_child, write_rows
+from experiments.child_runs import parse_seeds, run_experiment, write_rows
 from experiments.run_cli import parse_duration_s
 
 PAPER_TASKS = 49
@@ -113,16 +113,10 @@ def rate_for(means: Sequence[Mapping[str, Any]], target: float = PAPER_TASKS,
 def run_one(job: Job, *, out: Path, until_s: float, world: str | None, extra: Sequence[str],
             pin: bool) -> dict[str, Any]:
     """Run one long-term experiment as its own process; its row (from summary.json)."""
-    run_out = out / job.label()
-    run_out.mkdir(parents=True, exist_ok=True)
-    args = ["run", "longterm", "--until", f"{until_s:g}s",
-            "--task-interval", f"{job.task_interval_s:g}", "--seed", str(job.seed),
-            "--out", str(run_out), "--no-replay", *extra]
-    if world:
-        args += ["--world", world]
-    if not pin:
-        args.append("--no-pin-cpus")
-    code, run_dir, summary = run_child(args, run_out, "sweep.log")
+    code, run_dir, summary = run_experiment(
+        "longterm", out / job.label(), until_s=until_s, seed=job.seed,
+        options=["--task-interval", f"{job.task_interval_s:g}"],
+        extra=[*extra, "--world", world] if world else extra, pin=pin, log_name="sweep.log")
     return row_of(job, summary, code, run_dir)
 
 
