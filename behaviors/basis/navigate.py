@@ -117,9 +117,9 @@ class Wander(ForwardSpeedLimit):
         return int(now // self.period_s) if self.period_s > 0 else 0
 
     def decide(self, snapshot: Snapshot, now: float) -> Proposal:
-        if not math.isfinite(now):
+        bucket = self.inputs_key(snapshot, now)
+        if bucket is None:
             return INACTIVE
-        bucket = int(now // self.period_s) if self.period_s > 0 else 0
         h = _mix(self.seed, bucket)
         u = (h & 0xFFFF) / 65535.0
         bias = clamp(self.turn_bias_radps, self.max_turn_radps)
