@@ -7,6 +7,7 @@ page in a fresh headless Chromium, lets it run for a bounded virtual time and re
 
 from __future__ import annotations
 
+import contextlib
 import html
 import itertools
 import json
@@ -85,15 +86,25 @@ def screenshots(exe: str, jobs: Sequence[tuple[str, Path]], profiles: Profiles, 
 
 
 def page_state(exe: str, url: str, profiles: Profiles, *, size: tuple[int, int] = (1400, 900),
-               budget_ms: int = 2000, timeout_s: float = 300.0) -> dict[str, Any]:
-    """The JSON a viewer page wrote into #murdoch-state after `budget_ms` of virtual time."""
+               budget_ms: int = 2000, timeout_s: float = 300.0, nice: int = 0
+               ) -> dict[str, Any]:
+    """The JSON a viewer page wrote into #murdoch-state after `budget_ms` of virtual time;
+    the browser runs `nice` steps from this process's niceness, where it is allowed to."""
     cmd = [*_command(exe, profiles.next(), size, budget_ms), "--dump-dom", url]
     out = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                         timeout=timeout_s, check=False).stdout.decode("utf-8", "replace")
+                         timeout=timeout_s, check=False,
+                         preexec_fn=(lambda: _renice(nice)) if nice else None
+                         ).stdout.decode("utf-8", "replace")
     m = _STATE.search(out)
     assert m is not None and m.group(1).strip(), f"no page state in {url} ({len(out)} bytes)"
     state: dict[str, Any] = json.loads(html.unescape(m.group(1)))
     return state
+
+
+def _renice(steps: int) -> None:
+    # a higher priority needs root (CAP_SYS_NICE); without it the browser keeps this one
+    with contextlib.suppress(PermissionError):
+        os.nice(steps)
 
 
 def overlapping(rects: Mapping[str, Sequence[float]]) -> list[tuple[str, str]]:
