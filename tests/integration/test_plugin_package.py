@@ -3,9 +3,9 @@ command, its experiment runs end to end with its allocator and task kind, and a 
 plugin stops a run with one line.
 
 One virtualenv per module (`plugin_venv`): the project installed editable with its
-dependencies from the configured package indexes, then ``examples/patrol`` (a real
-``pip install``, entry points and all). Nothing of the project's own virtualenv is visible
-in it.
+dependencies from the configured package indexes (by uv, as `make` installs it), then
+``examples/patrol`` (a real ``pip install``, entry points and all). Nothing of the project's
+own virtualenv is visible in it.
 """
 
 from __future__ import annotations
@@ -48,7 +48,9 @@ def plugin_venv(tmp_path_factory: pytest.TempPathFactory) -> Path:
     env = _env(venv)
     pip = [str(venv / "bin" / "python"), "-m", "pip", "install", "-q",
            "--disable-pip-version-check"]
-    project = _run([*pip, "-c", str(REPO / "constraints.txt"), "-e", str(REPO)], env=env,
+    uv = Path(sys.executable).parent / "uv"  # the project's own virtualenv has it (make)
+    project = _run([str(uv), "pip", "install", "-q", "--python", str(venv / "bin" / "python"),
+                    "-c", str(REPO / "constraints.txt"), "-e", str(REPO)], env=env,
                    timeout=1500)
     assert project.returncode == 0, project.stderr[-3000:]
     example = _run([*pip, str(EXAMPLE)], env=env, timeout=600)
