@@ -49,7 +49,8 @@ def plugin_venv(tmp_path_factory: pytest.TempPathFactory) -> Path:
     pip = [str(venv / "bin" / "python"), "-m", "pip", "install", "-q",
            "--disable-pip-version-check"]
     uv = Path(sys.executable).parent / "uv"  # the project's own virtualenv has it (make)
-    project = _run([str(uv), "pip", "install", "-q", "--python", str(venv / "bin" / "python"),
+    project = _run([str(uv), "pip", "install", "-q", "--compile-bytecode", "--python",
+                    str(venv / "bin" / "python"),
                     "-c", str(REPO / "constraints.txt"), "-e", str(REPO)], env=env,
                    timeout=1500)
     assert project.returncode == 0, project.stderr[-3000:]
