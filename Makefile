@@ -32,10 +32,11 @@ lint: $(STAMP)
 	$(BIN)/python tools/import_cycles.py
 	$(BIN)/mypy $(PACKAGES)
 
-# two workers (pytest-xdist); a module's tests stay on one worker, so a run they share is
-# made once
+# three workers (pytest-xdist) on the two CPUs: the end-to-end tests wait on each other's
+# processes, the browser and pip often enough that a third keeps both CPUs busy; a module's
+# tests stay on one worker, so a run they share is made once
 test: lint bytecode
-	$(BIN)/python -m pytest -q -n 2 --dist loadscope --durations=20
+	$(BIN)/python -m pytest -q -n 3 --dist loadscope --durations=20
 
 # the inner loop: unit tests and pure logic, the slow ones left out (tests/unit/conftest.py)
 test-fast: bytecode
