@@ -17,3 +17,24 @@ def repo_root() -> Path:
 @pytest.fixture(scope="session")
 def worlds_dir() -> Path:
     return REPO_ROOT / "worlds"
+
+
+LONG_FIRST = (
+    "test_viz_live.py",
+    "test_soak.py",
+    "test_plugin_package.py",
+    "test_allocators_run.py",
+    "test_readme.py",
+    "test_experiments_boxpush_variants.py",
+    "test_experiments_compare_dask.py",
+    "test_experiments_compare.py",
+    "test_allocators_groups.py",
+)
+"""The modules that take longest (docs/internals.md lists their tests), handed to the
+pytest-xdist workers first, the rest after them in their usual order: a long module started
+last would leave the other workers idle at the end of the suite."""
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    rank = {name: i for i, name in enumerate(LONG_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(LONG_FIRST)))  # stable
