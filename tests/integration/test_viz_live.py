@@ -314,15 +314,21 @@ def live_run(tmp_path_factory: pytest.TempPathFactory) -> dict:
     speedup = _pace_for_reads(exe, profiles, run_s=600.0, reads=5)
     for attempt in itertools.count():
         watched = _watch_run(exe, tmp / f"run{attempt}", profiles, speedup)
-        times = [s["t"] for s in watched["states"] if s["t"] is not None and s["robots"]]
+        times = [s["t"] for s in _drawn(watched["states"])]
         if (len(times) >= 3 and times[-1] - times[0] > 120.0) or speedup <= MIN_PACE:
             return watched
         speedup = max(MIN_PACE, speedup / 8.0)
     raise AssertionError("unreachable")
 
 
-MIN_PACE = 1.5
-"""The slowest pace of the watched run: ten simulated minutes in under seven."""
+MIN_PACE, MAX_PACE = 1.5, 15.0
+"""The slowest and fastest pace of the watched run: ten simulated minutes in under seven, and
+in forty seconds."""
+
+
+def _drawn(states: list[dict]) -> list[dict]:
+    """The page states read while the run was drawn: a clock and robots on the page."""
+    return [s for s in states if s["t"] is not None and s["robots"]]
 
 
 def _watch_run(exe: str, tmp: Path, profiles: object, speedup: float) -> dict:
@@ -401,7 +407,7 @@ def _pace_for_reads(exe: str, profiles: object, *, run_s: float, reads: int) -> 
     """A speed-up (simulated seconds per wall second) at which a run of `run_s` simulated
     seconds lasts long enough for `reads` reads of its live view, each counted as twice one
     read of the same page timed here on a viewer of the same world (during the run the
-    browser shares the machine with it): between 1.5x and 15x real time."""
+    browser shares the machine with it): between MIN_PACE and MAX_PACE."""
     layout = scene.layout_from_world(load_world(world_path("longterm")))
     with ViewerProcess() as viewer:
         channel = ZmqChannel(viewer.urls.zmq_url, timeout_s=5.0)
@@ -420,7 +426,7 @@ def _pace_for_reads(exe: str, profiles: object, *, run_s: float, reads: int) -> 
             view.stop()
             channel.close()
     assert state["mode"] == "live", state
-    return max(1.5, min(15.0, run_s / (reads * read_s)))
+    return max(MIN_PACE, min(MAX_PACE, run_s / (reads * read_s)))
 
 
 def _recorded(root: Path) -> list[dict]:
@@ -447,7 +453,7 @@ def test_live_view_follows_a_real_run_in_headless_chromium(live_run: dict) -> No
     moves), and no robot's label overlaps another's."""
     import math
 
-    states = [s for s in live_run["states"] if s["t"] is not None and s["robots"]]
+    states = _drawn(live_run["states"])
     assert len(states) >= 2, (live_run["speedup"], live_run["states"])
     frames = _recorded(live_run["root"])
     times = [s["t"] for s in states]
