@@ -27,6 +27,7 @@ from experiments.observe import ObservedSim, SnapshotSim
 from experiments.progress import Progress, ProgressDisplay, ProgressTracker
 from experiments.recording import RunRecording
 from experiments.report import Report, build_report
+from experiments.run_checks import LIVE_RATE_HZ
 from experiments.timeline import RobotStateTracker
 
 log = logging.getLogger(__name__)
@@ -80,7 +81,7 @@ class RunRecorder:
         record: bool = True,
         record_rate_hz: float = 2.0,
         progress_period_sim_s: float = 300.0,
-        live_rate_hz: float = 10.0,
+        live_rate_hz: float = LIVE_RATE_HZ,
         live_trail_points: int = 0,
         live_lasers: bool = False,
     ) -> None:

@@ -131,6 +131,7 @@ def check_schedule(
 
 
 MESHCAT_SPEEDUP = 10.0  # a watched run: 10 simulated seconds per wall second
+LIVE_RATE_HZ = 10.0  # frames per wall second sent to the live view (--live-rate)
 
 
 def effective_speedup(given: float | None, meshcat: bool) -> float:

@@ -27,6 +27,7 @@ import click
 from experiments.durations import parse_at, parse_duration_s
 from experiments.option_params import add_params, own_values
 from experiments.registry import experiments
+from experiments.run_checks import LIVE_RATE_HZ
 from experiments.supervisor import RobotProcess, RobotSupervisor
 from experiments.supervisor import start_robot as _start_robot
 from experiments.supervisor import stop_robot as _stop_robot
@@ -127,6 +128,10 @@ class PerProcess(click.ParamType):
 @click.option("--trails", type=click.IntRange(0, 5000), default=0, show_default=True,
               help="--meshcat: draw a trail of each robot's last N positions.")
 @click.option("--lasers", is_flag=True, help="--meshcat: draw the robots' laser rays.")
+@click.option("--live-rate", type=click.FloatRange(min=0.2, max=50.0), default=LIVE_RATE_HZ,
+              show_default=True,
+              help="--meshcat: frames per wall-clock second sent to the live view; fewer for "
+                   "a slow machine or browser (the run and its recording are the same).")
 @click.option("--transport", type=click.Choice(["multicast", "zenoh"]), default="multicast",
               show_default=True,
               help="The team's MURDOCH bus: loopback UDP multicast, or Zenoh with this process "
@@ -152,7 +157,7 @@ def run(ctx: click.Context, experiment: str, sim_hours: float | None, until: str
         refine: bool, no_replay: bool,
         pipelined: bool, robot_nice: int, key: str | None, pin_cpus: bool,
         record_rate: float, no_record: bool, trails: int, lasers: bool,
-        transport: str, bind: str, places: tuple[str, ...],
+        live_rate: float, transport: str, bind: str, places: tuple[str, ...],
         robots_per_process: int | None, **values: Any) -> None:
     """Run EXPERIMENT end to end and leave a run directory behind (an experiment's own
     options are named after it in their help)."""
@@ -182,8 +187,8 @@ def run(ctx: click.Context, experiment: str, sim_hours: float | None, until: str
             own=own_values(every[experiment], every, values, ctx),
             pipelined=pipelined, robot_nice=robot_nice, pin_cpus=pin_cpus, key=key,
             record=not no_record, record_rate_hz=record_rate, trails=trails, lasers=lasers,
-            metric_terms=_metric_terms(metric_terms), allocator=allocator, refine=refine,
-            transport=transport, bind=bind,
+            live_rate_hz=live_rate, metric_terms=_metric_terms(metric_terms),
+            allocator=allocator, refine=refine, transport=transport, bind=bind,
             placements=tuple(parse_place(p) for p in places),
             robots_per_process=robots_per_process,
         )
@@ -213,7 +218,7 @@ def run_experiment(
     extras: RunExtras | None = None, allocator: str = "murdoch",
     transport: str = "multicast", bind: str = "127.0.0.1",
     placements: tuple[tuple[str, tuple[str, ...]], ...] = (), refine: bool = False,
-    robots_per_process: int | None = None,
+    robots_per_process: int | None = None, live_rate_hz: float = LIVE_RATE_HZ,
 ) -> int:
     """Run one experiment end to end; the exit code of `murdoch run`. `own`: the values of
     the experiment's own options by `Option.dest` (their defaults when not given)."""
@@ -229,7 +234,7 @@ def run_experiment(
         trails=trails, lasers=lasers, record=record, record_rate_hz=record_rate_hz,
         metric_terms=metric_terms, extras=extras if extras is not None else RunExtras(),
         transport=transport, bind=bind, placements=placements, refine=refine,
-        robots_per_process=robots_per_process)
+        robots_per_process=robots_per_process, live_rate_hz=live_rate_hz)
     chosen = settings.experiment
     given = dict(own or {})
     unknown = sorted(set(given) - {o.dest for o in chosen.options})

@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 import click
 
 from experiments.plugin import Experiment, Fault, Referee, RunOptions, labels
+from experiments.run_checks import LIVE_RATE_HZ
 from experiments.supervisor import BusPlace, RobotSupervisor, robot_process
 
 if TYPE_CHECKING:
@@ -84,6 +85,8 @@ class RunSettings:
     """1: a `murdoch-robot` process per robot; above 1: robots run that many to a host
     process, each in a thread (`experiments.robot_hosts`); None: chosen from the team's size
     (`experiments.robot_hosts.robots_per_process`)."""
+    live_rate_hz: float = LIVE_RATE_HZ
+    """Frames per wall-clock second sent to the live view (`murdoch run --live-rate`)."""
 
     @property
     def lockstep(self) -> bool:
@@ -225,6 +228,7 @@ def assemble(settings: RunSettings, options: RunOptions, spec: WorldSpec) -> Run
                           started=datetime.now(), wall_clock=time.monotonic, stream=sys.stdout,
                           meshcat=settings.meshcat, record=settings.record,
                           record_rate_hz=settings.record_rate_hz,
+                          live_rate_hz=settings.live_rate_hz,
                           live_trail_points=settings.trails, live_lasers=settings.lasers)
     except OSError as exc:
         raise RunSetupError(describe_os_error(

@@ -14,6 +14,7 @@ import json
 import os
 import re
 import shutil
+import signal
 import subprocess
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
@@ -70,35 +71,59 @@ def screenshot_commands(exe: str, jobs: Sequence[tuple[str, Path]], profiles: Pr
 
 def screenshots(exe: str, jobs: Sequence[tuple[str, Path]], profiles: Profiles, *,
                 size: tuple[int, int] = (1024, 768), budget_ms: int = 500,
-                timeout_s: float = 300.0) -> None:
-    """Render each (url, png) pair, in parallel."""
-    procs = [subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-             for cmd in screenshot_commands(exe, jobs, profiles, size=size,
-                                            budget_ms=budget_ms)]
-    try:
-        for p in procs:
-            assert p.wait(timeout=timeout_s) == 0
-    finally:
-        for p in procs:
-            if p.poll() is None:
-                p.kill()
-                p.wait()
+                timeout_s: float = 300.0, nice: int = 0, attempts: int = 1) -> None:
+    """Render each (url, png) pair, in parallel (`nice` as for `page_state`). On a starved
+    CPU headless Chromium now and then stops, idle, before it writes the picture: browsers
+    still running after `timeout_s` are killed and all started again, `attempts` times in
+    all, before `TimeoutExpired` is raised."""
+    for attempt in range(1, attempts + 1):
+        procs = [_start(cmd, nice, stdout=subprocess.DEVNULL)
+                 for cmd in screenshot_commands(exe, jobs, profiles, size=size,
+                                                budget_ms=budget_ms)]
+        try:
+            for p in procs:
+                assert p.wait(timeout=timeout_s) == 0
+            return
+        except subprocess.TimeoutExpired:
+            if attempt == attempts:
+                raise
+        finally:
+            for p in procs:
+                _end(p)
 
 
 def page_state(exe: str, url: str, profiles: Profiles, *, size: tuple[int, int] = (1400, 900),
                budget_ms: int = 2000, timeout_s: float = 300.0, nice: int = 0
                ) -> dict[str, Any]:
     """The JSON a viewer page wrote into #murdoch-state after `budget_ms` of virtual time;
-    the browser runs `nice` steps from this process's niceness, where it is allowed to."""
-    cmd = [*_command(exe, profiles.next(), size, budget_ms), "--dump-dom", url]
-    out = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                         timeout=timeout_s, check=False,
-                         preexec_fn=(lambda: _renice(nice)) if nice else None
-                         ).stdout.decode("utf-8", "replace")
+    the browser runs `nice` steps from this process's niceness, where it is allowed to.
+    A browser that takes longer than `timeout_s` is killed and `TimeoutExpired` raised."""
+    proc = _start([*_command(exe, profiles.next(), size, budget_ms), "--dump-dom", url], nice,
+                  stdout=subprocess.PIPE)
+    try:
+        raw, _ = proc.communicate(timeout=timeout_s)
+    finally:
+        _end(proc)
+    out = raw.decode("utf-8", "replace")
     m = _STATE.search(out)
     assert m is not None and m.group(1).strip(), f"no page state in {url} ({len(out)} bytes)"
     state: dict[str, Any] = json.loads(html.unescape(m.group(1)))
     return state
+
+
+def _start(cmd: list[str], nice: int, stdout: int) -> subprocess.Popen[bytes]:
+    # a process group of its own (not a session: that would take it out of this one's share
+    # of the CPU), so that a browser that runs out of time is stopped with its renderer and
+    # GPU processes, not only the one started here
+    return subprocess.Popen(cmd, stdout=stdout, stderr=subprocess.DEVNULL, process_group=0,
+                            preexec_fn=(lambda: _renice(nice)) if nice else None)
+
+
+def _end(proc: subprocess.Popen[bytes]) -> None:
+    if proc.poll() is None:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.communicate()
 
 
 def _renice(steps: int) -> None:

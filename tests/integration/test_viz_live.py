@@ -305,25 +305,47 @@ def live_run(tmp_path_factory: pytest.TempPathFactory) -> dict:
     """A real ten-minute `murdoch run longterm --meshcat`, with the live view's page state
     read by headless Chromium every few seconds while it runs; then its run directory
     (run.mcap, replay.html). The run is paced by the wall clock at a speed-up chosen from how
-    long this machine's Chromium takes to read a page (up to 15x real time, idle). A machine
+    long this machine's Chromium takes to read a page (up to 15x real time, idle), and the
+    page is sent frames at the default rate (`--live-rate`) at that top pace, fewer at a
+    slower one (a browser that cannot keep up with its feed never finishes a read). A machine
     loaded by more than that read showed may still keep the page from being read during the
-    run: the run is then made again, eight times slower (down to 1.5x real time)."""
+    run: the run is then made again, eight times slower (down to 1.5x real time) and with
+    the page fed once a second, as a user of a slow machine would."""
     exe = _headless.require_chromium()
     tmp = tmp_path_factory.mktemp("live-run")
     profiles = _headless.Profiles(tmp)
     speedup = _pace_for_reads(exe, profiles, run_s=600.0, reads=5)
+    live_rate = _live_rate_for(speedup)
     for attempt in itertools.count():
-        watched = _watch_run(exe, tmp / f"run{attempt}", profiles, speedup)
+        watched = _watch_run(exe, tmp / f"run{attempt}", profiles, speedup, live_rate)
         times = [s["t"] for s in _drawn(watched["states"])]
-        if (len(times) >= 3 and times[-1] - times[0] > 120.0) or speedup <= MIN_PACE:
+        if (len(times) >= 3 and times[-1] - times[0] > 120.0) or (
+                speedup <= MIN_PACE and live_rate == SLOW_LIVE_RATE):
             return watched
-        speedup = max(MIN_PACE, speedup / 8.0)
+        speedup, live_rate = max(MIN_PACE, speedup / 8.0), SLOW_LIVE_RATE
     raise AssertionError("unreachable")
 
 
 MIN_PACE, MAX_PACE = 1.5, 15.0
 """The slowest and fastest pace of the watched run: ten simulated minutes in under seven, and
 in forty seconds."""
+SLOW_LIVE_RATE = 1.0
+"""The fewest frames a second the page is sent (in the second, slower watched run)."""
+
+
+def _live_rate_for(speedup: float) -> float | None:
+    """The page's frames a second at a pace: the default (None) at MAX_PACE, fewer in
+    proportion below it, down to SLOW_LIVE_RATE."""
+    from experiments.run_checks import LIVE_RATE_HZ
+
+    if speedup >= MAX_PACE:
+        return None
+    return max(SLOW_LIVE_RATE, round(LIVE_RATE_HZ * speedup / MAX_PACE, 1))
+
+
+READ_TIMEOUT_S = 150.0
+"""The longest one read of the page during the run may take; one that takes longer is
+missed (the run goes on, and the next read starts)."""
 
 
 def _drawn(states: list[dict]) -> list[dict]:
@@ -331,9 +353,11 @@ def _drawn(states: list[dict]) -> list[dict]:
     return [s for s in states if s["t"] is not None and s["robots"]]
 
 
-def _watch_run(exe: str, tmp: Path, profiles: object, speedup: float) -> dict:
-    """`murdoch run longterm --until 10m --meshcat` at `speedup`, its page read while it runs,
-    then once more (and a screenshot) while its last frame is held."""
+def _watch_run(exe: str, tmp: Path, profiles: object, speedup: float,
+               live_rate: float | None) -> dict:
+    """`murdoch run longterm --until 10m --meshcat` at `speedup` (and `--live-rate`, when
+    given), its page read while it runs, then once more (and a screenshot) while its last
+    frame is held."""
     import queue
     import signal
     import subprocess
@@ -341,7 +365,8 @@ def _watch_run(exe: str, tmp: Path, profiles: object, speedup: float) -> dict:
 
     proc = subprocess.Popen(
         [sys.executable, "-m", "murdoch", "run", "longterm", "--until", "10m", "--meshcat",
-         "--speedup", f"{speedup:.2f}", "--seed", "1", "--out", str(tmp / "runs")],
+         "--speedup", f"{speedup:.2f}", "--seed", "1", "--out", str(tmp / "runs"),
+         *(["--live-rate", f"{live_rate:g}"] if live_rate is not None else [])],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, text=True)
     lines: queue.Queue[str] = queue.Queue()
 
@@ -371,20 +396,27 @@ def _watch_run(exe: str, tmp: Path, profiles: object, speedup: float) -> dict:
         url = wait_for("meshcat live view:", 120).split(": ", 1)[1].strip()
         deadline = time.monotonic() + 500
         for _ in range(40):  # the page's state every few seconds until the run ends
-            if proc.poll() is not None or time.monotonic() > deadline:
+            left = deadline - time.monotonic()
+            if proc.poll() is not None or left <= 0:
                 break
-            state = _headless.page_state(exe, url, profiles, budget_ms=1500, nice=READ_NICE)
+            try:
+                state = _headless.page_state(exe, url, profiles, budget_ms=1500,
+                                             nice=READ_NICE,
+                                             timeout_s=min(left, READ_TIMEOUT_S))
+            except subprocess.TimeoutExpired:
+                continue  # missed; the run goes on
             states.append(state)
             if state["t"] is not None and state["t"] >= 599.0:
                 break
         wait_for("the live view stays up", 500)  # finished: run.mcap and replay.html written
         # the last frame, held: its page state and a screenshot of it
-        final = _headless.page_state(exe, url, profiles, budget_ms=1500)
+        final = _headless.page_state(exe, url, profiles, budget_ms=1500, nice=READ_NICE)
         # a screenshot whose viewport is the one the state was read in (headless Chromium's
         # --dump-dom page is shorter than its --window-size)
         width, height = final["view"]
         _headless.screenshots(exe, [(url, tmp / "live.png")], profiles, size=(width, height),
-                              budget_ms=1500)
+                              budget_ms=SHOT_BUDGET_MS, nice=READ_NICE, timeout_s=120.0,
+                              attempts=2)
     finally:
         if proc.poll() is None:
             proc.send_signal(signal.SIGINT)  # closes the held view
@@ -397,10 +429,14 @@ def _watch_run(exe: str, tmp: Path, profiles: object, speedup: float) -> dict:
             "png": tmp / "live.png", "speedup": speedup}
 
 
+SHOT_BUDGET_MS = 5000
+"""Virtual time before the held view's screenshot is taken. On one CPU shared with busy loops
+a screenshot after 1.5 s of it never came (the browser idle, three times in three), as if
+it waited for a frame that virtual time had already passed; after 5 s it takes 8 s."""
 READ_NICE = -10
-"""The browser reading the live view during the run asks for a higher priority than the run's
-ten processes (where it may: as root), so that on a loaded machine the run, not the reads it
-is watched by, falls behind."""
+"""The browser reading the live view asks for a higher priority than the run's ten processes
+(where it may: as root), so that on a loaded machine the run, not the reads it is watched by,
+falls behind; and so that its software-rendered screenshot of the held view is not starved."""
 
 
 def _pace_for_reads(exe: str, profiles: object, *, run_s: float, reads: int) -> float:

@@ -159,3 +159,28 @@ def test_watched_runs_are_paced_unless_told_otherwise() -> None:
     assert effective_speedup(None, meshcat=False) == 0.0
     assert effective_speedup(0.0, meshcat=True) == 0.0
     assert effective_speedup(3.0, meshcat=False) == 3.0
+
+
+def test_the_live_rate_reaches_the_run_and_a_bad_one_is_refused_naming_the_option(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from click.testing import CliRunner
+
+    from experiments import run_parts
+    from experiments.run_checks import LIVE_RATE_HZ
+    from experiments.run_cli import run as run_command
+
+    seen = []
+
+    def stop_at_check(settings: run_parts.RunSettings, options: object) -> None:
+        seen.append(settings.live_rate_hz)
+        raise RunSetupError("stopped before starting")
+
+    monkeypatch.setattr(run_parts, "check_run", stop_at_check)
+    for args, want in (([], LIVE_RATE_HZ), (["--live-rate", "1.5"], 1.5)):
+        result = CliRunner().invoke(run_command, ["longterm", "--meshcat", *args])
+        assert result.exit_code == 2 and "stopped before starting" in result.output
+        assert seen.pop() == want
+    for bad in ("0", "abc", "100"):
+        result = CliRunner().invoke(run_command, ["longterm", "--meshcat", "--live-rate", bad])
+        assert result.exit_code == 2 and "--live-rate" in result.output, result.output
+    assert seen == []
