@@ -15,6 +15,7 @@ from typing import Any
 
 import pytest
 from mcap.reader import make_reader
+from sibling import load_sibling
 
 from experiments import events as ev
 from experiments.summary import terminal_state_problems
@@ -23,6 +24,7 @@ from player_server.client.proxies import LaserProxy, Position2dProxy
 from player_server.record.reader import iter_messages
 
 pytestmark = pytest.mark.timeout(240)
+child_process = load_sibling(__file__, "child_process.py")
 
 
 def _murdoch() -> list[str]:
@@ -197,12 +199,7 @@ def test_player_server_replays_the_recording(
         assert out.returncode == 0, out.stderr
         assert sum(ln.startswith("#laser(6:0)") for ln in out.stdout.splitlines()) == 2
     finally:
-        server.terminate()
-        try:
-            server.wait(15)
-        except subprocess.TimeoutExpired:
-            server.kill()
-            server.wait(5)
+        child_process.stop(server)
     assert server.returncode in (0, -15)
 
 

@@ -15,6 +15,7 @@ from sibling import load_sibling
 pytestmark = pytest.mark.timeout(300)
 
 free_ports = load_sibling(__file__, "free_ports.py")
+child_process = load_sibling(__file__, "child_process.py")
 
 
 # how long a server may take to print its port table: seconds idle, but a minute or more on
@@ -46,24 +47,13 @@ def server_process(*args: str) -> Iterator[dict[str, tuple[int, str]]]:
             if header_seen and len(table) >= 7:
                 break
         if not table:
-            _stop(proc)
+            child_process.stop(proc)
             err = proc.stderr.read() if proc.stderr is not None else ""
             pytest.fail(f"the server printed no port table in {time.monotonic() - started:.0f}"
                         f" s (exit code {proc.returncode}): {err[-2000:]}")
         yield table
     finally:
-        _stop(proc)
-
-
-def _stop(proc: subprocess.Popen[str]) -> None:
-    if proc.poll() is not None:
-        return
-    proc.terminate()
-    try:
-        proc.wait(15)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait(5)
+        child_process.stop(proc)
 
 
 def player_print(*args: str) -> subprocess.CompletedProcess[str]:

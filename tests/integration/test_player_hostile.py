@@ -30,6 +30,7 @@ from player_server.sim import Simulation
 from worlds import load_world, world_path
 
 hw = load_sibling(__file__, "hostile_wire.py")
+child_process = load_sibling(__file__, "child_process.py")
 
 pytestmark = pytest.mark.timeout(120)
 ACK, NACK = int(MsgType.RESP_ACK), int(MsgType.RESP_NACK)
@@ -471,9 +472,4 @@ def test_accept_backs_off_when_file_handles_run_out(tmp_path: Any) -> None:
         # rate-limited: a few lines a period, not one per failed accept
         assert text.count("accept failed") <= 12
     finally:
-        proc.terminate()
-        try:
-            proc.wait(15)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(5)
+        child_process.stop(proc)

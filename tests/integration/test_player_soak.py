@@ -29,6 +29,7 @@ from player_server.protocol import constants as c
 from player_server.protocol.constants import Interface, MsgType
 
 hw = load_sibling(__file__, "hostile_wire.py")
+child_process = load_sibling(__file__, "child_process.py")
 
 pytestmark = [pytest.mark.soak, pytest.mark.timeout(1800)]
 FRAMES = 120_000
@@ -164,9 +165,4 @@ def test_soak_hostile_frames_against_a_good_client() -> None:
         assert rss1 <= rss0 * 1.10
     finally:
         stop.set()
-        proc.terminate()
-        try:
-            proc.wait(15)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(5)
+        child_process.stop(proc)
