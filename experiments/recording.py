@@ -182,13 +182,13 @@ def _ranges(values: Any, digits: int = 3) -> list[float]:
     return np.round(a, digits).tolist()
 
 
-def _odometry(t: float, o: Any, command: tuple[float, float]) -> dict[str, Any]:
-    cmd_v, cmd_w = command
-    return {"timestamp": ch.stamp(t), "x": round(float(o.x), 4), "y": round(float(o.y), 4),
-            "yaw": round(float(o.yaw), 4), "vx": round(float(o.vx), 4),
-            "vy": round(float(o.vy), 4), "vyaw": round(float(o.vyaw), 4),
-            "stall": bool(o.stall), "cmd_vx": round(float(cmd_v), 4),
-            "cmd_vyaw": round(float(cmd_w), 4)}
+def _odometry(t: float, odometry: tuple[Any, ...]) -> dict[str, Any]:
+    """`odometry`: x, y, yaw, vx, vy, vyaw, stall, then the drive command's v and w."""
+    x, y, yaw, vx, vy, vyaw, stall, cmd_v, cmd_w = odometry
+    return {"timestamp": ch.stamp(t), "x": round(x, 4), "y": round(y, 4),
+            "yaw": round(yaw, 4), "vx": round(vx, 4), "vy": round(vy, 4),
+            "vyaw": round(vyaw, 4), "stall": stall, "cmd_vx": round(cmd_v, 4),
+            "cmd_vyaw": round(cmd_w, 4)}
 
 
 def _laser(t: float, name: str, mount: tuple[float, float, float, float], lo: float,
@@ -205,10 +205,12 @@ def _sonar_scan(t: float, name: str, mounts: Any, max_range: float,
     return ch.sonar_ring_scan(t, name, mounts, _ranges(ranges), max_range)
 
 
-def _battery(t: float, p: Any) -> dict[str, Any]:
-    return {"timestamp": ch.stamp(t), "percent": round(float(p.percent), 3),
-            "charging": 1 if p.charging else 0, "volts": round(float(p.volts), 3),
-            "watts": round(float(p.watts), 3), "joules": round(float(p.joules), 1)}
+def _battery(t: float, power: tuple[Any, ...]) -> dict[str, Any]:
+    """`power`: percent, charging, volts, watts, joules."""
+    percent, charging, volts, watts, joules = power
+    return {"timestamp": ch.stamp(t), "percent": round(percent, 3),
+            "charging": 1 if charging else 0, "volts": round(volts, 3),
+            "watts": round(watts, 3), "joules": round(joules, 1)}
 
 
 def _event_log(t: float, name: str, e: Mapping[str, Any], level: int) -> dict[str, Any]:
@@ -233,9 +235,80 @@ class DrivenFromTf:
 
 
 def _blobs(t: float, width: int, height: int, blobs: Any) -> dict[str, Any]:
-    seen = [[int(b.id), int(b.colour), int(b.area), int(b.x), int(b.y), int(b.l), int(b.r),
-             int(b.t), int(b.b), round(float(b.range_m), 3)] for b in blobs]
+    """`blobs`: each blob's id, colour, area, x, y, l, r, t, b and range."""
+    seen = [[*b[:9], round(b[9], 3)] for b in blobs]
     return {"timestamp": ch.stamp(t), "width": width, "height": height, "blobs": seen}
+
+
+def _wire(s: _Sensing) -> tuple[Any, ...]:
+    return (s.name, s.odometry, s.laser, s.sonar, s.power, s.blobs)
+
+
+_Ranges = tuple[str, bytes]  # an array's dtype and bytes
+
+
+def _ranges_bytes(values: Any) -> _Ranges:
+    a = np.ascontiguousarray(values)
+    return a.dtype.str, a.tobytes()
+
+
+def _ranges_array(wire: _Ranges) -> Any:
+    return np.frombuffer(wire[1], dtype=np.dtype(wire[0]))
+
+
+def _reading(sim: Any, s: _Sensing) -> tuple[Any, ...]:
+    """(serving thread) One robot's readings of this tick, as plain numbers and bytes:
+    (odometry and drive command, laser, sonar, power, blobs), None where it has none."""
+    name = s.name
+    odometry = laser = sonar = power = blobs = None
+    if s.odometry:
+        o = sim.odometry(name)
+        v, w = sim.drive_command(name)
+        odometry = (float(o.x), float(o.y), float(o.yaw), float(o.vx), float(o.vy),
+                    float(o.vyaw), bool(o.stall), float(v), float(w))
+    if s.laser is not None:
+        laser = _ranges_bytes(sim.laser(name))
+    if s.sonar is not None:
+        sonar = _ranges_bytes(sim.sonar(name))
+    if s.power:
+        p = sim.power(name)
+        power = (float(p.percent), bool(p.charging), float(p.volts), float(p.watts),
+                 float(p.joules))
+    if s.blobs is not None:
+        blobs = tuple((int(b.id), int(b.colour), int(b.area), int(b.x), int(b.y), int(b.l),
+                       int(b.r), int(b.t), int(b.b), float(b.range_m))
+                      for b in sim.blobs(name))
+    return odometry, laser, sonar, power, blobs
+
+
+def _sample_messages(t: float, poses: Mapping[str, Any], sensing: tuple[tuple[Any, ...], ...],
+                     readings: tuple[tuple[Any, ...], ...]) -> list[tuple[str, float, Any]]:
+    """(writer process) The messages of one sample, in the order they are written: /tf,
+    then each robot's odometry, laser, sonar ranges, sonar scan, battery and blobs (those it
+    has), each built when written."""
+    items: list[tuple[str, float, Any]] = [(ch.TF, t, partial(ch.frame_transforms, t, poses))]
+    topic = ch.robot_topic
+    for (name, _, laser, sonar, _, blobs), (odo, laser_r, sonar_r, power, seen) in zip(
+            sensing, readings, strict=True):
+        if odo is not None:
+            items.append((topic(name, ch.ODOMETRY), t, partial(_odometry, t, odo)))
+        if laser is not None:
+            mx, my, mz, myaw, lo, hi = laser
+            items.append((topic(name, ch.LASER), t,
+                          partial(_laser, t, name, (mx, my, mz, myaw), lo, hi,
+                                  _ranges_array(laser_r))))
+        if sonar is not None:
+            mounts, max_range = sonar
+            ranges = _ranges_array(sonar_r)
+            items.append((topic(name, ch.SONAR_RANGES), t, partial(_sonar_ranges, t, ranges)))
+            items.append((topic(name, ch.SONAR), t,
+                          partial(_sonar_scan, t, name, mounts, max_range, ranges)))
+        if power is not None:
+            items.append((topic(name, ch.BATTERY), t, partial(_battery, t, power)))
+        if blobs is not None:
+            width, height = blobs
+            items.append((topic(name, ch.BLOBS), t, partial(_blobs, t, width, height, seen)))
+    return items
 
 
 class RunRecording:
@@ -249,6 +322,7 @@ class RunRecording:
         self.world = world
         self.layout = scene.layout_from_world(world)
         self._sensing = _sensing(world)
+        self._wire = tuple(_wire(s) for s in self._sensing)  # (plain tuples pickle fast)
         self._interval = float(world.sim.interval_sim_s)
         self._every = max(1, round(self.period_s / self._interval))
         self._last_tick = -1
@@ -276,36 +350,12 @@ class RunRecording:
             self.sample(sim, t)
 
     def sample(self, sim: Any, t: float) -> None:
-        """Take the readings of this tick; the messages are built from them, and encoded, in
-        the writer process (the serving thread only copies what the next step would
-        change)."""
-        batch: list[tuple[str, float, Any]] = []
+        """Take the readings of this tick: copied here as plain numbers and bytes (what the
+        next step would change), handed over as one sample, and made into messages and
+        encoded in the writer process (`_sample_messages`)."""
         poses = snapshot_poses(sim.snapshot())
-        batch.append((ch.TF, t, partial(ch.frame_transforms, t, poses)))
-        topic = ch.robot_topic
-        for s in self._sensing:
-            name = s.name
-            if s.odometry:
-                batch.append((topic(name, ch.ODOMETRY), t,
-                              partial(_odometry, t, sim.odometry(name), sim.drive_command(name))))
-            if s.laser is not None:
-                mx, my, mz, myaw, lo, hi = s.laser
-                batch.append((topic(name, ch.LASER), t,
-                              partial(_laser, t, name, (mx, my, mz, myaw), lo, hi,
-                                      np.array(sim.laser(name)))))
-            if s.sonar is not None:
-                mounts, max_range = s.sonar
-                sonar = np.array(sim.sonar(name))
-                batch.append((topic(name, ch.SONAR_RANGES), t, partial(_sonar_ranges, t, sonar)))
-                batch.append((topic(name, ch.SONAR), t,
-                              partial(_sonar_scan, t, name, mounts, max_range, sonar)))
-            if s.power:
-                batch.append((topic(name, ch.BATTERY), t, partial(_battery, t, sim.power(name))))
-            if s.blobs is not None:
-                width, height = s.blobs
-                batch.append((topic(name, ch.BLOBS), t,
-                              partial(_blobs, t, width, height, sim.blobs(name))))
-        self._sink.put_many(batch)
+        readings = tuple(_reading(sim, s) for s in self._sensing)
+        self._sink.put_group(t, partial(_sample_messages, t, poses, self._wire, readings))
         self.samples += 1
 
     # --- any thread ---

@@ -3,7 +3,10 @@ JSON encoding, compression or the disk, and never holds the interpreter lock for
 
 `put(topic, t_s, message)` hands over a message (any thread; a dict, or a callable that
 returns one, built in the writer process: it must pickle, so a module-level function or a
-`functools.partial` of one). The writer process encodes it as JSON, registers the topic's
+`functools.partial` of one). `put_group(t_s, build)` hands over the messages of one moment
+at once: `build` (pickled likewise) returns them in the writer process as (topic, t_s,
+message) items, so that what crosses the pipe is one compact sample, not a message each.
+The writer process encodes each message as JSON, registers the topic's
 channel and schema on first use (`channels.schema_of`) and appends it to the MCAP file:
 zstd-compressed chunks of `chunk_size` bytes, each written as soon as it is full, and the file
 flushed at least every `flush_period_s` of wall time. A crash of the recording process - or of
@@ -55,6 +58,8 @@ PIPE_BYTES = 1 << 20
 """The largest pipe an unprivileged Linux process may ask for (fs.pipe-max-size)."""
 _F_SETPIPE_SZ = 1031
 _STOP = "stop"
+_GROUP = "*"
+"""The topic of an item that stands for a group (`McapSink.put_group`): not a channel's."""
 
 
 class WriteObserver(Protocol):
@@ -98,6 +103,11 @@ class _Recording:
         if self.error is not None:
             return
         for topic, t_s, message in items:
+            if topic == _GROUP:
+                self._write_group(t_s, message)
+                if self.error is not None:
+                    return
+                continue
             try:
                 body = message() if callable(message) else message
                 ns = ch.nanoseconds(t_s)
@@ -114,6 +124,16 @@ class _Recording:
             else:
                 if self.observer is not None:
                     self.observer.written(topic, t_s, body)
+
+    def _write_group(self, t_s: float, build: Any) -> None:
+        try:
+            group = list(build())
+        except (ValueError, TypeError) as exc:  # a group that cannot be built: count it
+            self.dropped += 1
+            if self.dropped <= 10:
+                log.error("%s: messages of t=%g s not recorded: %s", self.path, t_s, exc)
+            return
+        self.write(group)
 
     def flush(self) -> None:
         if self.error is None:
@@ -241,6 +261,11 @@ class McapSink:
 
     def put(self, topic: str, t_s: float, message: Message) -> None:
         self.put_many([(topic, t_s, message)])
+
+    def put_group(self, t_s: float, build: Callable[[], list[Item]]) -> None:
+        """Hand over the messages of one moment as `build`, which makes them (as (topic,
+        t_s, message) items) in the writer process."""
+        self.put_many([(_GROUP, t_s, build)])  # type: ignore[list-item]
 
     def put_many(self, items: list[Item]) -> None:
         """Hand over several messages at once (one write to the pipe; any thread)."""

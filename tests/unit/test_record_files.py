@@ -87,6 +87,37 @@ def test_the_observer_comes_back_and_what_cannot_travel_is_counted(tmp_path: Pat
         sink.put(ch.TF, 7.0, {})
 
 
+def _moment(t: float, robots: tuple[str, ...]) -> list[tuple[str, float, object]]:
+    """The messages of one moment, made in the writer process (one of them not JSON)."""
+    items: list[tuple[str, float, object]] = [
+        (ch.TF, t, ch.frame_transforms(t, {r: (t, 0.0, 0.0) for r in robots}))]
+    items += [(ch.robot_topic(r, ch.BATTERY), t, partial(_battery, t)) for r in robots]
+    items.append((ch.EVENTS, t, {"bad": float("nan")}))
+    return items
+
+
+def _no_moment(t: float) -> list[tuple[str, float, object]]:
+    raise ValueError(f"no readings at {t}")
+
+
+def test_a_group_is_made_into_its_messages_in_the_writer_process(tmp_path: Path) -> None:
+    path = tmp_path / "run.mcap"
+    sink = McapSink(path)
+    for k in range(4):
+        sink.put_group(k * 0.5, partial(_moment, k * 0.5, ("p1", "p2")))
+    sink.put_group(2.0, partial(_no_moment, 2.0))  # a group that cannot be made: counted once
+    sink.put(ch.TF, 2.5, ch.frame_transforms(2.5, {"p1": (0.0, 0.0, 0.0)}))
+    sink.close()
+    # per moment, /tf and two batteries written; the message that is not JSON and the group
+    # that could not be made counted, the rest of the recording kept
+    assert (sink.written, sink.dropped, sink.error) == (13, 5, None)
+    order = [(r.topic, r.t_s) for r in iter_messages(path)]
+    assert order[:3] == [(ch.TF, 0.0), ("/p1/battery", 0.0), ("/p2/battery", 0.0)]
+    assert order[-1] == (ch.TF, 2.5)
+    assert [r.json()["percent"] for r in iter_messages(path, topics=["/p2/battery"])] == [
+        100.0, 99.95, 99.9, 99.85]
+
+
 _DIES = """
 import os, sys
 from player_server.record import channels as ch
