@@ -16,7 +16,6 @@ from typing import Any
 from experiments import events as ev
 from experiments import rundir as rd
 from experiments.driven import PathLengths
-from experiments.plots import write_plots
 from experiments.summary import summarize
 
 log = logging.getLogger(__name__)
@@ -108,6 +107,9 @@ def build_report(run: rd.RunDir, *, replay: bool = True,
     problems: list[str] = []
     plots: tuple[Path, ...] = ()
     try:
+        # (matplotlib is imported here, when a run has ended, not while a run starts)
+        from experiments.plots import write_plots
+
         plots = tuple(write_plots(events, run.plots, robots, plugin))
     except OSError as exc:
         problems.append(f"plots not written to {run.plots}: {exc.strerror or exc}")
