@@ -21,10 +21,9 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -42,9 +41,9 @@ _WARNING_KINDS = frozenset({ev.ROBOT_FAILURE, ev.FAULT_SKIPPED, ev.REALLOCATION,
 _STATE_CODES = {scene.IDLE: 0, scene.WORKING: 1, scene.CHARGING: 2, scene.FAILED: 3}
 
 
-@dataclass(frozen=True, slots=True)
-class _Sensing:
-    """What is sampled of one robot (fixed by the world)."""
+class _Sensing(NamedTuple):
+    """What is sampled of one robot (fixed by the world; a tuple, so that it travels to the
+    writer process with every sample cheaply)."""
 
     name: str
     odometry: bool
@@ -240,10 +239,6 @@ def _blobs(t: float, width: int, height: int, blobs: Any) -> dict[str, Any]:
     return {"timestamp": ch.stamp(t), "width": width, "height": height, "blobs": seen}
 
 
-def _wire(s: _Sensing) -> tuple[Any, ...]:
-    return (s.name, s.odometry, s.laser, s.sonar, s.power, s.blobs)
-
-
 _Ranges = tuple[str, bytes]  # an array's dtype and bytes
 
 
@@ -281,32 +276,32 @@ def _reading(sim: Any, s: _Sensing) -> tuple[Any, ...]:
     return odometry, laser, sonar, power, blobs
 
 
-def _sample_messages(t: float, poses: Mapping[str, Any], sensing: tuple[tuple[Any, ...], ...],
+def _sample_messages(t: float, poses: Mapping[str, Any], sensing: tuple[_Sensing, ...],
                      readings: tuple[tuple[Any, ...], ...]) -> list[tuple[str, float, Any]]:
     """(writer process) The messages of one sample, in the order they are written: /tf,
     then each robot's odometry, laser, sonar ranges, sonar scan, battery and blobs (those it
     has), each built when written."""
     items: list[tuple[str, float, Any]] = [(ch.TF, t, partial(ch.frame_transforms, t, poses))]
     topic = ch.robot_topic
-    for (name, _, laser, sonar, _, blobs), (odo, laser_r, sonar_r, power, seen) in zip(
-            sensing, readings, strict=True):
+    for s, (odo, laser_r, sonar_r, power, seen) in zip(sensing, readings, strict=True):
+        name = s.name
         if odo is not None:
             items.append((topic(name, ch.ODOMETRY), t, partial(_odometry, t, odo)))
-        if laser is not None:
-            mx, my, mz, myaw, lo, hi = laser
+        if s.laser is not None:
+            mx, my, mz, myaw, lo, hi = s.laser
             items.append((topic(name, ch.LASER), t,
                           partial(_laser, t, name, (mx, my, mz, myaw), lo, hi,
                                   _ranges_array(laser_r))))
-        if sonar is not None:
-            mounts, max_range = sonar
+        if s.sonar is not None:
+            mounts, max_range = s.sonar
             ranges = _ranges_array(sonar_r)
             items.append((topic(name, ch.SONAR_RANGES), t, partial(_sonar_ranges, t, ranges)))
             items.append((topic(name, ch.SONAR), t,
                           partial(_sonar_scan, t, name, mounts, max_range, ranges)))
         if power is not None:
             items.append((topic(name, ch.BATTERY), t, partial(_battery, t, power)))
-        if blobs is not None:
-            width, height = blobs
+        if s.blobs is not None:
+            width, height = s.blobs
             items.append((topic(name, ch.BLOBS), t, partial(_blobs, t, width, height, seen)))
     return items
 
@@ -322,7 +317,6 @@ class RunRecording:
         self.world = world
         self.layout = scene.layout_from_world(world)
         self._sensing = _sensing(world)
-        self._wire = tuple(_wire(s) for s in self._sensing)  # (plain tuples pickle fast)
         self._interval = float(world.sim.interval_sim_s)
         self._every = max(1, round(self.period_s / self._interval))
         self._last_tick = -1
@@ -355,7 +349,7 @@ class RunRecording:
         encoded in the writer process (`_sample_messages`)."""
         poses = snapshot_poses(sim.snapshot())
         readings = tuple(_reading(sim, s) for s in self._sensing)
-        self._sink.put_group(t, partial(_sample_messages, t, poses, self._wire, readings))
+        self._sink.put_group(t, partial(_sample_messages, t, poses, self._sensing, readings))
         self.samples += 1
 
     # --- any thread ---
