@@ -33,6 +33,7 @@ from typing import Any, Protocol
 
 from experiments import events as ev
 from experiments.group_coordinator import GroupCoordinator
+from experiments.log_writes import FolderWrites
 from experiments.observe import JsonlTail, robot_event_to_run_events
 from experiments.plugin import Fault, NoReferee, Referee
 from experiments.task_source import PlannedTask
@@ -114,6 +115,8 @@ class RunLoop:
         self.transport = transport
         self.processes = processes
         self.tails = dict(sorted(tails.items()))
+        # which of the tails' files were written to (set when the robots start)
+        self.log_writes: FolderWrites | None = None
         self.planned = planned
         self.next_task = next(planned)
         self.task_subjects = task_subjects
@@ -190,13 +193,20 @@ class RunLoop:
 
     # -- what the robots wrote --------------------------------------------------------------
     def _drain_robots(self) -> None:
+        # only the logs written since the last tick are read (all of them when that cannot
+        # be told), in the same order as ever
+        written = self.log_writes.written() if self.log_writes is not None else None
+        if written is not None and not written:
+            return
         for events, auctions in self.tails.values():
-            for d in events.read_new():
-                for e in robot_event_to_run_events(d):
-                    self.rec.event(e.pop("t"), e.pop("kind"), **e)
-            for d in auctions.read_new():
-                if "time_s" in d and "kind" in d:
-                    self.on_auction_event(d)
+            if written is None or events.path.name in written:
+                for d in events.read_new():
+                    for e in robot_event_to_run_events(d):
+                        self.rec.event(e.pop("t"), e.pop("kind"), **e)
+            if written is None or auctions.path.name in written:
+                for d in auctions.read_new():
+                    if "time_s" in d and "kind" in d:
+                        self.on_auction_event(d)
 
     def on_auction_event(self, d: dict[str, Any]) -> None:
         """An auctioneer's event (the runner's own or a robot's) as run events."""

@@ -441,6 +441,7 @@ def serve(parts: RunParts) -> str:
 
 def _start(parts: RunParts) -> None:
     """Start the recording, the server and every robot process."""
+    from experiments.log_writes import FolderWrites
     from experiments.observe import JsonlTail
 
     rec, server, supervisor = parts.rec, parts.server, parts.supervisor
@@ -455,6 +456,7 @@ def _start(parts: RunParts) -> None:
         parts.tails[name] = (JsonlTail(rec.run.logs / f"{name}.events.jsonl"),
                              JsonlTail(rec.run.logs / f"{name}.auction.jsonl"))
     parts.loop.tails = dict(sorted(parts.tails.items()))
+    parts.loop.log_writes = FolderWrites(rec.run.logs)  # before any robot can write
     for name in parts.endpoint_names:
         rec.note_process(0.0, "started", name, supervisor.start(name))
         if lockstep:
@@ -506,6 +508,8 @@ def _teardown(parts: RunParts, reason: str) -> str:
     for events_tail, auctions_tail in parts.tails.values():
         events_tail.close()
         auctions_tail.close()
+    if parts.loop.log_writes is not None:
+        parts.loop.log_writes.close()
     parts.node.close()
     parts.transport.close()
     try:
