@@ -170,3 +170,33 @@ def test_a_satisfied_table_stays_satisfied_and_a_new_table_is_checked_afresh() -
     core.receive(_datagram("p1", 1, 2))
     assert core.missing(bigger) == {}
     assert core.missing({"p1/0": 2, "p2/0": 1}) == {"p2/0": 1}
+
+
+def test_settling_reads_only_while_declared_datagrams_are_missing() -> None:
+    """The socket is read at the release point only when the table declares datagrams not
+    yet held; what is released is the same either way."""
+    now = [3]
+    core = _core(now, ordered=True, late_joiner=False)
+    sub = core.subscribe({"task.x"})
+    queued: list[bytes] = []
+    polls: list[int] = []
+
+    def poll() -> None:
+        polls.append(len(queued))
+        while queued:
+            core.receive(queued.pop(0))
+
+    def settle(tick: int, table: dict[str, int]) -> int:
+        now[0] = tick
+        return core.settle(tick, table, poll=poll, wait=lambda s: None,
+                           wait_clock=lambda: 0.0, give_up_after_s=1.0)
+
+    assert settle(3, {}) == 0 and polls == []  # nothing declared: no read
+    queued.append(_datagram("p1", 0, 3))
+    assert settle(4, {"p1/0": 1}) == 1 and polls == [1]  # declared, not held: read
+    assert [e.message.score for e in sub.drain()] == [0.0]
+    core.receive(_datagram("p1", 1, 4))  # held already (read by the node's own step)
+    queued.append(_datagram("p2", 0, 5))  # stamped later: released later either way
+    assert settle(5, {"p1/0": 2}) == 1 and polls == [1]  # all held: no read
+    assert settle(6, {"p1/0": 2, "p2/0": 1}) == 1 and polls == [1, 1]
+    assert [e.message.score for e in sub.drain()] == [1.0, 0.0]
