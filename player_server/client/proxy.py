@@ -29,6 +29,8 @@ class ClientLink(Protocol):
 
 
 _DATA = int(c.MsgType.DATA)
+#: DATA bodies up to this size are kept with what they decoded to (`Proxy._on_raw`)
+_KEEP_BYTES = 4096
 
 
 class Proxy:
@@ -54,6 +56,10 @@ class Proxy:
         self.driver_name = ""
         self.data_time_s: float | None = None
         self.data_count = 0
+        # per DATA subtype, the last body's bytes and what they decoded to: a device whose
+        # reading did not change sends the same bytes every round (a team clock table, a
+        # gripper, a PTZ at rest), and decoding them again would make the same frozen body
+        self._decoded: dict[int, tuple[bytes, Any]] = {}
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {c.interface_name(self.interf)}:{self.index}>"
@@ -76,10 +82,19 @@ class Proxy:
 
         Raises ``DecodeError`` when it does not decode; nothing is stored then.
         """
+        small = end - start <= _KEEP_BYTES  # (an image is neither kept nor compared)
+        if small:
+            raw = bytes(buf[start:end])
+            known = self._decoded.get(subtype)
+            if known is not None and known[0] == raw:
+                self._on_data(subtype, known[1], timestamp)
+                return
         msg = decode_frame((0, 0, self.interf, self.index, _DATA, subtype,
                             timestamp, 0, end - start), buf, start, end)
         if isinstance(msg, Undecodable):
             raise DecodeError(msg.reason)
+        if small:
+            self._decoded[subtype] = (raw, msg.body)
         self._on_data(subtype, msg.body, timestamp)
 
     # -- requests and commands ----------------------------------------------------------------
