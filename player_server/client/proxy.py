@@ -84,7 +84,7 @@ class Proxy:
         """
         small = end - start <= _KEEP_BYTES  # (an image is neither kept nor compared)
         if small:
-            raw = bytes(buf[start:end])
+            raw = buf[start:end]  # (compared as it is; made bytes only when kept)
             known = self._decoded.get(subtype)
             if known is not None and known[0] == raw:
                 self._on_data(subtype, known[1], timestamp)
@@ -94,7 +94,7 @@ class Proxy:
         if isinstance(msg, Undecodable):
             raise DecodeError(msg.reason)
         if small:
-            self._decoded[subtype] = (raw, msg.body)
+            self._decoded[subtype] = (bytes(raw), msg.body)
         self._on_data(subtype, msg.body, timestamp)
 
     # -- requests and commands ----------------------------------------------------------------
