@@ -100,6 +100,8 @@ def end_of_run_lines(
         lines.append(f"  replay         {replay}   (open it in a browser)")
     for p in plots:
         lines.append(f"  plot           {p}")
+    if not plots:
+        lines.append(f"  plots          none drawn (murdoch report {root} draws them)")
     lines.append(f"  events         {root / 'events.jsonl'}   (what simulation time decided)")
     if (root / "run.mcap").is_file():
         lines.append(f"  recording      {root / 'run.mcap'}   (open it in Foxglove; "

@@ -253,10 +253,12 @@ class RunRecorder:
     def progress(self) -> Progress:
         return self.display.snapshot()
 
-    def finish(self, reason: str, *, replay: bool = True, end_t: float | None = None,
+    def finish(self, reason: str, *, replay: bool = True, plots: bool = True,
+               end_t: float | None = None,
                extra: Mapping[str, Any] | None = None, keep_viewer: bool = False) -> Report:
         """Write run_end, close the logs, stop the viewer (unless `keep_viewer`: then
-        `hold_viewer` or `close_viewer` later), build summary, plots and replay.
+        `hold_viewer` or `close_viewer` later), build summary, plots (unless not `plots`)
+        and replay.
 
         `extra`: wall-clock facts of the run kept beside the wall time in processes.jsonl."""
         if self._finished:
@@ -277,7 +279,8 @@ class RunRecorder:
                 self.recording.close()
         distance = (self.recording.distance()
                     if self.recording is not None and self.recording.complete else None)
-        return build_report(self.run, replay=replay and self._record, distance=distance)
+        return build_report(self.run, replay=replay and self._record, plots=plots,
+                            distance=distance)
 
     def hold_viewer(self, wait: Callable[[], None]) -> None:
         """Keep the live view up after the run (its last frame stays on screen) until `wait`

@@ -75,9 +75,10 @@ def distance_driven(run: rd.RunDir, spec: Any) -> dict[str, Any] | None:
     return lengths.summary()
 
 
-def build_report(run: rd.RunDir, *, replay: bool = True,
+def build_report(run: rd.RunDir, *, replay: bool = True, plots: bool = True,
                  distance: Mapping[str, Any] | None = None) -> Report:
-    """summary.json, plots and (with `replay`) replay.html of a finished run. `distance`:
+    """summary.json, plots (unless not `plots`: those already in plots/ are left as they
+    are) and (with `replay`) replay.html of a finished run. `distance`:
     the metres driven, summed by the runner while it recorded (`RunRecording.distance`);
     without it they are summed from run.mcap read back."""
     stats = ev.ReadStats()
@@ -105,12 +106,13 @@ def build_report(run: rd.RunDir, *, replay: bool = True,
         summary["distance_m"] = None
     run.write_summary(summary)
     problems: list[str] = []
-    plots: tuple[Path, ...] = ()
+    drawn: tuple[Path, ...] = ()
     try:
-        # (matplotlib is imported here, when a run has ended, not while a run starts)
-        from experiments.plots import write_plots
+        if plots:
+            # (matplotlib is imported here, when a run has ended, not while a run starts)
+            from experiments.plots import write_plots
 
-        plots = tuple(write_plots(events, run.plots, robots, plugin))
+            drawn = tuple(write_plots(events, run.plots, robots, plugin))
     except OSError as exc:
         problems.append(f"plots not written to {run.plots}: {exc.strerror or exc}")
     replay_path: Path | None = None
@@ -119,7 +121,7 @@ def build_report(run: rd.RunDir, *, replay: bool = True,
             replay_path = _write_replay(run, spec, events)
         except OSError as exc:
             problems.append(f"replay not written to {run.replay}: {exc.strerror or exc}")
-    return Report(run, summary, plots, replay_path, stats.malformed, tuple(problems))
+    return Report(run, summary, drawn, replay_path, stats.malformed, tuple(problems))
 
 
 def _write_replay(run: rd.RunDir, spec: Any, events: list[dict[str, Any]]) -> Path | None:

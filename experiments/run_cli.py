@@ -108,6 +108,9 @@ class PerProcess(click.ParamType):
               help="cbba, cbga: the robots improve each settled plan by exchanges agreed "
                    "among them before claiming (docs/allocators.md); off by default.")
 @click.option("--no-replay", is_flag=True, help="Do not write replay.html.")
+@click.option("--no-plots", is_flag=True,
+              help="Do not draw plots/*.png at the end (about a second of CPU a run; "
+                   "`murdoch report RUN_DIR` draws them later).")
 @click.option("--pipelined/--no-pipelined", default=True, show_default=True,
               help="Lockstep: the server sends each round before it steps and computes the "
                    "next one while the robots work (their commands act one tick later).")
@@ -154,7 +157,7 @@ def run(ctx: click.Context, experiment: str, sim_hours: float | None, until: str
         speedup: float | None, seed: int,
         meshcat: bool, out: Path, world: str | None, task_interval: float | None,
         kills: tuple[str, ...], restarts: tuple[str, ...], metric_terms: str, allocator: str,
-        refine: bool, no_replay: bool,
+        refine: bool, no_replay: bool, no_plots: bool,
         pipelined: bool, robot_nice: int, key: str | None, pin_cpus: bool,
         record_rate: float, no_record: bool, trails: int, lasers: bool,
         live_rate: float, transport: str, bind: str, places: tuple[str, ...],
@@ -184,7 +187,7 @@ def run(ctx: click.Context, experiment: str, sim_hours: float | None, until: str
             meshcat=meshcat, out=out, world_name=world or every[experiment].world,
             task_interval_s=task_interval, kills=[parse_at(k) for k in kills],
             restarts=[parse_at(r) for r in restarts], replay=not no_replay,
-            own=own_values(every[experiment], every, values, ctx),
+            plots=not no_plots, own=own_values(every[experiment], every, values, ctx),
             pipelined=pipelined, robot_nice=robot_nice, pin_cpus=pin_cpus, key=key,
             record=not no_record, record_rate_hz=record_rate, trails=trails, lasers=lasers,
             live_rate_hz=live_rate, metric_terms=_metric_terms(metric_terms),
@@ -219,6 +222,7 @@ def run_experiment(
     transport: str = "multicast", bind: str = "127.0.0.1",
     placements: tuple[tuple[str, tuple[str, ...]], ...] = (), refine: bool = False,
     robots_per_process: int | None = None, live_rate_hz: float = LIVE_RATE_HZ,
+    plots: bool = True,
 ) -> int:
     """Run one experiment end to end; the exit code of `murdoch run`. `own`: the values of
     the experiment's own options by `Option.dest` (their defaults when not given)."""
@@ -234,7 +238,7 @@ def run_experiment(
         trails=trails, lasers=lasers, record=record, record_rate_hz=record_rate_hz,
         metric_terms=metric_terms, extras=extras if extras is not None else RunExtras(),
         transport=transport, bind=bind, placements=placements, refine=refine,
-        robots_per_process=robots_per_process, live_rate_hz=live_rate_hz)
+        robots_per_process=robots_per_process, live_rate_hz=live_rate_hz, plots=plots)
     chosen = settings.experiment
     given = dict(own or {})
     unknown = sorted(set(given) - {o.dest for o in chosen.options})

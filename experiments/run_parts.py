@@ -87,6 +87,9 @@ class RunSettings:
     (`experiments.robot_hosts.robots_per_process`)."""
     live_rate_hz: float = LIVE_RATE_HZ
     """Frames per wall-clock second sent to the live view (`murdoch run --live-rate`)."""
+    plots: bool = True
+    """Draw plots/*.png when the run ends (`murdoch run --no-plots` leaves them to `murdoch
+    report`)."""
 
     @property
     def lockstep(self) -> bool:
@@ -533,8 +536,8 @@ def finish(parts: RunParts, reason: str) -> int:
     settings, rec, experiment = parts.settings, parts.rec, parts.settings.experiment
     keep_viewer = settings.meshcat and reason == "completed"
     bus_loss = parts.bus_loss
-    report = rec.finish(reason, replay=settings.replay, end_t=parts.loop.state.last_t,
-                        keep_viewer=keep_viewer,
+    report = rec.finish(reason, replay=settings.replay, plots=settings.plots,
+                        end_t=parts.loop.state.last_t, keep_viewer=keep_viewer,
                         extra=({"bus_loss_runner": {"dropped": bus_loss.dropped,
                                                     "delayed": bus_loss.delayed}}
                                if bus_loss is not None else None))

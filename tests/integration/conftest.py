@@ -23,9 +23,9 @@ LONGTERM_KILLED_WINNER = [
 
 BOXPUSH_SWITCHED = [
     "run", "boxpush", "--until", "90s", "--seed", "2", "--switch-off", "pusher1@30s",
-    "--switch-on", "pusher1@60s", "--no-replay"]
+    "--switch-on", "pusher1@60s", "--no-replay", "--no-plots"]
 """90 simulated seconds of boxpush with pusher1 switched off at 30 s and on at 60 s, every
-robot writing a profile of its loop (MURDOCH_ROBOT_PROFILE_DIR)."""
+robot writing a profile of its loop (MURDOCH_ROBOT_PROFILE_DIR); no plots drawn."""
 
 
 def murdoch_command() -> list[str]:

@@ -22,7 +22,7 @@ pytestmark = pytest.mark.timeout(900)
 
 ARGS = ["run", "longterm", "--allocator", "cbga", "--until", "5m", "--task-interval", "40",
         "--group-tasks", "0.6", "--seed", "4", "--kill", "p4@60s", "--restart",
-        "p4@160s", "--no-replay", "--no-record"]
+        "p4@160s", "--no-replay", "--no-plots", "--no-record"]
 """With this seed p4 holds a seat of the first group task from the sixth second on."""
 
 

@@ -25,8 +25,8 @@ from experiments.soak.invariants import EventInvariants, Limits
 pytestmark = pytest.mark.timeout(900)
 
 ARGS = ["run", "longterm", "--world", "test_lowbattery", "--until", "90s",
-        "--task-interval", "15", "--seed", "3", "--refine", "--no-replay", "--no-record",
-        "--no-pin-cpus"]
+        "--task-interval", "15", "--seed", "3", "--refine", "--no-replay", "--no-plots",
+        "--no-record", "--no-pin-cpus"]
 
 
 def _murdoch() -> list[str]:

@@ -29,7 +29,7 @@ pytestmark = pytest.mark.timeout(900)
 
 ARGS = ["run", "longterm", "--world", "test_lowbattery", "--until", "240s",
         "--task-interval", "20", "--seed", "3", "--kill", "r2@30s", "--restart", "r2@70s",
-        "--no-replay", "--no-record"]
+        "--no-replay", "--no-plots", "--no-record"]
 ALLOCATORS = list(REGISTRY)
 
 

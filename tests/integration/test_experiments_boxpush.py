@@ -26,12 +26,13 @@ def _murdoch() -> list[str]:
     return [str(exe)] if exe.exists() else [sys.executable, "-m", "experiments.cli"]
 
 
-def _run(tmp_path: Path, *args: str, wall_s: float = 300.0) -> tuple[
+def _run(tmp_path: Path, *args: str, wall_s: float = 300.0, plots: bool = False) -> tuple[
         subprocess.CompletedProcess[str], Path, list[dict[str, Any]], dict[str, Any]]:
+    """A boxpush run with `args`; its plots only when the test looks at them."""
     out = tmp_path / "runs"
     proc = subprocess.run(
         [*_murdoch(), "run", "boxpush", *(() if "--seed" in args else ("--seed", "2")),
-         "--no-replay", "--out", str(out), *args],
+         "--no-replay", *(() if plots else ("--no-plots",)), "--out", str(out), *args],
         capture_output=True, text=True, timeout=wall_s, check=False,
     )
     (run,) = out.iterdir()
@@ -123,7 +124,7 @@ def test_the_returning_pusher_waits_for_the_other_to_work_its_old_end(tmp_path: 
     now waits until the remaining pusher works the old end."""
     proc, run, events, summary = _run(
         tmp_path, "--until", "600s", "--seed", "3", "--switch-off", "p1@50s",
-        "--switch-on", "p1@100s", wall_s=360.0)
+        "--switch-on", "p1@100s", wall_s=360.0, plots=True)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     (off,) = [e for e in events if e["kind"] == ev.ROBOT_SWITCH_OFF]
     (on,) = [e for e in events if e["kind"] == ev.ROBOT_SWITCH_ON]

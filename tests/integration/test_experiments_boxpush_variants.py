@@ -27,10 +27,13 @@ def _murdoch() -> list[str]:
     return [str(exe)] if exe.exists() else [sys.executable, "-m", "experiments.cli"]
 
 
-def _run(tmp_path: Path, *args: str) -> tuple[Path, list[dict[str, Any]], dict[str, Any]]:
+def _run(tmp_path: Path, *args: str,
+         plots: bool = False) -> tuple[Path, list[dict[str, Any]], dict[str, Any]]:
+    """A boxpush run with `args`; its plots only when the test looks at them."""
     out = tmp_path / "runs"
     proc = subprocess.run(
-        [*_murdoch(), "run", "boxpush", "--seed", "2", "--no-replay", "--out", str(out), *args],
+        [*_murdoch(), "run", "boxpush", "--seed", "2", "--no-replay",
+         *(() if plots else ("--no-plots",)), "--out", str(out), *args],
         capture_output=True, text=True, timeout=450, check=False,
     )
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
@@ -40,7 +43,11 @@ def _run(tmp_path: Path, *args: str) -> tuple[Path, list[dict[str, Any]], dict[s
     assert not any(terminal_state_problems(events).values())
     assert summary["goal"]["reached"], summary["goal"]
     assert "goal reached" in proc.stdout
-    assert (run / "plots" / "box_distance.png").stat().st_size > 10_000
+    if plots:
+        assert (run / "plots" / "box_distance.png").stat().st_size > 10_000
+    else:
+        assert not list(run.glob("plots/*.png"))
+        assert f"plots          none drawn (murdoch report {run} draws them)" in proc.stdout
     return run, events, summary
 
 
@@ -70,7 +77,8 @@ def test_goal_far_off_to_one_side_single_corrective_pushes_first(tmp_path: Path)
 
 
 def test_a_goal_that_moves_during_the_run(tmp_path: Path) -> None:
-    run, events, _ = _run(tmp_path, "--goal-velocity", "0,-0.006", "--until", "8m")
+    run, events, _ = _run(tmp_path, "--goal-velocity", "0,-0.006", "--until", "8m",
+                          plots=True)
     track = [(e["t"], e["goal"], e["box"]) for e in events if e["kind"] == ev.BOX_PROGRESS]
     t_end, goal_end, box_end = track[-1]
     assert track[0][1] == [5.0, 1.0]
@@ -83,8 +91,18 @@ def test_a_goal_that_moves_during_the_run(tmp_path: Path) -> None:
 
 
 def test_the_watch_task_re_targeted_to_another_goal(tmp_path: Path) -> None:
-    _, events, summary = _run(tmp_path, "--world", "boxpush_goals", "--retarget",
+    run, events, summary = _run(tmp_path, "--world", "boxpush_goals", "--retarget",
                                 "goal2@40s", "--until", "8m")
+    # drawn later, from the run directory alone, as the run's end block says
+    proc = subprocess.run([*_murdoch(), "report", str(run)], capture_output=True, text=True,
+                          timeout=120, check=False)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    for name in ("tasks.png", "allocation.png", "box_distance.png"):
+        assert f"wrote      {run / 'plots' / name}" in proc.stdout
+        assert (run / "plots" / name).stat().st_size > 10_000
+    rebuilt = json.loads((run / "summary.json").read_text())
+    assert (rebuilt["events_sha256"], rebuilt["tasks"]) == (summary["events_sha256"],
+                                                           summary["tasks"])
     (moved,) = [e for e in events if e["kind"] == ev.GOAL_MOVED]
     assert moved["t"] == pytest.approx(40.0, abs=0.11) and moved["marker"] == "goal2"
     watch = [e for e in events if e["kind"] == ev.TASK_INTRODUCED

@@ -27,7 +27,7 @@ def test_a_robot_killed_from_outside_the_schedule_is_recorded_with_its_exit_code
 ) -> None:
     out = tmp_path / "runs"
     run = subprocess.Popen([*_murdoch(), "run", "longterm", "--until", "400s", "--seed", "3",
-                            "--no-replay", "--out", str(out)],
+                            "--no-replay", "--no-plots", "--out", str(out)],
                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     victim_pid = None
     try:
@@ -68,7 +68,7 @@ def test_kill_busy_with_nobody_busy_is_recorded_as_skipped(tmp_path: Path) -> No
     out = tmp_path / "runs"
     proc = subprocess.run(
         [*_murdoch(), "run", "boxpush", "--until", "5s", "--seed", "2", "--kill", "busy@0.5s",
-         "--restart", "busy@2s", "--no-replay", "--out", str(out)],
+         "--restart", "busy@2s", "--no-replay", "--no-plots", "--out", str(out)],
         capture_output=True, text=True, timeout=200, check=False)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     (run_dir,) = out.iterdir()

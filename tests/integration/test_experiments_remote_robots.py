@@ -73,7 +73,7 @@ def test_a_robot_in_another_namespace_takes_part_over_zenoh(
     out = tmp_path / "runs"
     proc = subprocess.run(
         ["ip", "netns", "exec", server, *_murdoch(), "run", "longterm", "--until", "60s",
-         "--task-interval", "10", "--seed", "3", "--no-replay", "--no-pin-cpus",
+         "--task-interval", "10", "--seed", "3", "--no-replay", "--no-plots", "--no-pin-cpus",
          "--transport", "zenoh", "--bind", SERVER_ADDR,
          "--place", f"p2=ip netns exec {robot}", "--out", str(out)],
         capture_output=True, text=True, timeout=280, check=False)

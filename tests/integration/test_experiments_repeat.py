@@ -78,6 +78,8 @@ def _run_on(cpu: int | None, args: tuple[str, ...], out: Path) -> Path:
     extra = ["--no-pin-cpus", "--no-record"]
     if "--no-replay" not in args:
         extra.append("--no-replay")  # nothing to replay without a recording
+    if "--no-plots" not in args:
+        extra.append("--no-plots")  # (the events are what is compared)
     preexec = (lambda: os.sched_setaffinity(0, {cpu})) if cpu is not None else None
     proc = subprocess.run([*_murdoch(), *args, *extra, "--out", str(out)], capture_output=True,
                           text=True, timeout=560, check=False, preexec_fn=preexec)

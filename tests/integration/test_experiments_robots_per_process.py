@@ -29,7 +29,7 @@ def hosted_run(tmp_path_factory: pytest.TempPathFactory,
     out = tmp_path_factory.mktemp("robots-per-process") / "runs"
     proc = subprocess.run(
         [*_murdoch(), *longterm_killed_winner_run.args, "--robots-per-process", "3",
-         "--no-replay", "--out", str(out)],
+         "--no-replay", "--no-plots", "--out", str(out)],
         capture_output=True, text=True, timeout=560, check=False)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     (run,) = out.iterdir()

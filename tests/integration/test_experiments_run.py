@@ -241,7 +241,8 @@ def test_specialist_and_distance_terms_give_tracking_to_the_camera_only_robots(
     out = tmp_path / "runs"
     proc = subprocess.run(
         [*_murdoch(), "run", "longterm", "--until", "150s", "--task-interval", "20",
-         "--seed", "4", "--metric", "distance,specialist", "--no-replay", "--out", str(out)],
+         "--seed", "4", "--metric", "distance,specialist", "--no-replay", "--no-plots",
+         "--out", str(out)],
         capture_output=True, text=True, timeout=220, check=False,
     )
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]

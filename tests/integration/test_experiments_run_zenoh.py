@@ -24,7 +24,7 @@ def _murdoch() -> list[str]:
 def _run(out: Path, *extra: str) -> Path:
     proc = subprocess.run(
         [*_murdoch(), "run", "longterm", "--until", "40s", "--task-interval", "8",
-         "--seed", "5", "--no-replay", "--out", str(out), *extra],
+         "--seed", "5", "--no-replay", "--no-plots", "--out", str(out), *extra],
         capture_output=True, text=True, timeout=280, check=False)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     (run,) = out.iterdir()

@@ -357,7 +357,7 @@ def test_the_long_term_experiment_runs_on_the_shipped_stage_world(tmp_path: Path
     world = Path(__file__).resolve().parents[2] / "worlds" / "stage" / "pioneers.world"
     proc = subprocess.run(
         [sys.executable, "-c", "from experiments.cli import main; main()", "run", "longterm",
-         "--world", str(world), "--until", "20s", "--out", str(tmp_path)],
+         "--world", str(world), "--until", "20s", "--no-plots", "--out", str(tmp_path)],
         capture_output=True, text=True, timeout=300, stdin=subprocess.DEVNULL)
     assert proc.returncode == 0, proc.stderr[-2000:]
     (summary,) = tmp_path.glob("longterm-*/summary.json")

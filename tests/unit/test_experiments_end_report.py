@@ -36,6 +36,7 @@ def test_the_block_names_every_file_and_what_to_try_next(tmp_path: Path) -> None
     assert f"replay         {root / 'replay.html'}" in text
     for p in plots:
         assert str(p) in text
+    assert "none drawn" not in text
     assert str(root / "events.jsonl") in text and str(root / "run.mcap") in text
     assert lines.index("next") > lines.index("files")
     assert "murdoch run longterm --until 1h --kill p3@30m --restart p3@45m" in text
@@ -48,6 +49,7 @@ def test_an_interrupted_run_says_so_and_lists_what_failed_to_write() -> None:
     assert lines[0] == "interrupted at 1:00:00 simulated; what was recorded so far:"
     assert "error: replay not written to r/replay.html: No space left" in lines
     assert not any(line.strip().startswith("replay ") for line in lines)
+    assert "  plots          none drawn (murdoch report r draws them)" in lines
 
 
 def test_summary_lines_and_next_steps() -> None:
