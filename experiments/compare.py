@@ -455,13 +455,17 @@ def _run_options(experiment: str, world: str | None, task_interval: float,
 @click.option("--resume", is_flag=True,
               help="Reuse the finished runs under --out made with exactly these options "
                    "(a lockstep run repeats exactly); run only the others.")
+@click.option("--no-plots", is_flag=True,
+              help="The runs draw no plots of their own (murdoch run --no-plots; murdoch "
+                   "report RUN_DIR draws them); the comparison's figure is drawn.")
 @click.pass_context
 def compare(ctx: click.Context, experiment: str, allocators: str | None, refine: bool,
             seeds: str,
             sim_hours: float | None,
             until: str | None, jobs: int, out: Path, world: str | None, task_interval: float,
             kills: tuple[str, ...], restarts: tuple[str, ...],
-            metric_terms: str, dask_address: str | None, resume: bool, **values: Any) -> None:
+            metric_terms: str, dask_address: str | None, resume: bool, no_plots: bool,
+            **values: Any) -> None:
     """Run EXPERIMENT with each allocator on each seed; CSV, figure and a table."""
     names = parse_allocators(allocators or ",".join(_supported(experiment)), refine)
     unsupported = [n for n in names if n.removesuffix(REFINED) not in _supported(experiment)]
@@ -484,6 +488,8 @@ def compare(ctx: click.Context, experiment: str, allocators: str | None, refine:
     own = passthrough_args(every[experiment], every, values, ctx)
     extra, config = _run_options(experiment, world, task_interval, own, kills, restarts,
                                  metric_terms, until_s)
+    if no_plots:  # (how a run's output is drawn, not what it ran: --resume reuses either)
+        extra.append("--no-plots")
     if dask_address is not None:
         out = out.absolute()  # the same path on every worker (a shared filesystem's)
     place = _where(dask_address, jobs)

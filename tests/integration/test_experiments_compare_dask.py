@@ -23,8 +23,8 @@ distributed = pytest.importorskip("distributed",
 pytestmark = pytest.mark.timeout(600)
 
 TINY = ["compare", "longterm", "--allocators", "murdoch", "--seeds", "1-2", "--until", "2m",
-        "--task-interval", "40"]
-"""Two short runs of MURDOCH (seeds 1 and 2)."""
+        "--task-interval", "40", "--no-plots"]
+"""Two short runs of MURDOCH (seeds 1 and 2), without plots of their own."""
 DIFFER = {"wall_time_s", "run_dir"}
 """The only columns that may differ between two runs of the same job."""
 
