@@ -13,12 +13,13 @@ Prints one line per run and, last, `robot_cpu_us_per_tick_median=<x>`.
 
 With `--allocator murdoch,cbba,cbga` it measures instead the robot processes of whole team
 runs under each allocator: `murdoch run longterm --allocator A --until 20m --seed 1` (lockstep,
-no recording), the allocators taken in turn within each round so that a busy machine loads
-them alike. The runner samples each process's CPU time (processes.jsonl, `cpu_s`, about every
-two wall seconds); a robot's CPU per tick is the CPU it used between the first sample after
-`--from` simulated seconds (start-up and the first tasks left out) and the last sample,
-divided by the ticks in between. Per run, the median over the six mobile robots (the overhead
-camera's desk apart); printed: the median over runs per allocator and its ratio to MURDOCH's.
+no recording, a process per robot), the allocators taken in turn within each round so that a
+busy machine loads them alike. The runner samples each process's CPU time (processes.jsonl,
+`cpu_s`, about every two wall seconds); a robot's CPU per tick is the CPU it used between
+the first sample after `--from` simulated seconds (start-up and the first tasks left out)
+and the last sample, divided by the ticks in between. Per run, the median over the six
+mobile robots (the overhead camera's desk apart); printed: the median over runs per
+allocator and its ratio to MURDOCH's.
 `--existing RUN_DIR ...` reports the same figures from runs already made.
 """
 
@@ -116,7 +117,8 @@ def team_run_cpu(allocator: str, until: str, from_s: float, out: Path) -> dict[s
     process, from processes.jsonl."""
     proc = subprocess.run(
         [str(BIN / "murdoch"), "run", "longterm", "--allocator", allocator, "--until", until,
-         "--seed", "1", "--no-record", "--no-replay", "--out", str(out)],
+         "--seed", "1", "--no-record", "--no-replay", "--robots-per-process", "1",
+         "--out", str(out)],
         capture_output=True, text=True, check=False)
     if proc.returncode != 0:
         raise SystemExit(f"murdoch run --allocator {allocator} exited with "

@@ -41,26 +41,25 @@ class PauseRefused(RuntimeError):
     """A robot sharing its process with others cannot be paused alone."""
 
 
-AUTO_ALONE_UP_TO = 16
-"""`--robots-per-process auto`: teams of at most this many members run a process each."""
 AUTO_MAX_PER_PROCESS = 100
 """`--robots-per-process auto`: a host process runs at most this many robots."""
 
 
 def robots_per_process(choice: int | None, members: int, *, placed: bool,
                        pausing: bool, cpus: int = 2) -> int:
-    """Robots to a process: `choice` when given; for ``auto`` (None) one each for a team of up
-    to `AUTO_ALONE_UP_TO` members, or when a robot is placed on another host (`placed`) or
-    paused alone by the fault schedule (`pausing`); else the team spread evenly over one host
-    per CPU left to the robots (`cpus` the run may use, less one for the serving thread), at
-    most `AUTO_MAX_PER_PROCESS` to a host. The robots of a host share one interpreter lock,
-    so more hosts than CPUs only add processes that wake every tick (on two CPUs, one host
-    of a hundred ran swarm100 faster than ten hosts of ten: `docs/experiments.md`). A
-    lockstep run's events do not depend on it (the robots of a host act at tick boundaries
-    alike)."""
+    """Robots to a process: `choice` when given; for ``auto`` (None) one each when a robot is
+    placed on another host (`placed`) or paused alone by the fault schedule (`pausing`), else
+    the team spread evenly over one host per CPU left to the robots (`cpus` the run may use,
+    less one for the serving thread), at most `AUTO_MAX_PER_PROCESS` to a host (on two CPUs
+    a team of up to a hundred is one host). The robots of a host share one interpreter
+    lock, so more hosts than CPUs only add processes that wake every tick
+    (`docs/experiments.md`: on two CPUs the long-term team ran faster as one host than as a
+    process per robot, and swarm100 faster as one host of a hundred than as ten hosts of
+    ten). A lockstep run's events do not depend on it (the robots of a host act at tick
+    boundaries alike)."""
     if choice is not None:
         return choice
-    if members <= AUTO_ALONE_UP_TO or placed or pausing:
+    if placed or pausing:
         return 1
     robot_cpus = max(1, cpus - 1)
     return min(AUTO_MAX_PER_PROCESS, -(-members // robot_cpus))

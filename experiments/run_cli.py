@@ -149,9 +149,10 @@ class PerProcess(click.ParamType):
 @click.option("--robots-per-process", type=PerProcess(), default="auto", show_default=True,
               help="Robots to a process: 1 runs a murdoch-robot process per robot; K above 1 "
                    "runs ceil(N/K) host processes of K robots, each robot in a thread of its "
-                   "own (less memory per robot; no pausing one robot alone); auto: 1 for "
-                   "teams of up to 16, else one host per CPU left to the robots (all "
-                   "CPUs but the serving thread's), at most 100 robots to a host.")
+                   "own (less memory per robot; no pausing one robot alone); auto: the team "
+                   "spread over one host per CPU left to the robots (all CPUs but the "
+                   "serving thread's), at most 100 robots to a host; 1 where a robot is "
+                   "placed elsewhere or paused alone.")
 @click.pass_context
 def run(ctx: click.Context, experiment: str, sim_hours: float | None, until: str | None,
         speedup: float | None, seed: int,

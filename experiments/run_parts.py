@@ -255,7 +255,7 @@ def assemble(settings: RunSettings, options: RunOptions, spec: WorldSpec) -> Run
         clock=time.monotonic, speedup=settings.speedup, quit_time_s=0.0, host=settings.bind,
         config=CoreConfig(lockstep=lockstep, lockstep_clients=1,
                           lockstep_timeout_s=0.0 if lockstep else 5.0,
-                          pipelined=settings.pipelined),
+                          pipelined=settings.pipelined, step_without_participants=True),
         cpus=split.serving if split is not None else None,
     )
     env = {**os.environ, KEY_ENV: secret, EPOCH_ENV: epoch}

@@ -96,7 +96,8 @@ def _rate_and_span(
                    "back at auction or ended (default: the contract timeout + a renewal "
                    "period + a bid window).")
 @click.option("--memory-slope-limit", type=click.FloatRange(min=0.0), default=2.0,
-              show_default=True, help="MiB per simulated hour a process's memory may grow.")
+              show_default=True, help="MiB per simulated hour a process's memory may grow (a host "
+                   "process's, per robot).")
 @click.option("--memory-every", type=click.FloatRange(min=0.1), default=5.0,
               show_default=True, help="Wall seconds between memory samples.")
 @click.option("--no-record", is_flag=True, help="Write no run.mcap (the dead-controller "

@@ -412,15 +412,20 @@ def memory_slopes(samples: Iterable[Mapping[str, Any]], end_t: float,
     """From `process` samples (name, pid, rss_bytes, t): for each process name, the slope of
     its longest-lived pid's RSS over the second half of the run (and after its first
     `WARMUP_S`, counted from its `process_note` "started", or from 0 for a process there
-    from the start, such as the runner), in MiB per simulated hour."""
+    from the start, such as the runner), in MiB per simulated hour. A host process of
+    several robots (its samples' ``robots``) is judged per robot: its slope over its robots
+    is held to the limit, as each would be in a process of its own."""
     series: dict[tuple[str, int], list[tuple[float, float]]] = {}
     started: dict[int, float] = {}
+    robots: dict[str, int] = {}
     for s in samples:
         if s.get("kind") == "process_note" and s.get("what") == "started":
-            started[int(s["pid"])] = float(s["t"])
+            started.setdefault(int(s["pid"]), float(s["t"]))  # a host's first robot
         if s.get("kind") != "process":
             continue
-        series.setdefault((str(s["name"]), int(s["pid"])), []).append(
+        name = str(s["name"])
+        robots[name] = max(robots.get(name, 1), int(s.get("robots", 1)))
+        series.setdefault((name, int(s["pid"])), []).append(
             (float(s["t"]), float(s["rss_bytes"]) / (1 << 20)))
     by_name: dict[str, list[tuple[float, float]]] = {}
     for (name, pid), pts in sorted(series.items()):
@@ -436,10 +441,12 @@ def memory_slopes(samples: Iterable[Mapping[str, Any]], end_t: float,
         if len(pts) < MIN_MEMORY_SAMPLES:
             out[name] = {"samples": len(pts), "slope_mib_per_h": None}
             continue
-        slope = slope_per_hour(pts)
+        slope = slope_per_hour(pts) / robots[name]
         out[name] = {"samples": len(pts), "slope_mib_per_h": round(slope, 3),
                      "first_mib": round(pts[0][1], 1), "last_mib": round(pts[-1][1], 1),
                      "from_t": pts[0][0], "to_t": pts[-1][0]}
+        if robots[name] > 1:
+            out[name]["robots"] = robots[name]  # the slope is per robot
         if slope > limit_mib_per_h and (worst is None or slope > worst[0]):
             worst = (slope, name)
         if slope > limit_mib_per_h:

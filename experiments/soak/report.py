@@ -208,10 +208,12 @@ def markdown(r: Mapping[str, Any]) -> str:
         lines.append(f"| {a['hour']} | {a['count']} | {a.get('median', '')} | "
                      f"{a.get('p95', '')} | {a.get('max', '')} |")
     lines += ["", "## Memory (second half of the run)", "",
-              f"limit {r['limits']['memory_slope_mib_per_h']} MiB per simulated hour", "",
+              f"limit {r['limits']['memory_slope_mib_per_h']} MiB per simulated hour (a "
+              "host process's slope is per robot)", "",
               "| process | samples | slope MiB/h | first MiB | last MiB |", "|---|---|---|---|---|"]
     for name, m in r["memory"].items():
-        lines.append(f"| {name} | {m['samples']} | {m['slope_mib_per_h']} | "
+        shared = f" ({m['robots']} robots)" if "robots" in m else ""
+        lines.append(f"| {name}{shared} | {m['samples']} | {m['slope_mib_per_h']} | "
                      f"{m.get('first_mib', '')} | {m.get('last_mib', '')} |")
     lines += ["", "## Messages per hour", "", "| hour | messages | bytes |", "|---|---|---|"]
     for h, (n, b) in enumerate(zip(r["messages_per_hour"], r["bytes_per_hour"], strict=True)):

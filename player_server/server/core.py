@@ -17,9 +17,10 @@ position2d subscription, unless it set the ``lockstep`` integer property of the
 ``player`` device (1 = always a participant, 0 = never, -1 = automatic). The simulation
 may step only when at least ``lockstep_clients`` participants have been seen since start
 and every current participant has consumed the current round and asked for the next
-one. A participant that holds the gate for longer than ``lockstep_timeout_s`` (four
-times that before its first round) is demoted to a monitor until its next REQ DATA
-(logged). Monitors never hold the gate.
+one; with none left it waits, unless ``step_without_participants`` (a run's server, whose
+team may all be gone) and none is expected either. A participant that holds the gate for
+longer than ``lockstep_timeout_s`` (four times that before its first round) is demoted to
+a monitor until its next REQ DATA (logged). Monitors never hold the gate.
 
 Pipelined lockstep (``pipelined``): when the gate opens, the round of the current state
 goes out first and the simulation steps after it, then the next round's data is computed
@@ -495,7 +496,8 @@ class ServerCore(PlayerRequests):
             if not s.counted_as_participant:
                 s.counted_as_participant = True
                 self.participants_seen += 1
-        if not parts or self.participants_seen < self.config.lockstep_clients:
+        if self.participants_seen < self.config.lockstep_clients or (
+                not parts and not self.config.step_without_participants):
             return False
         if self.expected:
             joined = {s.endpoint.name for s in parts}

@@ -22,6 +22,9 @@ class CoreConfig:
     #: lockstep only: publish the current round first, then step and prepare the next one
     #: while the clients work on theirs (a command acts one tick later; runs still repeat)
     pipelined: bool = False
+    #: lockstep only: once participants were seen, step on when none is left and none is
+    #: expected (a run whose whole team has gone goes on to its end; a bare server waits)
+    step_without_participants: bool = False
     queue_limit: int = 1024
     max_message_size: int = c.MAX_MESSAGE_SIZE
     #: stop reading from a client while this many replies wait unsent

@@ -22,12 +22,17 @@ def _murdoch() -> list[str]:
     return [str(exe)] if exe.exists() else [sys.executable, "-m", "experiments.cli"]
 
 
+@pytest.mark.parametrize("per_process", ["1", "auto"])
 def test_a_robot_killed_from_outside_the_schedule_is_recorded_with_its_exit_code(
-    tmp_path: Path,
+    tmp_path: Path, per_process: str,
 ) -> None:
+    """A process per robot: p2's own process is killed, p2 alone fails. ``auto`` on this
+    machine: the team shares a host process, whose death is every robot's; the run goes on
+    without a team to its end."""
     out = tmp_path / "runs"
     run = subprocess.Popen([*_murdoch(), "run", "longterm", "--until", "400s", "--seed", "3",
-                            "--no-replay", "--no-plots", "--out", str(out)],
+                            "--no-replay", "--no-plots", "--robots-per-process", per_process,
+                            "--out", str(out)],
                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     victim_pid = None
     try:
@@ -40,8 +45,8 @@ def test_a_robot_killed_from_outside_the_schedule_is_recorded_with_its_exit_code
                     if note.get("what") == "started" and note.get("robot") == "p2":
                         victim_pid = int(note["pid"])
         assert victim_pid is not None, "the run never started p2"
-        # wait until the run is under way (30 simulated seconds), then kill p2 outside the
-        # fault schedule
+        # wait until the run is under way (30 simulated seconds), then kill p2's process
+        # outside the fault schedule
         (events_file,) = out.glob("*/events.jsonl")
         while time.monotonic() < deadline and run.poll() is None and not any(
                 json.loads(line)["t"] >= 30.0 for line in events_file.read_text().splitlines()
@@ -55,12 +60,18 @@ def test_a_robot_killed_from_outside_the_schedule_is_recorded_with_its_exit_code
             run.wait(10)
     assert run.returncode == 0, stdout[-2000:]
     (run_dir,) = out.iterdir()
+    config = json.loads((run_dir / "config.json").read_text())
+    hosts = config.get("robot_hosts", [])
+    sharing = next((h["robots"] for h in hosts if "p2" in h["robots"]), ["p2"])
+    # auto: seven members over one host per CPU left to the robots (one host on two CPUs)
+    assert (len(sharing) > 1) == (per_process == "auto" and len(os.sched_getaffinity(0)) < 8)
     events = ev.read_events(run_dir / "events.jsonl")
-    (death,) = [e for e in events if e["kind"] == ev.ROBOT_FAILURE]
-    assert death["robot"] == "p2" and death["reason"] == "exited"
-    assert death["exit_code"] == -signal.SIGKILL
+    deaths = [e for e in events if e["kind"] == ev.ROBOT_FAILURE]
+    assert sorted(e["robot"] for e in deaths) == sorted(sharing)
+    assert all(e["reason"] == "exited" and e["exit_code"] == -signal.SIGKILL for e in deaths)
+    assert events[-1]["kind"] == ev.RUN_END and float(events[-1]["t"]) >= 400 - 1
     summary = json.loads((run_dir / "summary.json").read_text())
-    assert summary["robot_failures"] == 1
+    assert summary["robot_failures"] == len(sharing)
     assert summary["invariant_terminal_states"]["holds"]
 
 

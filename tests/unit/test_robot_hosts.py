@@ -126,16 +126,19 @@ def test_murdoch_run_refuses_a_count_below_one_or_not_a_count(text: str) -> None
     assert "--robots-per-process" in result.output and "auto" in result.output
 
 
-def test_auto_runs_small_teams_a_process_each_and_big_ones_a_host_per_robot_cpu() -> None:
-    assert robots_per_process(None, 7, placed=False, pausing=False) == 1  # longterm
-    assert robots_per_process(None, 16, placed=False, pausing=False) == 1
+def test_auto_runs_the_team_as_one_host_per_cpu_left_to_the_robots() -> None:
     # two CPUs: one for the serving thread, one host for the robots (at most 100 to a host)
+    assert robots_per_process(None, 7, placed=False, pausing=False) == 7  # longterm
+    assert robots_per_process(None, 3, placed=False, pausing=False, cpus=2) == 3  # boxpush
+    assert robots_per_process(None, 1, placed=False, pausing=False, cpus=2) == 1
     assert robots_per_process(None, 17, placed=False, pausing=False, cpus=2) == 17
     assert robots_per_process(None, 101, placed=False, pausing=False, cpus=2) == 100  # swarm100
     assert robots_per_process(None, 101, placed=False, pausing=False, cpus=1) == 100
     # more CPUs: the team spread evenly over one host per CPU left to the robots
     assert robots_per_process(None, 101, placed=False, pausing=False, cpus=5) == 26
     assert robots_per_process(None, 1000, placed=False, pausing=False, cpus=4) == 100
+    assert robots_per_process(None, 7, placed=False, pausing=False, cpus=4) == 3
+    assert robots_per_process(None, 7, placed=False, pausing=False, cpus=8) == 1
     # a robot placed elsewhere or paused alone needs its own process
     assert robots_per_process(None, 101, placed=True, pausing=False) == 1
     assert robots_per_process(None, 101, placed=False, pausing=True) == 1

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import struct
 from typing import Any
 
@@ -321,6 +322,23 @@ def test_lockstep_override_and_timeout() -> None:
     assert not core.lockstep_ready(7.0)  # nobody holds the clock: wait
     core.receive(slow, DATA)  # asking again: it holds the clock again
     assert core.participants() == [slow] and core.lockstep_ready(7.5)
+
+
+def test_lockstep_steps_on_without_participants_only_when_told_and_none_is_expected() -> None:
+    for told in (False, True):
+        core, _, eps = make_core(lockstep=True, step_without_participants=told)
+        assert not core.lockstep_ready(0.0)  # none seen yet: a run's team is still starting
+        a = connect(core, eps[0])
+        core.receive(a, sub(4) + DATA)
+        out(core, a)
+        core.receive(a, DATA)
+        assert core.lockstep_ready(0.0)
+        core.close_session(a)  # the whole team is gone
+        restarting = {"alive": True}
+        core.expect("r2", functools.partial(restarting.__getitem__, "alive"))
+        assert not core.lockstep_ready(0.1)  # one is coming back: wait for it
+        restarting["alive"] = False  # it died before it joined
+        assert core.lockstep_ready(0.2) is told  # a bare server waits for a client
 
 
 def test_lockstep_first_round_grace() -> None:

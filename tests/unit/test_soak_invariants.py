@@ -217,6 +217,18 @@ def test_memory_slope_over_the_second_half() -> None:
                    for t in range(5400, 7200, 30))]
     v, per = memory_slopes([*flat, *restarted], 7200.0, 2.0)
     assert v.held and abs(per["robot-p1"]["slope_mib_per_h"]) < 0.1
+    # a host of seven robots growing 7 MiB/h grows 1 MiB/h per robot: within the limit; its
+    # robots restarted later do not move its warm-up (its first start counts)
+    host = [{"kind": "process_note", "what": "started", "t": 0.0, "robot": "p1", "pid": 9},
+            {"kind": "process_note", "what": "started", "t": 6000.0, "robot": "p2", "pid": 9},
+            *({"kind": "process", "t": float(t), "name": "host-0", "pid": 9, "robots": 7,
+               "rss_bytes": (50 << 20) + int(t * 7 * (1 << 20) / 3600)}
+              for t in range(0, 7200, 60))]
+    v, per = memory_slopes(host, 7200.0, 2.0)
+    assert v.held and per["host-0"]["robots"] == 7 and per["host-0"]["samples"] == 60
+    assert per["host-0"]["slope_mib_per_h"] == pytest.approx(1.0, rel=0.01)
+    v, per = memory_slopes(host, 7200.0, 0.5)
+    assert not v.held and v.first_counter_example["process"] == "host-0"
     # a process there from the start is judged from WARMUP_S, however late its first
     # sample came (a fast run's first wall seconds cover simulated minutes)
     late = [{"kind": "process", "t": t, "name": "runner", "pid": 1, "rss_bytes": 200 << 20}
