@@ -85,14 +85,28 @@ class _GatedText:
 class AbortableClient(PlayerClient):
     """A Player connection that can also be dropped at once from another thread."""
 
+    _aborted = False
+
     def abort(self) -> None:
         """Drop the connection as a process that died would: commands not yet sent are
         dropped, and the socket is shut down (a receive waiting on it in the robot's thread
-        ends) and closed."""
+        ends) and closed. An abort while the socket is still being connected drops it as
+        soon as it is (`_opened`)."""
+        self._aborted = True
         self._pending.clear()
         sock, self._sock = self._sock, None
         if sock is not None:
-            with contextlib.suppress(OSError):
-                sock.shutdown(socket.SHUT_RDWR)
-            with contextlib.suppress(OSError):
-                sock.close()
+            _drop(sock)
+
+    def _opened(self, sock: socket.socket) -> None:
+        # abort() sets the flag before it looks for the socket, and the socket is held
+        # before this looks at the flag: one of the two drops it, or both
+        if self._aborted:
+            _drop(sock)
+
+
+def _drop(sock: socket.socket) -> None:
+    with contextlib.suppress(OSError):
+        sock.shutdown(socket.SHUT_RDWR)
+    with contextlib.suppress(OSError):
+        sock.close()

@@ -119,6 +119,9 @@ class PlayerClient:
         self.rounds = 0
 
     # -- connection -------------------------------------------------------------------------
+    def _opened(self, sock: socket.socket) -> None:
+        """The socket is connected and held; the handshake comes next (a subclass's hook)."""
+
     def connect(self, timeout_s: float | None = None) -> PlayerClient:
         """Open the connection, read the banner and switch to the wanted data mode."""
         timeout = self.timeout_s if timeout_s is None else timeout_s
@@ -129,6 +132,7 @@ class PlayerClient:
                 f"cannot connect to {self.host}:{self.port}: {exc}") from exc
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self._sock = sock
+        self._opened(sock)
         self._lowat = 1
         try:
             banner = b""

@@ -12,15 +12,18 @@ round never goes out empty (with nothing to send the round waits). In PUSH mode 
 published round is queued for the client, subject to its replace rules (default:
 REPLACE, the latest value wins).
 
-Lockstep: when enabled, a *participant* is a client in PULL mode that holds a
-position2d subscription, unless it set the ``lockstep`` integer property of the
-``player`` device (1 = always a participant, 0 = never, -1 = automatic). The simulation
+Lockstep (the gate is ``LockstepGate``, in ``lockstep_gate.py``): when enabled, a
+*participant* is a client in PULL mode that holds a position2d subscription, unless it set
+the ``lockstep`` integer property of the ``player`` device (1 = always a participant, 0 =
+never, -1 = automatic). The simulation
 may step only when at least ``lockstep_clients`` participants have been seen since start
 and every current participant has consumed the current round and asked for the next
 one; with none left it waits, unless ``step_without_participants`` (a run's server, whose
 team may all be gone) and none is expected either. A participant that holds the gate for
 longer than ``lockstep_timeout_s`` (four times that before its first round) is demoted to
-a monitor until its next REQ DATA (logged). Monitors never hold the gate.
+a monitor until its next REQ DATA (logged). Monitors never hold the gate. A participant
+that has not asked for a round when it is published (one just put back into the lockstep)
+is kept that round as published, and gets it when it asks.
 
 Pipelined lockstep (``pipelined``): when the gate opens, the round of the current state
 goes out first and the simulation steps after it, then the next round's data is computed
@@ -56,6 +59,7 @@ from player_server.protocol.constants import Interface, MsgType
 from player_server.protocol.errors import EncodeError, FrameError
 from player_server.protocol.header import HEADER_STRUCT, Message
 from player_server.server.endpoint import Endpoint
+from player_server.server.lockstep_gate import LockstepGate
 from player_server.server.log_limit import LogLimiter
 from player_server.server.out_queue import DataKey, OutQueue
 from player_server.server.payloads import PayloadCache
@@ -71,9 +75,7 @@ _DATA = int(MsgType.DATA)
 _REQ = int(MsgType.REQ)
 _CMD = int(MsgType.CMD)
 _PLAYER = int(Interface.PLAYER)
-_POSITION2D = int(Interface.POSITION2D)
 _SYNCH_OK = encode_message(_PLAYER, 0, int(MsgType.SYNCH), c.PLAYER_SYNCH_OK)
-_FIRST_ROUND_GRACE = 4.0
 _pack_header = HEADER_STRUCT.pack
 _SET_BOOLPROP_REQ = c.PLAYER_SET_BOOLPROP_REQ
 
@@ -110,7 +112,7 @@ def _device_ignored(s: Session, key: tuple[int, int]) -> bool:
     return ignored
 
 
-class ServerCore(PlayerRequests):
+class ServerCore(PlayerRequests, LockstepGate):
     def __init__(
         self,
         endpoints: Sequence[Endpoint],
@@ -415,22 +417,36 @@ class ServerCore(PlayerRequests):
         return data
 
     def _try_round(self, s: Session) -> bool:
-        """Send a pending PULL round if there is a newer round with data to send."""
-        if not s.round_pending or s.last_round >= self.round_seq:
+        """Send a pending PULL round if there is a newer round with data to send (the one
+        kept for the session at its publication, if any: see `publish`)."""
+        if not s.round_pending:
             return False
-        data = self._round_bytes(s)
-        if data is None:
+        owed, s.owed = s.owed, None
+        if owed is not None and owed[0] > s.last_round:
+            seq, data = owed
+        elif s.last_round >= self.round_seq:
             return False
-        if s.has_live:
-            data = self._live_bytes(s) + data
+        else:
+            seq, fresh = self.round_seq, self._whole_round(s)
+            if fresh is None:
+                return False
+            data = fresh
         s.queue.push_reply(data)
         self._check_output(s)
         s.round_pending = False
-        s.last_round = self.round_seq
+        s.last_round = seq
         s.counters.rounds += 1
         if self.round_ready is not None:
             self.round_ready(s)
         return True
+
+    def _whole_round(self, s: Session) -> bytes | None:
+        """The current round's bytes for a PULL session: its live devices read now, then
+        the DATA and SYNCH built once per data version; None when it has no DATA."""
+        data = self._round_bytes(s)
+        if data is None or not s.has_live:
+            return data
+        return self._live_bytes(s) + data
 
     def publish(self) -> None:
         """A new round of data exists (the simulation stepped): push or serve it."""
@@ -441,7 +457,13 @@ class ServerCore(PlayerRequests):
             if s.closing is not None:
                 continue
             if s.mode == c.PLAYER_DATAMODE_PULL:
-                self._try_round(s)
+                if not self._try_round(s) and not s.round_pending and self.is_participant(s):
+                    # a participant that has not asked yet (one just put back into the
+                    # lockstep): the round is kept as it is now, so that when it asks it
+                    # reads what the others read, not a later state or team clock table
+                    kept = self._whole_round(s)
+                    if kept is not None:
+                        s.owed = (self.round_seq, kept)
             else:
                 for dkey, wire in self._round_items(s):
                     rule = _rule(s, dkey)
@@ -467,64 +489,6 @@ class ServerCore(PlayerRequests):
         for s in self.sessions.values():
             if s.round_pending and s.last_round >= seq and s.closing is None:
                 return True
-        return False
-
-    # -- lockstep ---------------------------------------------------------------------------
-    def is_participant(self, s: Session) -> bool:
-        if not self.config.lockstep or s.closing is not None or s.demoted:
-            return False
-        if s.lockstep_override is not None:
-            return s.lockstep_override
-        return s.mode == c.PLAYER_DATAMODE_PULL and any(
-            k[0] == _POSITION2D for k in s.subs)
-
-    def expect(self, endpoint_name: str, alive: Callable[[], bool] = lambda: True) -> None:
-        """Step no further until a participant has joined on this endpoint (a robot process
-        started by the owner) and asked for a round, like every other participant, or
-        until `alive()` says it never will."""
-        self.expected[endpoint_name] = alive
-
-    def participants(self) -> list[Session]:
-        return [s for s in self.sessions.values() if self.is_participant(s)]
-
-    def lockstep_ready(self, now_s: float) -> bool:
-        """May the simulation step? (Always true when lockstep is off.)"""
-        if not self.config.lockstep:
-            return True
-        parts = self.participants()
-        for s in parts:
-            if not s.counted_as_participant:
-                s.counted_as_participant = True
-                self.participants_seen += 1
-        if self.participants_seen < self.config.lockstep_clients or (
-                not parts and not self.config.step_without_participants):
-            return False
-        if self.expected:
-            joined = {s.endpoint.name for s in parts}
-            for name, alive in list(self.expected.items()):
-                if name in joined or not alive():
-                    del self.expected[name]
-            if self.expected:
-                return False
-        laggards = [s for s in parts
-                    if not (s.round_pending and s.last_round >= self.round_seq)]
-        if not laggards:
-            return True
-        timeout = self.config.lockstep_timeout_s
-        if timeout > 0:
-            for s in laggards:
-                # a client still setting up (no round yet) gets a longer grace
-                limit = timeout if s.last_round >= 0 else _FIRST_ROUND_GRACE * timeout
-                if s.stalled_since is None:
-                    s.stalled_since = now_s
-                elif now_s - s.stalled_since > limit:
-                    log.warning("lockstep: client %s on %s kept the simulation waiting "
-                                "for %.1f s; it no longer holds the clock until it asks "
-                                "for data again", s.peer, s.endpoint.name,
-                                now_s - s.stalled_since)
-                    s.demoted = True
-                    s.stalled_since = None
-                    self.counters.demoted += 1
         return False
 
     # -- limits ---------------------------------------------------------------------------

@@ -103,6 +103,9 @@ class Session:
     built: tuple[tuple[float, int], bytes | None] | None = None
     # the devices a PULL round reads, in order: subscribed, neither live nor declined
     reads: tuple[tuple[tuple[int, int], Driver], ...] | None = None
+    # a lockstep round published while this participant had not asked for it: (its
+    # number, its bytes as published); sent when it asks
+    owed: tuple[int, bytes] | None = None
 
     def forget_plan(self) -> None:
         """Subscriptions or rules changed: what was worked out from them no longer holds."""
@@ -110,6 +113,7 @@ class Session:
         self.ignored.clear()
         self.built = None
         self.reads = None
+        self.owed = None
 
     def round_reads(self, ignored: Callable[[Session, tuple[int, int]], bool],
                     ) -> tuple[tuple[tuple[int, int], Driver], ...]:

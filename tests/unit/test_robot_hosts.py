@@ -4,12 +4,14 @@ and the options checked before a run starts (`murdoch run --robots-per-process`)
 from __future__ import annotations
 
 import io
+import socket
+import threading
 from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
 
-from behaviors.cut import Cut
+from behaviors.cut import AbortableClient, Cut
 from behaviors.host import RobotThreads, serve_commands
 from behaviors.host_control import (
     ControlError,
@@ -27,6 +29,7 @@ from experiments.run_cli import run
 from experiments.run_extras import RunExtras
 from experiments.run_parts import RunSettings, _check_placement
 from experiments.supervisor import BusPlace, robot_process
+from player_server.client import PlayerConnectionError
 
 ROBOTS = ["p1", "p2", "p3", "p4", "p5", "p6", "desktop"]
 
@@ -76,6 +79,35 @@ def test_a_cut_robot_writes_nothing_more_and_what_it_holds_is_aborted() -> None:
     assert out.getvalue() == "one\n"
     assert aborted == ["client", "late"]
     assert cut.is_cut
+
+
+def test_a_client_cut_off_while_it_connects_drops_the_connection_once_it_is_made() -> None:
+    """The cut lands while the socket is still being connected (no socket held yet to
+    shut down): the connection is dropped as soon as it is made, not after the handshake's
+    timeout, and the server sees it closed without a word."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as listener:
+        listener.bind(("127.0.0.1", 0))
+        listener.listen()
+        listener.settimeout(10.0)
+        client = AbortableClient("127.0.0.1", listener.getsockname()[1], timeout_s=600.0)
+        client.abort()  # before connect() has a socket to abort
+        failed: list[BaseException] = []
+
+        def connect() -> None:
+            try:
+                client.connect()  # the banner never comes: only the drop can end this
+            except Exception as exc:
+                failed.append(exc)
+
+        thread = threading.Thread(target=connect, daemon=True)
+        thread.start()
+        conn, _ = listener.accept()
+        conn.settimeout(30.0)
+        with conn:
+            assert conn.recv(64) == b""
+        thread.join(30.0)
+        assert [type(e) for e in failed] == [PlayerConnectionError]
+        assert not client.connected
 
 
 def test_a_host_tells_what_it_cannot_do_and_goes_on() -> None:

@@ -4,16 +4,19 @@ from __future__ import annotations
 
 import functools
 import struct
+from collections.abc import Callable
 from typing import Any
 
 import pytest
 
 from player_server.drivers.base import ACK, Driver, Reply, Unsupported, ack
+from player_server.drivers.team_clock import TeamClock, TeamClockDriver
 from player_server.protocol import NEED_DATA, Decoder, Message, encode_message
 from player_server.protocol import actuator_msgs as am
 from player_server.protocol import constants as c
 from player_server.protocol import player_msgs as pm
 from player_server.protocol.common import DevAddr, Pose2d, Pose3d
+from player_server.protocol.team_clock import decode_table
 from player_server.server.core import CoreConfig, ServerCore, Session
 from player_server.server.endpoint import Endpoint
 
@@ -421,3 +424,54 @@ def test_connection_cap_grows_with_the_worlds_ports_unless_given() -> None:
     assert connection_cap(CoreConfig(), 2) == 64
     assert connection_cap(CoreConfig(), 101) == 404  # a hundred robots and a camera
     assert connection_cap(CoreConfig(max_connections=3), 101) == 3
+
+
+def test_a_participant_put_back_into_the_lockstep_reads_the_round_as_it_was_published() -> None:
+    """A robot paused while it waited (taken out of the lockstep, then put back) asks for
+    its next round only after the others have moved on: it still gets the round of the
+    tick it was put back in, with that tick's state and team clock table, whatever the
+    others declared and the simulation stepped before it asked."""
+    world = {"t": 0.0}
+    clock = TeamClock()
+    eps = [Endpoint(name, {(4, 0): FakePosition(world),
+                           (c.Interface.OPAQUE, 0): TeamClockDriver(clock, name)}, port=port)
+           for name, port in (("r1", 7001), ("r2", 7002))]
+    core = ServerCore(eps, lambda: world["t"], CoreConfig(lockstep=True, pipelined=True))
+    a, b = (connect(core, ep) for ep in eps)
+    for s in (a, b):
+        core.receive(s, sub(4) + sub(c.Interface.OPAQUE) + DATA)
+        out(core, s)
+
+    def round_of(s: Session) -> tuple[float, dict[str, int]]:
+        msgs = out(core, s)
+        pose = next(m.body.pos.px for m in msgs if m.interf == 4 and m.type == 1)
+        table = next(m.body.data for m in msgs if m.interf == c.Interface.OPAQUE)
+        return pose, decode_table(bytes(table))
+
+    def tick(t: float, hook: Callable[[], None] = lambda: None) -> None:
+        assert core.lockstep_ready(t)
+        world["t"] = t
+        hook()  # the runner's turn: it pauses or continues robots here
+        core.publish()
+
+    core.receive(a, DATA)
+    core.receive(b, DATA)
+    tick(0.1, functools.partial(setattr, b, "lockstep_override", False))  # paused, waiting
+    assert round_of(b)[0] == 0.1  # already on its way
+    for t in (0.2, 0.3):
+        core.receive(a, DATA)
+        tick(t)
+        out(core, a)
+    clock.declare("r1/0", 5)
+    core.receive(a, DATA)
+    tick(0.4, functools.partial(setattr, b, "lockstep_override", None))  # continued
+    assert round_of(a) == (0.4, {"r1/0": 5})
+    assert not core.lockstep_ready(0.4)  # b has not asked yet
+    world["t"] = 0.5  # the next step, and a declares what it sent at 0.4, before b asks
+    clock.declare("r1/0", 7)
+    core.receive(b, DATA)
+    assert round_of(b) == (0.4, {"r1/0": 5})
+    core.receive(a, DATA)
+    assert not core.lockstep_ready(0.5)  # b works on its round
+    core.receive(b, DATA)
+    assert core.lockstep_ready(0.5)
