@@ -1,8 +1,9 @@
 """What the multi-run commands (`murdoch compare`, `murdoch sweep-longterm`) share.
 
-Each runs `murdoch run ...` once per point of its grid, as its own process with its output
-logged next to its run directory, reads back the run's summary.json and writes one CSV row
-per run; the seeds they take are given the same way (`--seeds 1,2,3` or `1-4`).
+Each runs `murdoch run ...` once per point of its grid and seed, as its own process with its
+output logged next to its run directory (named by `run_label`), reads back the run's
+summary.json and writes one CSV row per run; the seeds they take are given the same way
+(`--seeds 1,2,3` or `1-4`).
 """
 
 from __future__ import annotations
@@ -57,6 +58,11 @@ def run_child(args: Sequence[str], run_out: Path, log_name: str
     if run_dir is not None and (run_dir / "summary.json").is_file():
         summary = json.loads((run_dir / "summary.json").read_text(encoding="utf-8"))
     return code, run_dir, summary
+
+
+def run_label(point: str, seed: int) -> str:
+    """The name of the run directory of grid point `point` with `seed` (`cbba-s2`)."""
+    return f"{point}-s{seed}"
 
 
 def run_experiment(experiment: str, run_out: Path, *, until_s: float, seed: int,

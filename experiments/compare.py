@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import click
 
 from experiments import events as ev
-from experiments.child_runs import parse_seeds, run_experiment, write_rows
+from experiments.child_runs import parse_seeds, run_experiment, run_label, write_rows
 from experiments.option_params import add_passthrough_params, passthrough_args
 from experiments.registry import experiments, supporting
 from experiments.run_cli import parse_at, parse_duration_s
@@ -82,7 +82,7 @@ class Job:
     seed: int
 
     def label(self) -> str:
-        return f"{self.allocator}-s{self.seed}"
+        return run_label(self.allocator, self.seed)
 
     def allocator_args(self) -> list[str]:
         """`murdoch run`'s options for this allocator (`--refine` for a refined form)."""

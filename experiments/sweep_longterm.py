@@ -26,7 +26,7 @@ from typing import Any
 
 import click
 
-from experiments.child_runs import parse_seeds, run_experiment, write_rows
+from experiments.child_runs import parse_seeds, run_experiment, run_label, write_rows
 from experiments.run_cli import parse_duration_s
 
 PAPER_TASKS = 49
@@ -47,7 +47,7 @@ class Job:
     seed: int
 
     def label(self) -> str:
-        return f"i{self.task_interval_s:g}-s{self.seed}"
+        return run_label(f"i{self.task_interval_s:g}", self.seed)
 
 
 def row_of(job: Job, summary: Mapping[str, Any] | None, exit_code: int,

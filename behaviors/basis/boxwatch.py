@@ -5,10 +5,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from behaviors.basis.colour import sighting, steer_at
+from behaviors.basis.colour import ColourFollower
 from behaviors.basis.speed_limits import ForwardSpeedLimit
 from behaviors.proposal import INACTIVE, Proposal
-from behaviors.snapshot import RangeScan, Snapshot, wrap_angle
+from behaviors.snapshot import Blob, BlobView, RangeScan, Snapshot, wrap_angle
 
 
 @dataclass(frozen=True, slots=True)
@@ -126,7 +126,7 @@ class BoxAlignmentFromLaser:
 
 
 @dataclass(frozen=True, slots=True)
-class GoalFromCamera(ForwardSpeedLimit):
+class GoalFromCamera(ForwardSpeedLimit, ColourFollower):
     """Steer towards the goal marker (a colour blob); signal "goal" with its bearing."""
 
     colour: int
@@ -138,12 +138,8 @@ class GoalFromCamera(ForwardSpeedLimit):
     weight: float = 0.5
     name: str = "goal-from-camera"
 
-    def decide(self, snapshot: Snapshot, now: float) -> Proposal:
-        sight = sighting(snapshot.camera, now, self.max_age_s, self.colour)
-        if sight is None:
-            return INACTIVE
-        view, blob = sight
-        bearing, turn = steer_at(view, blob.x_px, self.turn_gain, self.max_turn_radps)
+    def follow(self, view: BlobView, blob: Blob) -> Proposal:
+        bearing, turn = self.steer(view, blob.x_px)
         if blob.range_m <= self.arrive_range_m:
             return Proposal(True, 0.0, turn, self.weight, "goal-reached", bearing)
         speed = self.speed_mps * max(0.0, math.cos(bearing))

@@ -62,8 +62,54 @@ def steer_at(view: BlobView, px: float, turn_gain: float,
     return bearing, clamp(turn_gain * bearing, max_turn_radps)
 
 
+class ColourFollower:
+    """Follows the largest blob of `colour` in a camera view at most `max_age_s` old, steering
+    at it with `turn_gain` up to `max_turn_radps`.
+
+    Inactive without such a view and blob; with them, `follow` decides.
+    """
+
+    __slots__ = ()
+    colour: int
+    max_age_s: float
+    turn_gain: float
+    max_turn_radps: float
+
+    def sight(self, snapshot: Snapshot, now: float) -> tuple[BlobView, Blob] | None:
+        """The fresh camera view and its largest blob of the colour (None: stale or unseen)."""
+        return sighting(snapshot.camera, now, self.max_age_s, self.colour)
+
+    def steer(self, view: BlobView, px: float) -> tuple[float, float]:
+        """The bearing of image column `px` and the turn rate towards it."""
+        return steer_at(view, px, self.turn_gain, self.max_turn_radps)
+
+    def decide(self, snapshot: Snapshot, now: float) -> Proposal:
+        sight = self.sight(snapshot, now)
+        return INACTIVE if sight is None else self.follow(*sight)
+
+    def follow(self, view: BlobView, blob: Blob) -> Proposal:
+        """The proposal while `blob` is the largest of the colour in the fresh `view`."""
+        raise NotImplementedError
+
+
+class KeyedColourFollower(ColourFollower):
+    """A colour follower whose proposal depends only on `sight_key` of the view and blob it
+    follows, and is the same (inactive) whenever it follows none (see `runner`)."""
+
+    __slots__ = ()
+
+    def inputs_key(self, snapshot: Snapshot, now: float) -> object:
+        """0 while no blob of the colour is in a fresh view, else `sight_key` of the two."""
+        sight = self.sight(snapshot, now)
+        return 0 if sight is None else self.sight_key(*sight)
+
+    def sight_key(self, view: BlobView, blob: Blob) -> object:
+        """All of `view` and `blob` that `follow` reads."""
+        raise NotImplementedError
+
+
 @dataclass(frozen=True, slots=True)
-class VisualServoToColour(ForwardSpeedLimit):
+class VisualServoToColour(ForwardSpeedLimit, KeyedColourFollower):
     """Steer at a colour blob and drive towards it; "reached" within `stop_range_m`.
 
     `aim_fraction` picks the point across the blob to steer at, so a pusher can aim at the
@@ -83,21 +129,11 @@ class VisualServoToColour(ForwardSpeedLimit):
     weight: float = 0.7
     name: str = "visual-servo-to-colour"
 
-    def inputs_key(self, snapshot: Snapshot, now: float) -> object:
-        """What `decide` looks at: the freshest largest blob of the colour (see `runner`)."""
-        sight = sighting(snapshot.camera, now, self.max_age_s, self.colour)
-        if sight is None:
-            return 0
-        view, blob = sight
+    def sight_key(self, view: BlobView, blob: Blob) -> object:
         return (blob, view.width_px, view.fov_rad)
 
-    def decide(self, snapshot: Snapshot, now: float) -> Proposal:
-        sight = sighting(snapshot.camera, now, self.max_age_s, self.colour)
-        if sight is None:
-            return INACTIVE
-        view, blob = sight
-        bearing, turn = steer_at(view, aim_px(blob, self.aim_fraction, view.width_px),
-                                 self.turn_gain, self.max_turn_radps)
+    def follow(self, view: BlobView, blob: Blob) -> Proposal:
+        bearing, turn = self.steer(view, aim_px(blob, self.aim_fraction, view.width_px))
         if blob.range_m <= self.stop_range_m:
             aligned = abs(bearing) <= self.align_tolerance_rad
             return Proposal(True, 0.0, turn, self.weight, "reached" if aligned else "seen",
@@ -109,7 +145,7 @@ class VisualServoToColour(ForwardSpeedLimit):
 
 
 @dataclass(frozen=True, slots=True)
-class KeepDistanceToColour:
+class KeepDistanceToColour(KeyedColourFollower):
     """Track a colour blob from a safe distance: face it and hold `distance_m` to it."""
 
     colour: int
@@ -123,20 +159,11 @@ class KeepDistanceToColour:
     weight: float = 0.7
     name: str = "keep-distance-to-colour"
 
-    def inputs_key(self, snapshot: Snapshot, now: float) -> object:
-        """What `decide` looks at: the freshest largest blob of the colour (see `runner`)."""
-        sight = sighting(snapshot.camera, now, self.max_age_s, self.colour)
-        if sight is None:
-            return 0
-        view, blob = sight
+    def sight_key(self, view: BlobView, blob: Blob) -> object:
         return (blob.x_px, blob.range_m, view.width_px, view.fov_rad)
 
-    def decide(self, snapshot: Snapshot, now: float) -> Proposal:
-        sight = sighting(snapshot.camera, now, self.max_age_s, self.colour)
-        if sight is None:
-            return INACTIVE
-        view, blob = sight
-        bearing, turn = steer_at(view, blob.x_px, self.turn_gain, self.max_turn_radps)
+    def follow(self, view: BlobView, blob: Blob) -> Proposal:
+        bearing, turn = self.steer(view, blob.x_px)
         error = blob.range_m - self.distance_m
         if not math.isfinite(error):
             return Proposal(True, 0.0, turn, self.weight, "tracking", 0.0)

@@ -50,7 +50,7 @@ from murdoch.consensus.kernel_parts import (
     settled,
 )
 
-PARTS_SHA256 = "f1952ff2214775fe1d4fa861cefea92756eec6b93b6862e443f9698da403b198"
+PARTS_SHA256 = "faf09f64dff8c2f95bf3bd53767118afd737e73822b364b9c8ad27114769815b"
 """The `kernel_parts.py` this module was written against (see its notes on numba's cache)."""
 
 

@@ -76,11 +76,11 @@ from murdoch.consensus.kernel_parts import (
     settled,
 )
 
-PARTS_SHA256 = "f1952ff2214775fe1d4fa861cefea92756eec6b93b6862e443f9698da403b198"
+PARTS_SHA256 = "faf09f64dff8c2f95bf3bd53767118afd737e73822b364b9c8ad27114769815b"
 """The `kernel_parts.py` this module was written against (see its notes on numba's cache)."""
-BUILD_SHA256 = "f781a29946a859aa1cc8bdb669f0f4a82b3e3a4bffa1af0f90a7578ac2df1ee8"
+BUILD_SHA256 = "306aab6ca89c2683d05e8d43d026038fa3551d4a651e06e681c0c66b16b044a2"
 """The `cbga_build_kernel.py` this module was written against."""
-ROUND_SHA256 = "d6238080944b3f39e1522d92367444499b29fc02123d7dc6d7c2ea9ead4207ec"
+ROUND_SHA256 = "a2f2d1c758bc6ef8fc11cb0f1fb18047770f42a03f7d706e136546409ccc83cb"
 """The `cbga_round_kernel.py` this module was written against."""
 
 

@@ -21,6 +21,7 @@ next so that it can skip tasks that cannot win.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 from murdoch.consensus.scoring import _EPS, LINEAR_MARGIN, Problem, task_value
 
@@ -28,20 +29,33 @@ _NEG_INF = -math.inf
 _ROBUST_S = 1e-6  # an infeasibility by more than this is not a rounding effect
 
 
+class _PathColumns(NamedTuple):
+    """What `PathGains` computes once per path, by path position q (rows and ready have one
+    more entry, for the end of the path)."""
+
+    rows: list[list[float]]
+    """Distances to every task from where the agent is before position q."""
+    ready: list[float]
+    """When the agent is free to leave for position q."""
+    cum: list[float]
+    """The agent's idle time before the path's tasks, summed through the task at q."""
+    old: list[float]
+    """The score of the task at q at its current start."""
+    lam: list[float]
+    """The discount of the task at q."""
+    room: list[float]
+    """How much later the task at q may still start."""
+
+
 class PathGains:
     """Best insertion gain and position of any task into one fixed path (cached per task)."""
 
     __slots__ = (
         "_cache",
-        "_cum",
-        "_lam",
+        "_columns",
         "_late",
         "_linear",
-        "_old",
         "_p",
-        "_ready",
-        "_room",
-        "_rows",
         "_speed",
         "bounds_known",
         "path",
@@ -77,12 +91,7 @@ class PathGains:
             room.append(lst.window_end[j] - t + _EPS)
             ready.append(t + lst.duration[j])
             rows.append(lst.task_task_dist[j])
-        self._rows = rows
-        self._ready = ready
-        self._cum = cum
-        self._old = old
-        self._lam = lam
-        self._room = room
+        self._columns = _PathColumns(rows, ready, cum, old, lam, room)
         # a path task already past its latest start makes every delaying insertion late
         self._late = any(r < 0.0 for r in room)
         # the paper's cost: a linear score, so a delay d costs exactly d (see `_evaluate`)
@@ -150,8 +159,7 @@ class PathGains:
         times = self.times
         ws, we, dur, ref, reward, disc = p.lists.task_params[c]
         speed = self._speed
-        ready, rows = self._ready, self._rows
-        cum, old, lam, room = self._cum, self._old, self._lam, self._room
+        rows, ready, cum, old, lam, room = self._columns
         n_path = len(times)
         late = self._late
         linear = self._linear

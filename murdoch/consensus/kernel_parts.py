@@ -161,30 +161,30 @@ def gain(c: int, not_before: float, at_row: np.ndarray, tt: np.ndarray, tasks: n
 
 
 @njit(cache=True)
+def _belief_code(z: int, own: int, other: int, nobody: int, another: int) -> int:
+    """The code of believed winner z in the table's row or column (`conflict.SENDER_CODES`,
+    `conflict.RECEIVER_CODES`): 0 for the believer itself (`own`), 1 for the other party,
+    `nobody` for no winner and `another` for any other agent."""
+    if z == own:
+        return 0
+    if z == other:
+        return 1
+    if z == NONE:
+        return nobody
+    return another
+
+
+@njit(cache=True)
 def conflict_action(i: int, k: int, yi: float, zi: int, yk: float, zk: int, s: np.ndarray,
                     s_k: np.ndarray, table: np.ndarray, lut: np.ndarray) -> int:
     """Receiver i's action on one task given sender k's (yk, zk) and its own (yi, zi): 0 leave,
     1 update, 2 reset (`conflict.Action`). s and s_k are the timestamp rows, whose last entry
     (-inf) stands for "no winner"."""
     n = s.shape[0] - 1
-    if zk == k:
-        sc = 0
-    elif zk == i:
-        sc = 1
-    elif zk == NONE:
-        sc = 3
-    else:
-        sc = 2
-    if zi == i:
-        rc = 0
-    elif zi == k:
-        rc = 1
-    elif zi == NONE:
-        rc = 4
-    elif sc == 2 and zi != zk:
-        rc = 3
-    else:
-        rc = 2
+    sc = _belief_code(zk, k, i, 3, 2)
+    # any other agent is "m" (2) to the receiver too, or "n" (3) when the sender believes
+    # in a different other agent
+    rc = _belief_code(zi, i, k, 4, 3 if sc == 2 and zi != zk else 2)
     zk_at = zk if zk >= 0 else n
     zi_at = zi if zi >= 0 else n
     sk_zk = s_k[zk_at]

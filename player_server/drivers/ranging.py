@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
@@ -27,7 +27,7 @@ from player_server.protocol.constants import Interface
 
 if TYPE_CHECKING:
     from player_server.drivers.sim_port import SimPort
-    from worlds import RobotSpec
+    from worlds import LaserSpec, RangerSpec, RobotSpec, SonarSpec
 
 
 LASER_SIZE = Bbox3d(0.155, 0.185, 0.2)  # SICK LMS200 housing, w x l x h
@@ -66,18 +66,29 @@ _MAKE_SONAR = sm.SonarData.xdr_make  # type: ignore[attr-defined]
 _MAKE_LASER = sm.LaserData.xdr_make  # type: ignore[attr-defined]
 
 
-class SonarDriver(Driver):
+class RangeSensorDriver(Driver):
+    """A robot's range sensor: its description in the world file (``source`` names the
+    device there: "sonar", "laser" or "ranger") and its "max_range" property."""
+
+    def __init__(self, sim: SimPort, robot: RobotSpec, index: int, driver_name: str,
+                 source: str) -> None:
+        super().__init__(index, driver_name)
+        self.sim = sim
+        self.robot = robot
+        self.source = source
+        self.spec = declared(getattr(robot.devices, source), f"robot {robot.name!r}", source)
+        self.properties, self.property_limits = max_range_property(self.spec.max_range_m)
+
+
+class SonarDriver(RangeSensorDriver):
     device = "sonar"
     interf = int(Interface.SONAR)
     requests = frozenset({c.PLAYER_SONAR_REQ_GET_GEOM, c.PLAYER_SONAR_REQ_POWER})
+    spec: SonarSpec
 
     def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0) -> None:
-        super().__init__(index, "sim_sonar")
-        self.sim = sim
-        self.robot = robot
-        self.spec = declared(robot.devices.sonar, f"robot {robot.name!r}", "sonar")
+        super().__init__(sim, robot, index, "sim_sonar", "sonar")
         self.powered = True
-        self.properties, self.property_limits = max_range_property(self.spec.max_range_m)
         self._geom = self.geometry()
         # the last reading and what was made of it: the simulator hands back the same array
         # while the reading is unchanged, and then so does this driver
@@ -113,26 +124,65 @@ def scan_request(cfg: Any) -> ScanRequest:
                        cfg.range_res, bool(cfg.intensity), cfg.scanning_frequency)
 
 
-class LaserDriver(Driver):
+class ScannerDriver(RangeSensorDriver):
+    """A scanning range sensor (a laser, or a ranger over a laser or ranger): its fixed
+    geometry (GET_GEOM) and the scan configuration in force, which a client reads
+    (GET_CONFIG) and sets (SET_CONFIG: what `scan_config` accepts, NACKed otherwise)."""
+
+    #: the REQ subtypes of GET_GEOM, GET_CONFIG and SET_CONFIG in the driver's interface
+    scan_requests: ClassVar[tuple[int, int, int]]
+    spec: LaserSpec | RangerSpec
+
+    def __init__(self, sim: SimPort, robot: RobotSpec, index: int, driver_name: str,
+                 source: str, scan: ConfiguredScan | None) -> None:
+        super().__init__(sim, robot, index, driver_name, source)
+        self.scan = scan or ConfiguredScan(self.spec, float(sim.spec.sim.interval_sim_s))
+        self._geom = self.geometry()
+
+    def geometry(self) -> Any:
+        """The GET_GEOM reply."""
+        raise NotImplementedError
+
+    def config(self) -> Any:
+        """The configuration in force, as the interface's config body."""
+        raise NotImplementedError
+
+    def requested_scan(self, body: Any) -> ScanRequest:
+        """What a SET_CONFIG body asks for."""
+        return scan_request(body)
+
+    def scan_reply(self, subtype: int, body: Any) -> Reply | None:
+        """The answer to GET_GEOM, GET_CONFIG or SET_CONFIG; None for any other request."""
+        get_geom, get_config, set_config = self.scan_requests
+        if subtype == get_geom:
+            return ack(self._geom)
+        if subtype == get_config:
+            return ack(self.config())
+        if subtype == set_config and body is not None:
+            apply_scan(self.sim, self.robot, self.source, self.scan, self.requested_scan(body))
+            return ack(self.config())
+        return None
+
+
+class LaserDriver(ScannerDriver):
     """The scanning laser. SET_CONFIG applies what `scan_config` accepts and is NACKed
     otherwise; GET_CONFIG and the DATA follow the configuration in force."""
 
     device = "laser"
     interf = int(Interface.LASER)
     requests = frozenset({1, 2, 3, 4, 5})
+    scan_requests = (c.PLAYER_LASER_REQ_GET_GEOM, c.PLAYER_LASER_REQ_GET_CONFIG,
+                     c.PLAYER_LASER_REQ_SET_CONFIG)
 
     def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0,
                  serial_number: int = 0, scan: ConfiguredScan | None = None) -> None:
-        super().__init__(index, "sim_laser")
-        self.sim = sim
-        self.robot = robot
-        self.spec = declared(robot.devices.laser, f"robot {robot.name!r}", "laser")
+        super().__init__(sim, robot, index, "sim_laser", "laser", scan)
         self.serial_number = serial_number
         self.powered = True
-        self.properties, self.property_limits = max_range_property(self.spec.max_range_m)
-        self._geom = sm.LaserGeom(mount_pose(self.spec.pose), LASER_SIZE)
-        self.scan = scan or ConfiguredScan(self.spec, float(sim.spec.sim.interval_sim_s))
         self._last: tuple[Any, tuple[float, ...]] = (None, ())  # reading, its ranges
+
+    def geometry(self) -> sm.LaserGeom:
+        return sm.LaserGeom(mount_pose(self.spec.pose), LASER_SIZE)
 
     def config(self) -> sm.LaserConfig:
         lo, hi, res, top, rr, freq = self.scan.reported()
@@ -159,13 +209,9 @@ class LaserDriver(Driver):
             tick & 0xFFFFFFFF)),)
 
     def handle_request(self, subtype: int, body: Any) -> Reply:
-        if subtype == c.PLAYER_LASER_REQ_GET_GEOM:
-            return ack(self._geom)
-        if subtype == c.PLAYER_LASER_REQ_GET_CONFIG:
-            return ack(self.config())
-        if subtype == c.PLAYER_LASER_REQ_SET_CONFIG and body is not None:
-            apply_scan(self.sim, self.robot, "laser", self.scan, scan_request(body))
-            return ack(self.config())
+        reply = self.scan_reply(subtype, body)
+        if reply is not None:
+            return reply
         if subtype == c.PLAYER_LASER_REQ_POWER and body is not None:
             self.powered = bool(body.state)
             return ACK
@@ -173,7 +219,7 @@ class LaserDriver(Driver):
             return ack(sm.LaserGetIdConfig(self.serial_number))
         raise Unsupported(f"laser request {subtype}")
 
-class RangerDriver(Driver):
+class RangerDriver(ScannerDriver):
     """The ranger interface over a scanner: the world's ranger, or (``source="laser"``) a
     robot's laser, as Stage serves its lasers. SET_CONFIG works as the laser's does (the
     angular resolution in radians); INTNS switches intensity DATA on and off."""
@@ -181,18 +227,13 @@ class RangerDriver(Driver):
     device = "ranger"
     interf = int(Interface.RANGER)
     requests = frozenset({1, 2, 3, 4, 5})
+    scan_requests = (c.PLAYER_RANGER_REQ_GET_GEOM, c.PLAYER_RANGER_REQ_GET_CONFIG,
+                     c.PLAYER_RANGER_REQ_SET_CONFIG)
 
     def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0, *,
                  source: str = "ranger", scan: ConfiguredScan | None = None) -> None:
-        super().__init__(index, "sim_ranger")
-        self.sim = sim
-        self.robot = robot
-        self.spec = declared(getattr(robot.devices, source), f"robot {robot.name!r}", source)
-        self.source = source
+        super().__init__(sim, robot, index, "sim_ranger", source, scan)
         self._read = sim.laser if source == "laser" else sim.ranger
-        self.properties, self.property_limits = max_range_property(self.spec.max_range_m)
-        self.scan = scan or ConfiguredScan(self.spec, float(sim.spec.sim.interval_sim_s))
-        self._geom = self.geometry()
 
     def config(self) -> sm.RangerConfig:
         lo, hi, res = self.scan.angles()
@@ -217,15 +258,14 @@ class RangerDriver(Driver):
                      sm.RangerDataIntns(tuple(float(b) for b in intens))),)
         return out
 
+    def requested_scan(self, body: Any) -> ScanRequest:
+        """As the laser's, keeping the intensity setting (INTNS switches it)."""
+        return replace(scan_request(body), intensity=self.scan.config.intensity)
+
     def handle_request(self, subtype: int, body: Any) -> Reply:
-        if subtype == c.PLAYER_RANGER_REQ_GET_GEOM:
-            return ack(self._geom)
-        if subtype == c.PLAYER_RANGER_REQ_GET_CONFIG:
-            return ack(self.config())
-        if subtype == c.PLAYER_RANGER_REQ_SET_CONFIG and body is not None:
-            req = replace(scan_request(body), intensity=self.scan.config.intensity)
-            apply_scan(self.sim, self.robot, self.source, self.scan, req)
-            return ack(self.config())
+        reply = self.scan_reply(subtype, body)
+        if reply is not None:
+            return reply
         if subtype == c.PLAYER_RANGER_REQ_INTNS and body is not None:
             self.scan.set_intensity(bool(body.state))
             return ACK
@@ -234,7 +274,7 @@ class RangerDriver(Driver):
         raise Unsupported(f"ranger request {subtype}")
 
 
-class SonarRangerDriver(Driver):
+class SonarRangerDriver(RangeSensorDriver):
     """The ranger interface over a sonar array (Stage serves its sonars as rangers): one
     reading per transducer, each element's pose in the geometry. Its configuration is
     fixed: SET_CONFIG is ACKed only when it asks for what is in force (fields left zero keep
@@ -242,13 +282,10 @@ class SonarRangerDriver(Driver):
 
     interf = int(Interface.RANGER)
     requests = frozenset({1, 2, 4, 5})
+    spec: SonarSpec
 
     def __init__(self, sim: SimPort, robot: RobotSpec, index: int = 0) -> None:
-        super().__init__(index, "sim_ranger")
-        self.sim = sim
-        self.robot = robot
-        self.spec = declared(robot.devices.sonar, f"robot {robot.name!r}", "sonar")
-        self.properties, self.property_limits = max_range_property(self.spec.max_range_m)
+        super().__init__(sim, robot, index, "sim_ranger", "sonar")
         poses = tuple(mount_pose(m) for m in self.spec.poses)
         self._geom = sm.RangerGeom(Pose3d(0.0, 0.0, 0.0, 0.0, 0.0, 0.0), SONAR_SIZE, poses,
                                    tuple(SONAR_SIZE for _ in poses))

@@ -12,6 +12,7 @@ model renders its own.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -26,23 +27,24 @@ if TYPE_CHECKING:
     from player_server.sim.timings import Timings
 
 
+@dataclass(eq=False, repr=False)
 class SensingPass:
     """The pass of one world (its cache, fidelity and fixed arrays), over its two sensing
     models; `clock`, when given, times the pass into `timings`."""
 
-    def __init__(self, world: DeviceWorld, ranging: RangeModel, camera: CameraModel,
-                 tick_arrays: TickArrays, clock: Callable[[], float] | None,
-                 timings: Timings) -> None:
-        self.world = world
-        self.ranging = ranging
-        self.camera = camera
-        self.tick_arrays = tick_arrays
-        self._clock = clock
-        self.timings = timings
-        self.caster = CompiledCaster()
-        self._zeros = np.zeros(256)
-        # the world's cache key of this tick's readings (the fidelity is fixed)
-        self.key = ("sensed", world.fidelity)
+    world: DeviceWorld
+    ranging: RangeModel
+    camera: CameraModel
+    tick_arrays: TickArrays
+    clock: Callable[[], float] | None
+    timings: Timings
+    caster: CompiledCaster = field(init=False, default_factory=CompiledCaster)
+    #: the world's cache key of this tick's readings (the fidelity is fixed)
+    key: tuple[str, str] = field(init=False)
+    _zeros: np.ndarray = field(init=False, default_factory=lambda: np.zeros(256))
+
+    def __post_init__(self) -> None:
+        self.key = ("sensed", self.world.fidelity)
 
     def sensed(self) -> dict[str, dict[Any, Any]]:
         """This tick's readings of the range sensors and blobfinders expected in it,
@@ -92,7 +94,7 @@ class SensingPass:
                 bplan.boxes(pending, np.array(pairs, dtype=np.int64), tilt, zoom)
 
     def _now(self) -> float:
-        return self._clock() if self._clock is not None else 0.0
+        return self.clock() if self.clock is not None else 0.0
 
     def _zeros_for(self, n: int) -> np.ndarray:
         if self._zeros.size < n:
@@ -118,7 +120,7 @@ class SensingPass:
         if bplan is not None and pending is not None:
             visible = hits[n_range:] >= pending.near - 0.05
             cache["blobs"].update(self.camera.fast_blobs(cams, bplan, pending, visible))
-        if self._clock is not None:
+        if self.clock is not None:
             t4 = self._now()
             share = n_range / max(1, hits.size)
             self.timings.ranges_s += (t3 - t2) + (t2 - t1) * share
@@ -169,6 +171,6 @@ class SensingPass:
         t1 = self._now()
         if cams:
             cache["blobs"].update(self.camera.render(cams))
-        if self._clock is not None:
+        if self.clock is not None:
             self.timings.ranges_s += t1 - t0
             self.timings.blobs_s += self._now() - t1

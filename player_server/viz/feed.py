@@ -14,6 +14,7 @@ simulation never waits for the viewer.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from dataclasses import KW_ONLY, dataclass, field
 from typing import Any, Protocol
 
 from player_server.viz.scene import CHARGING, IDLE
@@ -31,42 +32,39 @@ class FedView(Protocol):
     def set_robot(self, robot: str, state: str, label: str = "") -> None: ...
 
 
+@dataclass(eq=False)
 class LiveFeed:
-    def __init__(
-        self,
-        view: FedView,
-        *,
-        wall_clock: Callable[[], float],
-        period_s: float = 0.1,
-        power_robots: tuple[str, ...] = (),
-        scan_robots: tuple[str, ...] = (),
-        states_from_power: bool = False,
-    ) -> None:
-        if not period_s > 0:
-            raise ValueError(f"the live feed's period must be positive, got {period_s}")
-        self._view = view
-        self._clock = wall_clock
-        self._period_s = period_s
-        self._power = power_robots
-        self._scans = scan_robots
-        self._states_from_power = states_from_power
-        self._next_wall = -1.0
-        self.frames = 0
+    """Feeds `view` at most once every `period_s` of `wall_clock` time; `frames` counts the
+    hand-overs."""
+
+    view: FedView
+    _: KW_ONLY
+    wall_clock: Callable[[], float]
+    period_s: float = 0.1
+    power_robots: tuple[str, ...] = ()
+    scan_robots: tuple[str, ...] = ()
+    states_from_power: bool = False
+    frames: int = field(default=0, init=False)
+    _next_wall: float = field(default=-1.0, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if not self.period_s > 0:
+            raise ValueError(f"the live feed's period must be positive, got {self.period_s}")
 
     def after_step(self, sim: Any) -> None:
-        now = self._clock()
+        now = self.wall_clock()
         if now < self._next_wall:
             return
-        self._next_wall = now + self._period_s
+        self._next_wall = now + self.period_s
         self.frames += 1
-        view = self._view
+        view = self.view
         # battery and states first: the snapshot (which carries the clock) closes the frame
-        for robot in self._power:
+        for robot in self.power_robots:
             power = sim.power(robot)
             view.set_battery(robot, float(power.percent))
-            if self._states_from_power:
+            if self.states_from_power:
                 view.set_robot(robot, CHARGING if power.charging else IDLE)
-        if self._scans:
+        if self.scan_robots:
             laser = sim.laser
-            view.offer_scans({r: laser(r).tolist() for r in self._scans})
+            view.offer_scans({r: laser(r).tolist() for r in self.scan_robots})
         view.offer(sim.snapshot())
