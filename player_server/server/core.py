@@ -422,15 +422,15 @@ class ServerCore(PlayerRequests, LockstepGate):
         if not s.round_pending:
             return False
         owed, s.owed = s.owed, None
-        if owed is not None and owed[0] > s.last_round:
-            seq, data = owed
-        elif s.last_round >= self.round_seq:
+        seq = self.round_seq
+        if owed is not None and owed[0] == seq:  # kept, and still the current round
+            data: bytes | None = owed[1]
+        elif s.last_round >= seq:
             return False
         else:
-            seq, fresh = self.round_seq, self._whole_round(s)
-            if fresh is None:
-                return False
-            data = fresh
+            data = self._whole_round(s)
+        if data is None:
+            return False
         s.queue.push_reply(data)
         self._check_output(s)
         s.round_pending = False
